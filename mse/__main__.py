@@ -1,0 +1,3 @@
+from mse.cli import console_main
+
+console_main()

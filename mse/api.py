@@ -1,0 +1,211 @@
+"""The library API: one function per stage.  The CLI is a thin layer over these."""
+
+from __future__ import annotations
+
+import difflib
+import json
+import random
+from collections.abc import Iterable, Iterator, Sequence
+from pathlib import Path
+from typing import TYPE_CHECKING
+
+from mse.diagnostics import Diagnostic, MseError, Span, has_errors
+from mse.ir.build import build_model
+from mse.ir.canonical import model_from_json
+from mse.ir.evaluate import Violation, check_schedule
+from mse.ir.lint import lint_model
+from mse.ir.model import Model
+from mse.ir.schedule import to_seconds
+from mse.resources import bundled_names, bundled_path
+from mse.solve.protocol import SolveRequest, check_supported, derive_seed, get_solver
+from mse.syntax.reader import read_document
+from mse.timeline import Timeline, TimelineSignal, from_schedule
+
+if TYPE_CHECKING:
+    from mse.solve.explain import Explanation
+
+
+def compile_source(path: str | Path, data: bytes | None = None) -> tuple[Model | None, list[Diagnostic]]:
+    """Parse and resolve one native file; the model is None when there are errors."""
+    document, diagnostics = read_document(path, data)
+    if document is None:
+        return None, diagnostics
+    model, problems = build_model(document)
+    diagnostics = sorted([*diagnostics, *problems], key=Diagnostic.sort_key)
+    if has_errors(diagnostics):
+        return None, diagnostics
+    return model, diagnostics
+
+
+def resolve_path(path_or_name: str | Path) -> Path:
+    """A file path as given, or the bundled file of that name; MseError (E100) otherwise."""
+    candidate = Path(path_or_name)
+    if candidate.exists():
+        return candidate
+    bundled = bundled_path(str(path_or_name))
+    if bundled is not None:
+        return bundled
+    names = bundled_names()
+    guess = difflib.get_close_matches(str(path_or_name), names, n=1)
+    hint = f" (did you mean {guess[0]!r}?)" if guess else ""
+    message = f"no such file or bundled expression{hint}; bundled: {', '.join(names)}"
+    raise MseError([Diagnostic("E100", message, Span(str(path_or_name)))])
+
+
+def load(path_or_name: str | Path) -> Model:
+    """Load a behaviour-set file, a compiled IR JSON file, or a bundled expression by name."""
+    path = resolve_path(path_or_name)
+    if path.suffix == ".json":
+        return loads_ir(path.read_text(encoding="utf-8"), path=str(path))
+    model, diagnostics = compile_source(path)
+    if model is None:
+        raise MseError(diagnostics)
+    return model
+
+
+def loads(data: bytes | str, *, path: str = "<string>") -> Model:
+    """Load a model from the text of a native file or of compiled IR JSON."""
+    raw = data.encode("utf-8") if isinstance(data, str) else data
+    if raw.lstrip().startswith(b"{"):
+        return loads_ir(raw.decode("utf-8", errors="replace"), path=path)
+    model, diagnostics = compile_source(path, raw)
+    if model is None:
+        raise MseError(diagnostics)
+    return model
+
+
+def loads_ir(text: str, *, path: str = "<stdin>") -> Model:
+    try:
+        obj = json.loads(text)
+    except json.JSONDecodeError as error:
+        raise MseError(
+            [Diagnostic("E100", f"invalid JSON: {error.msg}", Span(path, error.lineno, error.colno))]
+        ) from None
+    return model_from_json(obj, path=path)
+
+
+def check(model: Model, timeline: Timeline) -> list[Violation]:
+    """Every way ``timeline`` is inconsistent with ``model``; empty when it is consistent."""
+    return check_schedule(model, timeline.to_schedule())
+
+
+def expand_paths(paths: Iterable[str | Path]) -> list[Path]:
+    files: list[Path] = []
+    for entry in paths:
+        path = Path(entry)
+        if path.is_dir():
+            files.extend(sorted(p for p in path.rglob("*.xml") if p.is_file()))
+        else:
+            files.append(path)
+    return files
+
+
+def lint(
+    paths: Sequence[str | Path],
+    *,
+    select: Sequence[str] = (),
+    ignore: Sequence[str] = (),
+    deep: bool = False,
+    duration: float = 10.0,
+) -> list[Diagnostic]:
+    """Errors and lint warnings of every file (directories are searched for ``*.xml``).
+
+    ``select``/``ignore`` are code prefixes; ``deep`` adds the solver-backed W4xx rules."""
+    found: list[Diagnostic] = []
+    for path in expand_paths(paths):
+        model, diagnostics = compile_source(path)
+        found.extend(diagnostics)
+        if model is None:
+            continue
+        found.extend(lint_model(model))
+        if deep:
+            from mse.solve.deep_lint import deep_lint
+
+            found.extend(deep_lint(model, duration))
+
+    def wanted(diagnostic: Diagnostic) -> bool:
+        if diagnostic.is_error:
+            return True
+        if select and not any(diagnostic.code.startswith(prefix) for prefix in select):
+            return False
+        return not any(diagnostic.code.startswith(prefix) for prefix in ignore)
+
+    return sorted((d for d in found if wanted(d)), key=Diagnostic.sort_key)
+
+
+def motion_annotations(model: Model) -> dict[str, dict[str, object]]:
+    """``{"action": ...}`` for every motion-leaf signal (timeline entries carry it)."""
+    return {s.id: {"action": s.motion.action} for s in model.signals if s.motion is not None}
+
+
+def _request(duration: float, seed: int | None, count: int, **options: object) -> SolveRequest:
+    if seed is None:
+        seed = random.SystemRandom().randrange(2**31)
+    return SolveRequest(duration=float(duration), seed=seed, count=count, **options)  # type: ignore[arg-type]
+
+
+def sample(
+    model: Model,
+    duration: float = 10.0,
+    *,
+    seed: int | None = None,
+    count: int | None = None,
+    solver: str = "greedy",
+    mode: str = "consistent",
+    **options: object,
+) -> Timeline | list[Timeline]:
+    """One timeline (``count=None``) or a list of ``count`` timelines of ``duration`` seconds.
+
+    ``options`` are the fields of :class:`mse.solve.protocol.SolveRequest` (pinned, require,
+    forbid, objective, diverse, time_limit, workers, grid, slot, max_restarts)."""
+    backend = get_solver(solver)
+    request = _request(duration, seed, count or 1, mode=mode, **options)
+    check_supported(backend, request)
+    schedules = backend.solve(model, request)
+    motions = motion_annotations(model)
+    timelines = [
+        from_schedule(
+            schedule,
+            expression=model.name,
+            signal_info=model.signal_info,
+            solver=solver,
+            seed=derive_seed(request.seed, index),
+            motions=motions,
+        )
+        for index, schedule in enumerate(schedules)
+    ]
+    return timelines if count is not None else timelines[0]
+
+
+def iter_sample(
+    model: Model,
+    duration: float = 10.0,
+    *,
+    seed: int | None = None,
+    solver: str = "greedy",
+    **options: object,
+) -> Iterator[TimelineSignal]:
+    """The signals of one timeline, each yielded as soon as the solver decides it."""
+    backend = get_solver(solver)
+    request = _request(duration, seed, 1, **options)
+    check_supported(backend, request)
+    if "stream" not in backend.supports:
+        raise MseError([Diagnostic("E100", f"solver {solver!r} cannot stream", Span("<arguments>"))])
+    motions = motion_annotations(model)
+    for occurrence in backend.stream(model, request):
+        modality, lexeme = model.signal_info[occurrence.signal]
+        yield TimelineSignal(
+            occurrence.signal,
+            modality,
+            lexeme,
+            to_seconds(occurrence.start),
+            to_seconds(occurrence.stop),
+            motions.get(occurrence.signal),
+        )
+
+
+def explain(model: Model, duration: float = 10.0, **options: object) -> Explanation | None:
+    """Why no timeline of ``duration`` exists (a minimal conflicting set), or None."""
+    from mse.solve.explain import explain as explain_model
+
+    return explain_model(model, float(duration), **options)

@@ -1,0 +1,58 @@
+"""``mse lint PATH...``: errors and warnings with codes, in several formats."""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from typing import Any
+
+from mse.cli.common import emit, print_diagnostics
+
+FORMATS = ("text", "json", "github", "sarif")
+
+
+def _codes(value: str) -> list[str]:
+    return [part.strip() for part in value.split(",") if part.strip()]
+
+
+def register(subparsers: Any) -> None:
+    parser = subparsers.add_parser(
+        "lint",
+        help="lint behaviour sets (files or folders)",
+        description="Report errors (E) and warnings (W) of behaviour-set files. Exit 1 on "
+        "errors, or on warnings with --strict.",
+    )
+    parser.add_argument("paths", nargs="+", help="files or folders (searched for *.xml)")
+    parser.add_argument("--format", choices=FORMATS, default="text")
+    parser.add_argument("--select", type=_codes, default=[], help="only these code prefixes, e.g. W30,W401")
+    parser.add_argument("--ignore", type=_codes, default=[], help="skip these code prefixes")
+    parser.add_argument("--strict", action="store_true", help="warnings make the exit code 1")
+    parser.add_argument("--no-deep", dest="deep", action="store_false", help="skip the solver-backed rules (W4xx)")
+    parser.add_argument(
+        "--duration", type=float, default=10.0, help="timeline duration for the solver-backed rules (default 10 s)"
+    )
+    parser.add_argument("-o", "--output", help="write the report to this file (atomically)")
+    parser.set_defaults(handler=run)
+
+
+def run(args: argparse.Namespace) -> int:
+    from mse.api import lint
+    from mse.cli.lint_formats import FORMATTERS
+
+    deep = args.deep and _deep_available()
+    diagnostics = lint(args.paths, select=args.select, ignore=args.ignore, deep=deep, duration=args.duration)
+    if args.format == "text" and not args.output:
+        print_diagnostics(diagnostics, sys.stdout)
+    else:
+        emit(FORMATTERS[args.format](diagnostics), args.output)
+    errors = sum(d.is_error for d in diagnostics)
+    warnings = len(diagnostics) - errors
+    if args.format == "text":
+        print(f"{errors} error(s), {warnings} warning(s)", file=sys.stderr)
+    return 1 if errors or (args.strict and warnings) else 0
+
+
+def _deep_available() -> bool:
+    import importlib.util
+
+    return importlib.util.find_spec("mse.solve.deep_lint") is not None

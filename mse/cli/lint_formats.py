@@ -1,0 +1,99 @@
+"""Renderers of diagnostics for ``mse lint``: text, json, github annotations, SARIF 2.1.0."""
+
+from __future__ import annotations
+
+import json
+from collections.abc import Callable, Sequence
+
+from mse import __version__
+from mse.diagnostics import CODES, Diagnostic
+
+
+def as_text(diagnostics: Sequence[Diagnostic]) -> str:
+    return "".join(d.render() + "\n" for d in diagnostics)
+
+
+def as_json(diagnostics: Sequence[Diagnostic]) -> str:
+    records = [
+        {
+            "path": d.span.path,
+            "line": d.span.line,
+            "col": d.span.col,
+            "code": d.code,
+            "severity": d.severity.value,
+            "message": d.message,
+        }
+        for d in diagnostics
+    ]
+    return json.dumps(records, indent=2) + "\n"
+
+
+def _escape_github(text: str, *, property_value: bool = False) -> str:
+    text = text.replace("%", "%25").replace("\r", "%0D").replace("\n", "%0A")
+    if property_value:
+        text = text.replace(":", "%3A").replace(",", "%2C")
+    return text
+
+
+def as_github(diagnostics: Sequence[Diagnostic]) -> str:
+    lines = []
+    for d in diagnostics:
+        level = "error" if d.is_error else "warning"
+        props = f"file={_escape_github(d.span.path, property_value=True)}"
+        if d.span.line > 0:
+            props += f",line={d.span.line},col={max(d.span.col, 1)}"
+        props += f",title={_escape_github(d.code, property_value=True)}"
+        lines.append(f"::{level} {props}::{_escape_github(f'{d.code} {d.message}')}\n")
+    return "".join(lines)
+
+
+def as_sarif(diagnostics: Sequence[Diagnostic]) -> str:
+    used = sorted({d.code for d in diagnostics})
+    rules = [
+        {
+            "id": code,
+            "shortDescription": {"text": CODES.get(code, code)},
+            "defaultConfiguration": {"level": "error" if code.startswith("E") else "warning"},
+        }
+        for code in used
+    ]
+    results = []
+    for d in diagnostics:
+        location: dict[str, object] = {"artifactLocation": {"uri": d.span.path}}
+        if d.span.line > 0:
+            location["region"] = {"startLine": d.span.line, "startColumn": max(d.span.col, 1)}
+        results.append(
+            {
+                "ruleId": d.code,
+                "ruleIndex": used.index(d.code),
+                "level": "error" if d.is_error else "warning",
+                "message": {"text": d.message},
+                "locations": [{"physicalLocation": location}],
+            }
+        )
+    log = {
+        "$schema": "https://json.schemastore.org/sarif-2.1.0.json",
+        "version": "2.1.0",
+        "runs": [
+            {
+                "tool": {
+                    "driver": {
+                        "name": "mse",
+                        "version": __version__,
+                        "informationUri": "https://example.invalid/mse",
+                        "rules": rules,
+                    }
+                },
+                "results": results,
+            }
+        ],
+    }
+    return json.dumps(log, indent=2) + "\n"
+
+
+FORMATTERS: dict[str, Callable[[Sequence[Diagnostic]], str]] = {
+    "text": as_text,
+    "json": as_json,
+    "github": as_github,
+    "sarif": as_sarif,
+}

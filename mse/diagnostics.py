@@ -1,0 +1,114 @@
+"""Diagnostics: small immutable records with a code and a source position.
+
+Every layer reports problems as :class:`Diagnostic` records; front-ends (the CLI, an
+editor, CI) decide how to render them.  Codes: ``E1xx`` syntax, ``E2xx`` semantics,
+``W3xx`` static lint, ``W4xx`` solver-backed lint, ``W5xx`` import/conversion notes.
+"""
+
+from __future__ import annotations
+
+import enum
+from collections.abc import Iterable
+from dataclasses import dataclass
+
+
+class Severity(enum.Enum):
+    ERROR = "error"
+    WARNING = "warning"
+
+
+@dataclass(frozen=True, slots=True)
+class Span:
+    """A position in a source file: 1-based line and column, optional end."""
+
+    path: str
+    line: int = 0
+    col: int = 0
+    end_line: int | None = None
+    end_col: int | None = None
+
+    def render(self) -> str:
+        if self.line <= 0:
+            return self.path
+        return f"{self.path}:{self.line}:{self.col}"
+
+
+#: One table from code to meaning (the title used by SARIF and ``--select`` docs).
+CODES: dict[str, str] = {
+    # E1xx: the file cannot be read as MSE syntax
+    "E100": "file cannot be read",
+    "E101": "XML is not well-formed",
+    "E102": "XML schema violation",
+    "E103": "forbidden XML construct (DTD entities, external entities)",
+    "E104": "file too large",
+    "E110": "constraint expression syntax error",
+    "E111": "constraint expression nested too deeply",
+    "E112": "invalid number",
+    # E2xx: well-formed but meaningless
+    "E201": "duplicate signal id",
+    "E202": "duplicate constraint id",
+    "E203": "unknown signal in a constraint",
+    "E204": "invalid signal attribute value",
+    "E205": "min_duration greater than max_duration",
+    "E206": "probability outside [0, 1]",
+    "E207": "repetitivity is not 0 or 1",
+    "E208": "negative tolerance",
+    "E209": "empty signal set",
+    "E210": "invalid identifier",
+    "E211": "duplicate modality declaration",
+    "E212": "invalid timeline",
+    "E213": "invalid motion leaf",
+    # W3xx: static lint
+    "W301": "inactive signal (both probabilities are 0)",
+    "W302": "signal shorter than the sampler's time slot",
+    "W303": "relation of a signal with itself",
+    "W304": "constraint whose trigger signals can never occur",
+    "W305": "duplicate constraint",
+    "W306": "lexeme class contradicts the modality",
+    "W307": "unknown modality",
+    # W4xx: solver-backed lint
+    "W401": "no consistent timeline",
+    "W402": "dead signal",
+    "W403": "constraint never instantiated",
+    "W404": "redundant constraint",
+    "W405": "signal forced by the constraints",
+    "W406": "probability profile contradicted by the constraints",
+    # W5xx: import and conversion
+    "W501": "Greta name mismatch resolved",
+    "W502": "Greta construct approximated",
+}
+
+
+@dataclass(frozen=True, slots=True)
+class Diagnostic:
+    """One problem found in one place."""
+
+    code: str
+    message: str
+    span: Span
+
+    @property
+    def severity(self) -> Severity:
+        return Severity.ERROR if self.code.startswith("E") else Severity.WARNING
+
+    @property
+    def is_error(self) -> bool:
+        return self.severity is Severity.ERROR
+
+    def render(self) -> str:
+        return f"{self.span.render()}: {self.code} {self.message}"
+
+    def sort_key(self) -> tuple[str, int, int, str]:
+        return (self.span.path, self.span.line, self.span.col, self.code)
+
+
+class MseError(Exception):
+    """Raised by library entry points when input has errors; carries every diagnostic."""
+
+    def __init__(self, diagnostics: Iterable[Diagnostic]) -> None:
+        self.diagnostics: tuple[Diagnostic, ...] = tuple(sorted(diagnostics, key=Diagnostic.sort_key))
+        super().__init__("\n".join(d.render() for d in self.diagnostics))
+
+
+def has_errors(diagnostics: Iterable[Diagnostic]) -> bool:
+    return any(d.is_error for d in diagnostics)

@@ -1,0 +1,1 @@
+"""Resolved, typed model of an MSE expression and the one semantic evaluator."""

@@ -1,0 +1,174 @@
+"""Static lint rules (W3xx): a tuple of pure functions from a model to diagnostics.
+
+Callers may pass their own tuple; solver-backed rules (W4xx) live in ``mse.solve``.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Iterable, Iterator
+
+from mse.diagnostics import Diagnostic
+from mse.ir import model as ir
+from mse.ir.printer import expr_text
+
+#: The greedy sampler's default time slot (seconds); see docs/sampler.md.
+SAMPLER_SLOT_SECONDS = 1.0
+
+#: Lexeme classes (the part before '=') and the modality each one belongs to.
+LEXEME_CLASS_MODALITY: dict[str, str] = {
+    "faceexp": "face",
+    "face": "face",
+    "head": "head",
+    "gaze": "gaze",
+    "torso": "torso",
+    "posture": "torso",
+    "gesture": "gesture",
+    "adjectival": "gesture",
+    "deictic": "gesture",
+    "performative": "gesture",
+    "beat": "gesture",
+    "iconic": "gesture",
+    "metaphoric": "gesture",
+    "rest": "gesture",
+    "emotion": "gesture",
+    "hand_shape": "gesture",
+    "speech": "speech",
+}
+#: Modalities treated as one family by the lexeme rule.
+_MODALITY_FAMILY = {"posture": "torso"}
+
+Rule = Callable[[ir.Model], Iterable[Diagnostic]]
+
+
+def inactive_signals(model: ir.Model) -> Iterator[Diagnostic]:
+    for signal in model.signals:
+        if signal.probability_start == 0 and signal.probability_end == 0:
+            yield Diagnostic(
+                "W301", f"signal {signal.id!r} is inactive: probability_start and probability_end are 0", signal.span
+            )
+
+
+def short_signals(model: ir.Model) -> Iterator[Diagnostic]:
+    for signal in model.signals:
+        if signal.max_duration is not None and signal.max_duration < SAMPLER_SLOT_SECONDS:
+            yield Diagnostic(
+                "W302",
+                f"signal {signal.id!r} lasts at most {signal.max_duration:g} s, shorter than the sampler's "
+                f"{SAMPLER_SLOT_SECONDS:g} s time slot (sample with a smaller --slot)",
+                signal.span,
+            )
+
+
+def self_relations(model: ir.Model) -> Iterator[Diagnostic]:
+    for constraint in model.constraints:
+        for node in ir.walk(constraint.expr):
+            same = False
+            if isinstance(node, ir.Relation):
+                same = node.left == node.right
+            elif isinstance(node, ir.Compare):
+                same = (
+                    isinstance(node.left, ir.SignalTime)
+                    and isinstance(node.right, ir.SignalTime)
+                    and node.left.signal == node.right.signal
+                    and node.left.edge == node.right.edge
+                )
+            if same:
+                yield Diagnostic(
+                    "W303", f"constraint {constraint.id!r} relates a signal with itself: {expr_text(node)}", node.span
+                )
+
+
+def _never_occurring(model: ir.Model) -> set[str]:
+    never = {s.id for s in model.signals if s.probability_start == 0 and s.probability_end == 0}
+    for constraint in model.constraints:
+        expr = constraint.expr
+        if isinstance(expr, ir.Not) and isinstance(expr.operand, ir.Exists):
+            never.add(expr.operand.signal)
+    return never
+
+
+def unreachable_constraints(model: ir.Model) -> Iterator[Diagnostic]:
+    never = _never_occurring(model)
+    for constraint in model.constraints:
+        triggers = constraint.triggers
+        if triggers and triggers <= never:
+            names = ", ".join(sorted(triggers))
+            yield Diagnostic(
+                "W304", f"constraint {constraint.id!r} is never instantiated: {names} can never occur", constraint.span
+            )
+
+
+def normalise(expr: ir.Expr) -> ir.Expr:
+    """A canonical form for comparing constraints: commutative operands sorted, ``>`` as ``<``."""
+    if isinstance(expr, ir.Not):
+        return ir.Not(normalise(expr.operand))
+    if isinstance(expr, ir.Implies):
+        return ir.Implies(normalise(expr.left), normalise(expr.right))
+    if isinstance(expr, ir.And | ir.Or):
+        operands = sorted({expr_text(o): normalise(o) for o in expr.operands}.items())
+        return type(expr)(tuple(o for _, o in operands))
+    if isinstance(expr, ir.Relation) and expr.kind == "excludes" and expr.left > expr.right:
+        return ir.Relation("excludes", expr.right, expr.left)
+    if isinstance(expr, ir.Compare):
+        flipped = {">": "<", ">=": "<="}
+        if expr.op in flipped:
+            return ir.Compare(flipped[expr.op], expr.right, expr.left, expr.tolerance)  # type: ignore[arg-type]
+        if expr.op == "=":
+            left, right = sorted((expr.left, expr.right), key=repr)
+            return ir.Compare("=", left, right, expr.tolerance)
+    return expr
+
+
+def duplicate_constraints(model: ir.Model) -> Iterator[Diagnostic]:
+    seen: dict[ir.Expr, ir.Constraint] = {}
+    for constraint in model.constraints:
+        key = normalise(constraint.expr)
+        first = seen.get(key)
+        if first is not None:
+            yield Diagnostic(
+                "W305", f"constraint {constraint.id!r} repeats {first.id!r} (line {first.span.line})", constraint.span
+            )
+        else:
+            seen[key] = constraint
+
+
+def lexeme_modality(model: ir.Model) -> Iterator[Diagnostic]:
+    for signal in model.signals:
+        if "=" not in signal.lexeme:
+            continue
+        lexeme_class = signal.lexeme.split("=", 1)[0].strip().lower()
+        expected = LEXEME_CLASS_MODALITY.get(lexeme_class)
+        modality = _MODALITY_FAMILY.get(signal.modality, signal.modality)
+        if expected is not None and signal.modality in ir.KNOWN_MODALITIES and expected != modality:
+            yield Diagnostic(
+                "W306",
+                f"signal {signal.id!r} has a {lexeme_class}= lexeme ({expected}) but modality {signal.modality!r}",
+                signal.span,
+            )
+
+
+def unknown_modalities(model: ir.Model) -> Iterator[Diagnostic]:
+    known = ", ".join(sorted(ir.KNOWN_MODALITIES))
+    for signal in model.signals:
+        if signal.modality not in ir.KNOWN_MODALITIES:
+            yield Diagnostic(
+                "W307", f"signal {signal.id!r} has unknown modality {signal.modality!r} (known: {known})", signal.span
+            )
+
+
+STATIC_RULES: tuple[Rule, ...] = (
+    inactive_signals,
+    short_signals,
+    self_relations,
+    unreachable_constraints,
+    duplicate_constraints,
+    lexeme_modality,
+    unknown_modalities,
+)
+
+
+def lint_model(model: ir.Model, rules: tuple[Rule, ...] = STATIC_RULES) -> list[Diagnostic]:
+    found: list[Diagnostic] = []
+    for rule in rules:
+        found.extend(rule(model))
+    return sorted(found, key=Diagnostic.sort_key)

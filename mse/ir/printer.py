@@ -1,0 +1,67 @@
+"""Canonical text of constraint expressions: parsing the output gives the same IR."""
+
+from __future__ import annotations
+
+from mse.ir import model as ir
+from mse.ir.schedule import to_seconds
+
+# Binding strength: higher binds tighter.
+_LEVEL = {ir.Implies: 1, ir.Or: 2, ir.And: 3, ir.Not: 4}
+_ATOM_LEVEL = 5
+
+
+def seconds(ticks: int) -> str:
+    """Milliseconds as the shortest decimal number of seconds (``1500`` -> ``1.5``)."""
+    text = f"{to_seconds(abs(ticks)):.3f}".rstrip("0").rstrip(".")
+    return text or "0"
+
+
+def _offset(ticks: int) -> str:
+    if ticks == 0:
+        return ""
+    return f" {'+' if ticks > 0 else '-'} {seconds(ticks)}"
+
+
+def term_text(term: ir.Term) -> str:
+    if isinstance(term, ir.SignalTime):
+        return f"{term.edge}({term.signal}){_offset(term.offset)}"
+    if isinstance(term, ir.DurationTime):
+        return f"duration{_offset(term.offset)}"
+    return ("-" if term.value < 0 else "") + seconds(term.value)
+
+
+def _atom_text(atom: ir.Atom) -> str:
+    if isinstance(atom, ir.Exists):
+        return f"exists({atom.signal})"
+    if isinstance(atom, ir.Relation):
+        return f"{atom.kind}({atom.left}, {atom.right})"
+    if atom.op == "=" and atom.tolerance:
+        return f"equal({term_text(atom.left)}, {term_text(atom.right)}, {seconds(atom.tolerance)})"
+    return f"{term_text(atom.left)} {atom.op} {term_text(atom.right)}"
+
+
+def _level(expr: ir.Expr) -> int:
+    return _LEVEL.get(type(expr), _ATOM_LEVEL)
+
+
+def expr_text(expr: ir.Expr) -> str:
+    """Minimal parentheses; ``implies`` is right-associative."""
+    if isinstance(expr, ir.Not):
+        inner = expr_text(expr.operand)
+        return f"not {inner}" if _level(expr.operand) >= _LEVEL[ir.Not] else f"not ({inner})"
+    if isinstance(expr, ir.And | ir.Or):
+        word = " and " if isinstance(expr, ir.And) else " or "
+        mine = _level(expr)
+        # Nested operands of the same kind are parenthesised so that re-parsing (which
+        # flattens) reproduces exactly this tree.
+        parts = [expr_text(e) if _level(e) > mine else f"({expr_text(e)})" for e in expr.operands]
+        return word.join(parts)
+    if isinstance(expr, ir.Implies):
+        left = expr_text(expr.left)
+        if _level(expr.left) <= _LEVEL[ir.Implies]:
+            left = f"({left})"
+        right = expr_text(expr.right)
+        if _level(expr.right) < _LEVEL[ir.Implies]:
+            right = f"({right})"
+        return f"{left} implies {right}"
+    return _atom_text(expr)

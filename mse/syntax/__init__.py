@@ -1,0 +1,1 @@
+"""XML and constraint-expression text to a positioned AST."""

@@ -1,0 +1,43 @@
+"""Shared fixtures.  ``MSE_SHARED`` (default ``../shared`` beside the checkout) holds the
+reference data that must never be copied into the repository; tests that need it skip with
+a clear reason when it is absent (CI sets it, so CI never skips)."""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+
+import pytest
+
+REPO_ROOT = Path(__file__).resolve().parent.parent
+FIXTURES = Path(__file__).resolve().parent / "fixtures"
+
+
+def shared_root() -> Path | None:
+    configured = os.environ.get("MSE_SHARED")
+    root = Path(configured) if configured else REPO_ROOT.parent / "shared"
+    return root if root.is_dir() else None
+
+
+@pytest.fixture(scope="session")
+def shared_dir() -> Path:
+    root = shared_root()
+    if root is None:
+        pytest.skip("reference data not found: set MSE_SHARED to the shared/ folder (CI does)")
+    return root
+
+
+@pytest.fixture(scope="session")
+def greta_dir(shared_dir: Path) -> Path:
+    path = shared_dir / "greta"
+    if not path.is_dir():
+        pytest.skip(f"Greta data not found in {shared_dir}")
+    return path
+
+
+@pytest.fixture(scope="session")
+def bandai_dir(shared_dir: Path) -> Path:
+    path = shared_dir / "motion" / "bandai-ds1"
+    if not path.is_dir():
+        pytest.skip(f"Bandai motion data not found in {shared_dir}")
+    return path
