@@ -16,10 +16,10 @@ from collections.abc import Sequence
 #: Sub-command modules, in the order ``mse --help`` lists them.
 COMMAND_MODULES: tuple[str, ...] = (
     "cmd_compile",
+    "cmd_sample",
     "cmd_check",
     "cmd_lint",
     "cmd_list",
-    "cmd_import_greta",
 )
 
 

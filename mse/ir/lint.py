@@ -105,8 +105,8 @@ def normalise(expr: ir.Expr) -> ir.Expr:
     if isinstance(expr, ir.Implies):
         return ir.Implies(normalise(expr.left), normalise(expr.right))
     if isinstance(expr, ir.And | ir.Or):
-        operands = sorted({expr_text(o): normalise(o) for o in expr.operands}.items())
-        return type(expr)(tuple(o for _, o in operands))
+        normalised = {expr_text(n): n for n in (normalise(o) for o in expr.operands)}
+        return type(expr)(tuple(normalised[text] for text in sorted(normalised)))
     if isinstance(expr, ir.Relation) and expr.kind == "excludes" and expr.left > expr.right:
         return ir.Relation("excludes", expr.right, expr.left)
     if isinstance(expr, ir.Compare):

@@ -202,7 +202,7 @@ class Constraint:
     id: str
     expr: Expr
     explicit_id: bool = True
-    text: str = ""
+    text: str = field(default="", compare=False)  # as written in the file
     span: Span = field(default=NO_SPAN, compare=False, repr=False)
 
     @cached_property

@@ -7,6 +7,7 @@ file, with entities and CDATA accounted for).  Nothing outside this module sees 
 
 from __future__ import annotations
 
+import difflib
 import functools
 import math
 from collections.abc import Callable, Sequence
@@ -23,6 +24,11 @@ from mse.syntax import ast
 MAX_DEPTH = 200
 
 Locate = Callable[[int], Span]
+
+KEYWORDS = (
+    "exists", "includes", "excludes", "precedes", "rightincludes", "lessthan", "morethan", "equal",
+    "start", "stop", "duration", "and", "or", "not", "implies",
+)  # fmt: skip
 
 _TOKEN_LABELS = {
     "LPAR": "'('",
@@ -65,6 +71,9 @@ def _syntax_error(error: UnexpectedInput, text: str, locate: Locate) -> Diagnost
         found = "end of expression" if token.type == "$END" else repr(str(token))
         expected = _describe_expected(set(error.accepts or error.expected))
         message = f"unexpected {found} in constraint; expected {expected}"
+        guess = difflib.get_close_matches(str(token), KEYWORDS, n=1, cutoff=0.75) if token.type == "SIG" else []
+        if guess:
+            message = f"unknown operator {str(token)!r} (did you mean {guess[0]!r}?)"
     elif isinstance(error, UnexpectedCharacters):
         position = error.pos_in_stream or 0
         message = f"unexpected character {text[position]!r} in constraint"
@@ -79,20 +88,40 @@ def _syntax_error(error: UnexpectedInput, text: str, locate: Locate) -> Diagnost
 
 
 def _depth(tree: Tree[Token]) -> int:
-    """Nesting depth of a parse tree, computed without recursion."""
+    """Nesting depth of a parse tree without recursion; a chain of the same connective
+    (``a and b and c``) counts as one level, as it becomes one n-ary node."""
     deepest = 0
     stack: list[tuple[Tree[Token], int]] = [(tree, 1)]
     while stack:
         node, depth = stack.pop()
         deepest = max(deepest, depth)
-        stack.extend((child, depth + 1) for child in node.children if isinstance(child, Tree))
+        for child in node.children:
+            if isinstance(child, Tree):
+                same_chain = child.data == node.data and node.data in ("and_", "or_")
+                stack.append((child, depth if same_chain else depth + 1))
     return deepest
+
+
+def _paren_depth(text: str) -> tuple[int, int]:
+    """Deepest parenthesis nesting and the offset where it is reached."""
+    depth = deepest = where = 0
+    for offset, char in enumerate(text):
+        if char == "(":
+            depth += 1
+            if depth > deepest:
+                deepest, where = depth, offset
+        elif char == ")":
+            depth -= 1
+    return deepest, where
 
 
 def parse_expression(text: str, locate: Locate) -> tuple[ast.ExprNode | None, list[Diagnostic]]:
     """Parse one constraint's text; on error return None and the diagnostics."""
     if not text.strip():
         return None, [Diagnostic("E110", "empty constraint", locate(0))]
+    parens, where = _paren_depth(text)
+    if parens > MAX_DEPTH:
+        return None, [Diagnostic("E111", f"constraint nested more than {MAX_DEPTH} levels deep", locate(where))]
     try:
         tree = _parser().parse(text)
     except UnexpectedInput as error:
@@ -132,9 +161,10 @@ class _Builder:
         kind = str(node.data)
         kids = node.children
         span = self.span(node)
-        if kind in ("and_", "or_", "implies"):
-            op = {"and_": "and", "or_": "or", "implies": "implies"}[kind]
-            return ast.BinaryNode(op, self.expr(kids[0]), self.expr(kids[2]), span)
+        if kind in ("and_", "or_"):
+            return self.chain(node)
+        if kind == "implies":
+            return ast.BinaryNode("implies", self.expr(kids[0]), self.expr(kids[2]), span)
         if kind == "not_":
             return ast.NotNode(self.expr(kids[1]), span)
         if kind == "exists":
@@ -148,12 +178,29 @@ class _Builder:
         if kind == "equal":
             tolerance = None
             if kids[3] is not None:
-                tol_token = _token(kids[3])
-                tolerance = ast.NumberNode(self.number(tol_token), self.span(tol_token))
+                assert isinstance(kids[3], Tree)
+                sign, tol_token = kids[3].children
+                value = self.number(_token(tol_token), negative=sign is not None)
+                tolerance = ast.NumberNode(value, self.span(kids[3]))
             return ast.CompareNode("=", self.term(kids[1]), self.term(kids[2]), tolerance, span)
         if kind == "compare":
             return ast.CompareNode(str(_token(kids[1])), self.term(kids[0]), self.term(kids[2]), None, span)
         raise AssertionError(f"unexpected parse node {kind}")  # pragma: no cover
+
+    def chain(self, node: Tree[Token]) -> ast.ExprNode:
+        """A left-recursive ``a and b and c`` chain, walked without recursion."""
+        kind = node.data
+        spine: list[Tree[Token]] = []
+        current: Tree[Token] | Token | None = node
+        while isinstance(current, Tree) and current.data == kind:
+            spine.append(current)
+            current = current.children[0]
+        assert current is not None
+        result = self.expr(current)
+        op = "and" if kind == "and_" else "or"
+        for link in reversed(spine):
+            result = ast.BinaryNode(op, result, self.expr(link.children[2]), self.span(link))
+        return result
 
     def offsets(self, nodes: Sequence[Tree[Token] | Token | None]) -> float:
         total = 0.0

@@ -1,0 +1,206 @@
+"""``mse sample [SOURCE]``: timelines from a behaviour set (greedy, cpsat or csp solver)."""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import re
+import stat
+import sys
+import time
+from typing import Any
+
+from mse.cli.common import emit, print_diagnostics, print_error, read_stdin_bytes
+from mse.diagnostics import Diagnostic, MseError, Span
+
+BASE_FORMATS = ("table", "json", "jsonl")
+EXPORT_FORMATS = ("bml", "greta-bml", "svg", "html")
+_PIN = re.compile(r"^([A-Za-z_][A-Za-z0-9_]*)@(\d+(?:\.\d+)?)-(\d+(?:\.\d+)?)$")
+
+
+def _names(value: str) -> list[str]:
+    return [part.strip() for part in value.split(",") if part.strip()]
+
+
+def register(subparsers: Any) -> None:
+    parser = subparsers.add_parser(
+        "sample",
+        help="produce timelines (default: the bundled embarrassment, 10 s)",
+        description="Produce timelines consistent with a behaviour set. SOURCE is a file, a bundled "
+        "name, '-' or piped compiled IR (mse compile x.xml | mse sample). Exit 1 on bad input, "
+        "2 when no timeline exists.",
+    )
+    parser.add_argument("source", nargs="?", help="behaviour-set file, bundled name, or '-' for stdin")
+    parser.add_argument("-d", "--duration", type=float, default=10.0, help="timeline length in seconds (default 10)")
+    parser.add_argument("--seed", type=int, help="random seed (default: fresh; recorded in the output)")
+    parser.add_argument("-n", "--count", type=int, help="number of timelines (seeds seed, seed+1, ...)")
+    parser.add_argument("--format", choices=BASE_FORMATS + EXPORT_FORMATS, help="table on a terminal, else json")
+    parser.add_argument("-o", "--output", help="write to this file (atomically) instead of stdout")
+    parser.add_argument("--solver", choices=("greedy", "cpsat", "csp"), default="greedy")
+    parser.add_argument("--mode", choices=("consistent", "constraint-less"), default="consistent")
+    parser.add_argument("--stream", action="store_true", help="print each signal as a JSON line once decided")
+    parser.add_argument("--realtime", action="store_true", help="with --stream: pace the lines to the clock")
+    parser.add_argument("--slot", type=float, help="greedy: time-stamp length in seconds (default about 1)")
+    parser.add_argument("--max-restarts", type=int, default=50, help="greedy: restarts before giving up")
+    exact = parser.add_argument_group("exact solvers (cpsat, csp)")
+    exact.add_argument("--pin", action="append", default=[], metavar="SIG@START-STOP", help="pin a signal")
+    exact.add_argument("--require", action="append", type=_names, default=[], metavar="SIG", help="must occur")
+    exact.add_argument("--forbid", action="append", type=_names, default=[], metavar="SIG", help="must not occur")
+    exact.add_argument("--objective", choices=("likely", "random", "most-signals", "fewest-signals"))
+    exact.add_argument("--diverse", action="store_true", help="with --count: maximally different timelines")
+    exact.add_argument("--time-limit", type=float, default=10.0, help="seconds (default 10)")
+    exact.add_argument("--workers", type=int, default=1, help="CP-SAT search workers")
+    exact.add_argument("--grid", type=float, default=0.5, help="csp: grid step in seconds (default 0.5)")
+    out = parser.add_argument_group("motion and export")
+    out.add_argument("--animate", metavar="DIR", help="generate motion for every motion leaf into DIR")
+    out.add_argument("--library", metavar="DIR", help="motion library (default: the starter library)")
+    out.add_argument("--face-library", metavar="FILE", help="Greta face library for FACS export")
+    out.add_argument("--bml-extensions", action="store_true", help="BML: faces as FACS action units")
+    out.add_argument("--character-id", default="Agent", help="BML characterId (default Agent)")
+    parser.set_defaults(handler=run)
+
+
+def _stdin_has_data() -> bool:
+    try:
+        mode = os.fstat(sys.stdin.fileno()).st_mode
+    except (OSError, ValueError, AttributeError):
+        return False
+    return stat.S_ISFIFO(mode) or stat.S_ISREG(mode)
+
+
+def load_model_argument(source: str | None) -> Any:
+    """The model named by SOURCE; piped input; or the bundled default (said on stderr)."""
+    from mse.api import load, loads
+    from mse.resources import DEFAULT_EXPRESSION
+
+    if source == "-":
+        return loads(read_stdin_bytes(), path="<stdin>")
+    if source is not None:
+        return load(source)
+    if _stdin_has_data():
+        data = read_stdin_bytes()
+        if data.strip():
+            return loads(data, path="<stdin>")
+    print(f"mse: sampling the bundled expression '{DEFAULT_EXPRESSION}'", file=sys.stderr)
+    return load(DEFAULT_EXPRESSION)
+
+
+def _pins(values: list[str]) -> tuple[Any, ...]:
+    from mse.solve.protocol import Pin
+
+    pins = []
+    for value in values:
+        match = _PIN.match(value)
+        if not match:
+            message = f"--pin {value!r} must look like SIGNAL@START-STOP, e.g. smile@4.0-6.0"
+            raise MseError([Diagnostic("E100", message, Span("<arguments>"))])
+        pins.append(Pin(match.group(1), float(match.group(2)), float(match.group(3))))
+    return tuple(pins)
+
+
+def _options(args: argparse.Namespace) -> dict[str, Any]:
+    options: dict[str, Any] = {
+        "max_restarts": args.max_restarts,
+        "time_limit": args.time_limit,
+        "workers": args.workers,
+        "grid": args.grid,
+        "diverse": args.diverse,
+        "pinned": _pins(args.pin),
+        "require": tuple(n for group in args.require for n in group),
+        "forbid": tuple(n for group in args.forbid for n in group),
+    }
+    if args.slot is not None:
+        options["slot"] = args.slot
+    if args.objective is not None:
+        options["objective"] = args.objective
+    return options
+
+
+def _validate(args: argparse.Namespace) -> None:
+    problems = []
+    if not 0 < args.duration <= 3600:
+        problems.append("--duration must be in (0, 3600] seconds")
+    if args.count is not None and not 1 <= args.count <= 1_000_000:
+        problems.append("--count must be between 1 and 1000000")
+    if args.realtime and not args.stream:
+        problems.append("--realtime goes with --stream")
+    if args.stream and (args.count or args.format not in (None, "jsonl", "json")):
+        problems.append("--stream prints one timeline as JSON lines; drop --count/--format")
+    if problems:
+        raise MseError([Diagnostic("E100", p, Span("<arguments>")) for p in problems])
+
+
+def run(args: argparse.Namespace) -> int:
+    from mse.solve.protocol import NoSolution
+
+    try:
+        _validate(args)
+        model = load_model_argument(args.source)
+        if args.stream:
+            return _stream(model, args)
+        return _sample(model, args)
+    except NoSolution as error:
+        print_diagnostics(error.diagnostics)
+        return 2
+    except MseError as error:
+        return print_error(error)
+
+
+def _stream(model: Any, args: argparse.Namespace) -> int:
+    from mse.api import iter_sample
+
+    began = time.monotonic()
+    for signal in iter_sample(
+        model, args.duration, seed=args.seed, solver=args.solver, mode=args.mode, **_options(args)
+    ):
+        if args.realtime:
+            delay = signal.start - (time.monotonic() - began)
+            if delay > 0:
+                time.sleep(delay)
+        print(json.dumps(signal.to_json()), flush=True)
+    return 0
+
+
+def _sample(model: Any, args: argparse.Namespace) -> int:
+    from mse.api import sample
+
+    result = sample(
+        model, args.duration, seed=args.seed, count=args.count, solver=args.solver, mode=args.mode, **_options(args)
+    )
+    timelines = result if isinstance(result, list) else [result]
+    if args.animate:
+        from mse.motion.animate import animate
+
+        timelines = [animate(t, model, args.animate, library=args.library) for t in timelines]
+    fmt = args.format or ("table" if sys.stdout.isatty() and not args.output else "json")
+    emit(_render(timelines, fmt, args, many=args.count is not None), args.output)
+    return 0
+
+
+def _render(timelines: list[Any], fmt: str, args: argparse.Namespace, *, many: bool) -> str:
+    from mse.timeline import dumps_jsonl
+
+    if fmt == "table":
+        from mse.cli.table import render_table
+
+        return "\n".join(render_table(t) for t in timelines)
+    if fmt == "jsonl":
+        return dumps_jsonl(timelines)
+    if fmt == "json":
+        if many:
+            return json.dumps([t.to_json() for t in timelines], indent=2, ensure_ascii=False) + "\n"
+        return str(timelines[0].dumps()) + "\n"
+    from pathlib import Path
+
+    from mse.export import ExportOptions, render
+
+    options = ExportOptions(
+        character_id=args.character_id,
+        face_library=Path(args.face_library) if args.face_library else None,
+        bml_extensions=args.bml_extensions,
+        motion_base_dir=Path(args.animate) if args.animate else None,
+    )
+    if len(timelines) > 1:
+        raise MseError([Diagnostic("E100", f"--format {fmt} exports one timeline; drop --count", Span("<arguments>"))])
+    return str(render(timelines[0], fmt, options))

@@ -1,0 +1,60 @@
+"""Readable terminal view of a timeline: one lane per modality under a time ruler."""
+
+from __future__ import annotations
+
+import math
+
+from mse.timeline import Timeline
+
+WIDTH = 60
+
+
+def _ruler(duration: float, width: int) -> tuple[str, str]:
+    step = max(1, math.ceil(duration / 10))
+    ticks = [" "] * (width + 1)
+    labels = [" "] * (width + 8)
+    second = 0
+    while second <= duration + 1e-9:
+        column = round(second / duration * width)
+        ticks[column] = "|"
+        text = f"{second}"
+        for offset, char in enumerate(text):
+            if column + offset < len(labels):
+                labels[column + offset] = char
+        second += step
+    return "".join(labels).rstrip(), "".join(ticks)
+
+
+def render_table(timeline: Timeline, *, width: int = WIDTH) -> str:
+    duration = timeline.duration or 1.0
+    scale = width / duration
+    lanes: dict[str, list[str]] = {}
+    for signal in timeline.signals:
+        lanes.setdefault(signal.modality or "?", [])
+    name_width = max([len(m) for m in lanes] + [8])
+    lines = [
+        f"{timeline.expression}  duration {timeline.duration:g} s  solver {timeline.solver}  seed {timeline.seed}",
+    ]
+    labels, ticks = _ruler(duration, width)
+    lines.append(" " * (name_width + 2) + labels)
+    lines.append(" " * (name_width + 2) + ticks)
+    for modality in lanes:
+        rows: list[list[str]] = []
+        for signal in (s for s in timeline.signals if (s.modality or "?") == modality):
+            first = min(width - 1, int(signal.start * scale))
+            last = max(first + 1, min(width, round(signal.stop * scale)))
+            text = signal.id[: last - first]
+            row = next((r for r in rows if all(c == " " for c in r[first:last])), None)
+            if row is None:
+                row = [" "] * width
+                rows.append(row)
+            row[first:last] = list(text.ljust(last - first, "="))
+        for index, row in enumerate(rows or [[" "] * width]):
+            name = modality if index == 0 else ""
+            lines.append(f"{name:>{name_width}}  " + "".join(row).rstrip())
+    lines.append("")
+    for signal in timeline.signals:
+        lines.append(
+            f"  {signal.start:7.3f} - {signal.stop:7.3f}  {signal.modality:<{name_width}} {signal.id}  ({signal.lexeme})"
+        )
+    return "\n".join(lines) + "\n"
