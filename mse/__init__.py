@@ -11,7 +11,7 @@ from __future__ import annotations
 
 __version__ = "0.1.0"
 
-from mse.api import check, lint, load, loads
+from mse.api import check, explain, iter_sample, lint, load, loads, sample
 from mse.diagnostics import Diagnostic, MseError
 from mse.ir.evaluate import Violation
 from mse.ir.model import Model
@@ -25,7 +25,10 @@ __all__ = [
     "Violation",
     "__version__",
     "check",
+    "explain",
+    "iter_sample",
     "lint",
     "load",
     "loads",
+    "sample",
 ]

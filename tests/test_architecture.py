@@ -1,0 +1,105 @@
+"""Data flows one way inside mse/, and heavy libraries load only where they are needed."""
+
+from __future__ import annotations
+
+import ast
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+PACKAGE = Path(__file__).resolve().parent.parent / "mse"
+
+# Lower number = lower layer.  A module may import its own layer and the ones below.
+LAYERS: dict[str, int] = {
+    "mse.diagnostics": 0,
+    "mse.resources": 0,
+    "mse.fileio": 0,
+    "mse.syntax": 1,
+    "mse.ir": 2,
+    "mse.solve": 3,
+    "mse.timeline": 4,
+    "mse.export": 5,
+    "mse.motion": 5,
+    "mse.api": 6,
+    "mse.cli": 7,
+    "mse.__main__": 7,
+}
+HEAVY = ("ortools", "hmmlearn", "scipy", "sklearn", "matplotlib", "selenium", "constraint")
+
+
+def _layer(module: str) -> int | None:
+    for prefix, layer in sorted(LAYERS.items(), key=lambda item: -len(item[0])):
+        if module == prefix or module.startswith(prefix + "."):
+            return layer
+    return None
+
+
+def _modules() -> list[tuple[str, Path]]:
+    found = []
+    for path in sorted(PACKAGE.rglob("*.py")):
+        parts = list(path.relative_to(PACKAGE.parent).with_suffix("").parts)
+        if parts[-1] == "__init__":
+            parts.pop()
+        found.append((".".join(parts), path))
+    return found
+
+
+def _imports(path: Path) -> list[tuple[str, int, bool]]:
+    """(imported module, line, at module top level)"""
+    tree = ast.parse(path.read_text(encoding="utf-8"))
+    top_level = {id(node) for node in tree.body}
+    for node in tree.body:  # imports guarded by `if TYPE_CHECKING:` are not run
+        if isinstance(node, ast.If):
+            top_level.update(id(child) for child in node.body)
+    result = []
+    for node in ast.walk(tree):
+        if isinstance(node, ast.Import):
+            result += [(alias.name, node.lineno, id(node) in top_level) for alias in node.names]
+        elif isinstance(node, ast.ImportFrom) and node.module and node.level == 0:
+            result.append((node.module, node.lineno, id(node) in top_level))
+    return result
+
+
+def test_lower_layers_never_import_higher_ones() -> None:
+    problems = []
+    for module, path in _modules():
+        own = _layer(module)
+        if own is None or module == "mse":
+            continue
+        for imported, line, _ in _imports(path):
+            other = _layer(imported)
+            if other is not None and other > own:
+                problems.append(f"{path.relative_to(PACKAGE.parent)}:{line}: {module} imports {imported}")
+    assert not problems, "\n".join(problems)
+
+
+def test_motion_does_not_import_export() -> None:
+    for module, path in _modules():
+        if module.startswith("mse.motion"):
+            assert not any(name.startswith("mse.export") for name, _, _ in _imports(path)), module
+
+
+@pytest.mark.parametrize(
+    "argv",
+    [
+        ["compile", "embarrassment"],
+        ["lint", "--no-deep", "behaviour_sets"],
+        ["sample", "embarrassment", "--duration", "10", "--seed", "1", "--format", "json"],
+        ["list"],
+    ],
+)
+def test_cli_paths_do_not_load_heavy_libraries(argv: list[str]) -> None:
+    script = (
+        "import sys, io, contextlib\n"
+        "from mse.cli import main\n"
+        "with contextlib.redirect_stdout(io.StringIO()):\n"
+        f"    code = main({argv!r})\n"
+        f"heavy = sorted(m for m in sys.modules if m.split('.')[0] in {HEAVY!r})\n"
+        "print(code, heavy)\n"
+    )
+    root = PACKAGE.parent
+    out = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True, cwd=root, check=True)
+    assert out.stdout.strip().endswith("[]"), out.stdout + out.stderr
+    assert out.stdout.startswith("0 "), out.stdout + out.stderr
