@@ -20,6 +20,7 @@ COMMAND_MODULES: tuple[str, ...] = (
     "cmd_check",
     "cmd_lint",
     "cmd_list",
+    "cmd_export",
 )
 
 

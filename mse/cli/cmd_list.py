@@ -22,6 +22,8 @@ def run(args: argparse.Namespace) -> int:
         if model is None:
             print(f"{name:<14} (has errors: run mse compile {name})")
             continue
-        summary = model.description.split(". ")[0][:70]
+        summary = model.description
+        if len(summary) > 64:
+            summary = summary[:63].rsplit(" ", 1)[0] + " …"
         print(f"{name:<14} {len(model.signals):>2} signals {len(model.constraints):>2} constraints  {summary}")
     return 0

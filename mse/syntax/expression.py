@@ -56,7 +56,9 @@ _TOKEN_LABELS = {
 @functools.cache
 def _parser() -> Lark:
     grammar = (grammar_dir() / "constraints.lark").read_text(encoding="utf-8")
-    return Lark(grammar, parser="lalr", propagate_positions=True, maybe_placeholders=True)
+    # cache=True keeps the LALR tables in a temporary file keyed by the grammar's hash, so
+    # that a command-line start does not rebuild them every time.
+    return Lark(grammar, parser="lalr", propagate_positions=True, maybe_placeholders=True, cache=True)
 
 
 def _describe_expected(expected: set[str]) -> str:

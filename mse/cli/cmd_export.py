@@ -1,0 +1,118 @@
+"""``mse export``: a saved timeline out as BML 1.0, Greta BML, SVG or an HTML viewer.
+
+A file holding several timelines (a JSON array or JSON lines) exports its first one, or
+all of them when ``-o`` names a folder (``<stem>-<n>.<suffix>``, n from 1).
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+
+from mse.export import FORMAT_NAMES  # light: the exporters themselves load lazily
+
+
+def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
+    p = subparsers.add_parser(
+        "export",
+        help="write a saved timeline as BML, Greta BML, SVG or HTML",
+        description="Write a timeline (mse-timeline/1 JSON) in another format.",
+    )
+    p.add_argument("timeline", help="timeline JSON file ('-' reads standard input)")
+    p.add_argument("--format", "-f", choices=FORMAT_NAMES, required=True, help="output format")
+    p.add_argument(
+        "-o",
+        "--output",
+        help="output file (default: standard output); an existing folder or a path ending "
+        "in '/' receives every timeline of the input",
+    )
+    p.add_argument("--face-library", type=Path, help="Greta facelibrary.xml for face lexemes")
+    p.add_argument(
+        "--bml-extensions",
+        action="store_true",
+        help="allow BML extensions (ext:faceFacs per action unit); leaves the BML 1.0 schema",
+    )
+    p.add_argument(
+        "--bml-constraints",
+        action="store_true",
+        help="add <constraint> metadata for sync points that share a time",
+    )
+    p.add_argument("--character-id", default="Agent", help="BML characterId (default: Agent)")
+    p.add_argument(
+        "--motion-dir",
+        type=Path,
+        help="folder that motion file paths are relative to (default: the timeline's folder)",
+    )
+    p.set_defaults(handler=run)
+
+
+def _read_input(name: str) -> tuple[str, str]:
+    """(text, path for messages); unreadable input raises MseError (E100)."""
+    from mse.diagnostics import Diagnostic, MseError, Span
+
+    if name == "-":
+        return sys.stdin.read(), "<stdin>"
+    try:
+        return Path(name).read_text(encoding="utf-8"), name
+    except (OSError, UnicodeDecodeError) as error:
+        reason = getattr(error, "strerror", None) or str(error)
+        raise MseError([Diagnostic("E100", f"cannot read timeline: {reason}", Span(name))]) from None
+
+
+def run(args: argparse.Namespace) -> int:
+    from mse.diagnostics import Diagnostic, MseError, Span
+    from mse.export import SUFFIXES, ExportOptions, render
+    from mse.fileio import write_atomic
+    from mse.timeline import loads_many
+
+    output: str | None = args.output
+    try:
+        text, where = _read_input(args.timeline)
+        timelines = loads_many(text, path=where)
+        if not timelines:
+            raise MseError([Diagnostic("E212", "no timeline in the input", Span(where))])
+        base_dir = args.motion_dir
+        if base_dir is None and args.timeline != "-":
+            base_dir = Path(args.timeline).resolve().parent
+        options = ExportOptions(
+            character_id=args.character_id,
+            face_library=args.face_library,
+            bml_extensions=args.bml_extensions,
+            bml_constraints=args.bml_constraints,
+            motion_base_dir=base_dir,
+        )
+        to_folder = output is not None and (output.endswith(("/", "\\")) or Path(output).is_dir())
+        if not to_folder:
+            if len(timelines) > 1:
+                print(
+                    f"{where}: note: {len(timelines)} timelines, exported the first (give -o FOLDER/ to export all)",
+                    file=sys.stderr,
+                )
+            timelines = timelines[:1]
+        # Render everything before writing anything: bad input leaves no partial output.
+        pages = [render(t, args.format, options) for t in timelines]
+    except MseError as error:
+        for diagnostic in error.diagnostics:
+            print(diagnostic.render(), file=sys.stderr)
+        return 1
+    if output is None:
+        sys.stdout.write(pages[0])
+        return 0
+    stem = Path(where).stem if where != "<stdin>" else "timeline"
+    targets = (
+        [Path(output) / f"{stem}-{n}{SUFFIXES[args.format]}" for n in range(1, len(pages) + 1)]
+        if to_folder
+        else [Path(output)]
+    )
+    for target, page in zip(targets, pages, strict=True):
+        try:
+            write_atomic(target, page)
+        except OSError as error:
+            reason = error.strerror or str(error)
+            print(
+                Diagnostic("E100", f"cannot write output: {reason}", Span(str(target))).render(),
+                file=sys.stderr,
+            )
+            return 1
+    return 0

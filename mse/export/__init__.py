@@ -1,0 +1,50 @@
+"""Timelines out to realizers and people: BML 1.0, Greta BML, SVG, HTML.
+
+``render(timeline, "bml")`` returns the text of one format.  Exporter modules are imported
+on first use, so ``import mse.export`` stays cheap for the command line.
+"""
+
+from __future__ import annotations
+
+import importlib
+from collections.abc import Callable
+from typing import cast
+
+from mse.diagnostics import Diagnostic, MseError, Span
+from mse.export.options import ExportOptions
+from mse.timeline import Timeline
+
+__all__ = ["FORMAT_NAMES", "ExportOptions", "render"]
+
+Renderer = Callable[[Timeline, ExportOptions], str]
+
+#: format name -> (module, function); the module is imported when the format is used.
+_REGISTRY: dict[str, tuple[str, str]] = {
+    "bml": ("mse.export.bml", "render_bml"),
+    "greta-bml": ("mse.export.greta_bml", "render_greta_bml"),
+    "svg": ("mse.export.svg", "render_svg"),
+    "html": ("mse.export.html", "render_html"),
+}
+
+FORMAT_NAMES: tuple[str, ...] = tuple(_REGISTRY)
+DEFAULT_OPTIONS = ExportOptions()
+
+#: File suffix of each format (the CLI names files written into a folder with it).
+SUFFIXES: dict[str, str] = {"bml": ".bml", "greta-bml": ".xml", "svg": ".svg", "html": ".html"}
+
+
+def renderer(fmt: str) -> Renderer:
+    """The function that writes ``fmt``; unknown names raise MseError (E100)."""
+    entry = _REGISTRY.get(fmt)
+    if entry is None:
+        known = ", ".join(FORMAT_NAMES)
+        raise MseError([Diagnostic("E100", f"unknown export format {fmt!r} (known: {known})", Span("<export>"))])
+    module = importlib.import_module(entry[0])
+    return cast(Renderer, getattr(module, entry[1]))
+
+
+def render(timeline: Timeline, fmt: str, options: ExportOptions = DEFAULT_OPTIONS) -> str:
+    """The text of ``timeline`` in format ``fmt`` (one of :data:`FORMAT_NAMES`)."""
+    if not isinstance(timeline, Timeline):
+        raise MseError([Diagnostic("E212", "export needs a Timeline", Span("<export>"))])
+    return renderer(fmt)(timeline, options)
