@@ -40,7 +40,10 @@ def test_external_entities_are_never_read() -> None:
 
 
 def test_doctype_without_entities_is_ignored_not_fetched() -> None:
-    data = b'<?xml version="1.0"?><!DOCTYPE expression SYSTEM "http://example.invalid/x.dtd"><expression name="x"><signals><signal id="a" modality="face"/></signals></expression>'
+    data = (
+        b'<?xml version="1.0"?><!DOCTYPE expression SYSTEM "http://example.invalid/x.dtd">'
+        b'<expression name="x"><signals><signal id="a" modality="face"/></signals></expression>'
+    )
     model, diagnostics = compile_source("x.xml", data)
     assert model is not None, diagnostics
 
@@ -79,6 +82,9 @@ def test_load_unknown_name_suggests_bundled() -> None:
 
 
 def test_bom_and_latin1_declaration() -> None:
-    data = "\ufeff<?xml version='1.0' encoding='UTF-8'?><expression name='x'><signals><signal id='a' modality='face'/></signals></expression>"
+    data = (
+        "\ufeff<?xml version='1.0' encoding='UTF-8'?>"
+        "<expression name='x'><signals><signal id='a' modality='face'/></signals></expression>"
+    )
     model, _ = compile_source("bom.xml", data.encode("utf-8"))
     assert model is not None

@@ -54,7 +54,6 @@ def render_table(timeline: Timeline, *, width: int = WIDTH) -> str:
             lines.append(f"{name:>{name_width}}  " + "".join(row).rstrip())
     lines.append("")
     for signal in timeline.signals:
-        lines.append(
-            f"  {signal.start:7.3f} - {signal.stop:7.3f}  {signal.modality:<{name_width}} {signal.id}  ({signal.lexeme})"
-        )
+        times = f"{signal.start:7.3f} - {signal.stop:7.3f}"
+        lines.append(f"  {times}  {signal.modality:<{name_width}} {signal.id}  ({signal.lexeme})")
     return "\n".join(lines) + "\n"
