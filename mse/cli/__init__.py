@@ -21,6 +21,7 @@ COMMAND_MODULES: tuple[str, ...] = (
     "cmd_lint",
     "cmd_list",
     "cmd_export",
+    "cmd_import_greta",
 )
 
 
