@@ -1,0 +1,60 @@
+"""Explanations on generated behaviour sets: consistent with solving, and minimal."""
+
+from __future__ import annotations
+
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+from strategies import models
+
+from mse.ir import model as ir
+from mse.ir.evaluate import check_schedule
+from mse.ir.schedule import to_ticks
+from mse.solve.cpsat import make_solver, solve_one
+from mse.solve.cpsat_bounds import slot_counts
+from mse.solve.cpsat_encode import build
+from mse.solve.explain import explain
+from mse.solve.protocol import NoSolution, SolveRequest
+
+
+def _feasible_without(model: ir.Model, duration: float, require: tuple[str, ...], keys: list[str]) -> bool:
+    """Is there a timeline when only the rules ``keys`` are switched on?"""
+    from ortools.sat.python import cp_model
+
+    ticks = to_ticks(duration)
+    counts = {s: max(1, c) for s, c in slot_counts(model, ticks, complete=True).items()}
+    enc = build(model, ticks, counts, switchable=True, require=require)
+    enc.cp.add_assumptions([enc.enable[k] for k in keys])
+    status = make_solver(5.0).solve(enc.cp)
+    assert status != cp_model.UNKNOWN
+    return status in (cp_model.OPTIMAL, cp_model.FEASIBLE)
+
+
+def _key(item_kind: str, item_id: str) -> str:
+    prefix = {"constraint": "constraint", "duration": "duration", "occurrence rule": "modality",
+              "require": "require"}[item_kind]
+    return f"{prefix}:{item_id}"
+
+
+@settings(max_examples=80, deadline=None, suppress_health_check=list(HealthCheck))
+@given(model=models(min_signals=1, max_signals=5, max_constraints=5), data=st.data())
+def test_explanations_agree_with_solving_and_are_minimal(model: ir.Model, data: st.DataObject) -> None:
+    ids = [s.id for s in model.signals]
+    require = tuple(data.draw(st.lists(st.sampled_from(ids), unique=True, max_size=len(ids))))
+    duration = data.draw(st.sampled_from([1.0, 2.0, 4.0]))
+    explanation = explain(model, duration, require=require, time_limit=5.0)
+    request = SolveRequest(duration=duration, require=require, time_limit=5.0)
+    if explanation is None:
+        schedule = solve_one(model, request, 0)
+        assert check_schedule(model, schedule) == []
+        return
+    assert explanation.proven and explanation.minimal
+    try:
+        solve_one(model, request, 0)
+    except NoSolution as error:
+        assert error.proven
+    else:
+        raise AssertionError("explained as infeasible, but CP-SAT found a timeline")
+    keys = [_key(item.kind, item.id) for item in explanation.items]
+    assert not _feasible_without(model, duration, require, keys)
+    for dropped in keys:
+        assert _feasible_without(model, duration, require, [k for k in keys if k != dropped]), dropped
