@@ -1,0 +1,165 @@
+"""``mse style train|adapt|synth``: HSMM stylistic motion synthesis (Tilmanne et al.).
+
+```
+mse style train --library DIR --action walk -o walk.avg
+mse style adapt walk.avg --library DIR --style sad --takes 1 -o walk.sad
+mse style synth walk.sad --steps 6 -o sad_walk.bvh      # or --duration 5
+```
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+import time
+from typing import Any
+
+from mse.cli.common import print_error
+from mse.diagnostics import Diagnostic, MseError, Span
+
+
+def register(subparsers: Any) -> None:
+    parser = subparsers.add_parser(
+        "style",
+        help="HSMM stylistic motion: train an average model, adapt it, synthesize",
+        description="Stylistic motion synthesis with hidden semi-Markov models: an average "
+        "model over every style of a motion library, adapted to one style from a few takes "
+        "(CMLLR + MAP), then maximum-likelihood parameter generation with global variance.",
+    )
+    commands = parser.add_subparsers(dest="style_command", metavar="STEP")
+
+    train = commands.add_parser("train", help="train the average model of an action")
+    train.add_argument("--library", required=True, help="motion library folder or index")
+    train.add_argument("--action", required=True, help="action label, e.g. walk or bow")
+    train.add_argument("-o", "--output", required=True, help="model file to write")
+    train.add_argument("--states", type=int, default=5, help="states per unit (default 5)")
+    train.add_argument(
+        "--blocks",
+        choices=("joint", "stream", "full"),
+        default="stream",
+        help="CMLLR regression blocks (default stream: one per static/delta/delta-delta "
+        "stream; joint: 3x3 per joint and stream; full)",
+    )
+    train.set_defaults(handler=run_train)
+
+    adapt = commands.add_parser("adapt", help="adapt a model to a style from a few takes")
+    adapt.add_argument("model", help="average model file (from 'mse style train')")
+    adapt.add_argument("--library", required=True, help="motion library folder or index")
+    adapt.add_argument("--style", required=True, help="target style label, e.g. sad")
+    adapt.add_argument("--takes", type=int, default=1, help="takes to use (default 1; 0: all)")
+    adapt.add_argument("--no-map", action="store_true", help="CMLLR only, no MAP step")
+    adapt.add_argument("-o", "--output", required=True, help="adapted model file to write")
+    adapt.set_defaults(handler=run_adapt)
+
+    synth = commands.add_parser("synth", help="synthesize a BVH clip from a model")
+    synth.add_argument("model", help="model file (average or adapted)")
+    length = synth.add_mutually_exclusive_group()
+    length.add_argument("--steps", type=int, help="number of steps (cyclic actions)")
+    length.add_argument("--duration", type=float, help="exact length in seconds")
+    synth.add_argument("--no-gv", action="store_true", help="no global-variance compensation")
+    synth.add_argument("--seed", type=int, help="vary the state durations reproducibly")
+    synth.add_argument("-o", "--output", required=True, help="BVH file to write")
+    synth.set_defaults(handler=run_synth)
+
+    parser.set_defaults(handler=lambda _args: _usage(parser))
+
+
+def _usage(parser: argparse.ArgumentParser) -> int:
+    parser.print_help(sys.stderr)
+    return 2
+
+
+def _fail(path: str, message: str) -> int:
+    return print_error(MseError([Diagnostic("E100", message, Span(path))]))
+
+
+def _positive(value: float | None, name: str) -> str | None:
+    if value is not None and not value > 0:
+        return f"{name} must be positive"
+    return None
+
+
+def run_train(args: argparse.Namespace) -> int:
+    from mse.motion.hsmm.api import Options, train_from_library
+    from mse.motion.hsmm.io import save_model
+
+    if args.states < 1:
+        return _fail(args.library, "--states must be at least 1")
+    started = time.perf_counter()
+    try:
+        model = train_from_library(
+            args.library, args.action, Options(states=args.states, blocks=args.blocks)
+        )
+        save_model(args.output, model)
+    except MseError as error:
+        return print_error(error)
+    except ValueError as error:
+        return _fail(args.library, f"cannot train: {error}")
+    except OSError as error:
+        return _fail(args.output, f"cannot write model: {error.strerror or error}")
+    print(
+        f"{args.output}: average {args.action} model, {len(model.units)} unit(s) x "
+        f"{model.states} states, {model.info.get('clips')} clip(s), "
+        f"{time.perf_counter() - started:.1f} s",
+        file=sys.stderr,
+    )
+    return 0
+
+
+def run_adapt(args: argparse.Namespace) -> int:
+    from mse.motion.hsmm.api import Options, adapt_from_library
+    from mse.motion.hsmm.io import load_model, save_model
+
+    if args.takes < 0:
+        return _fail(args.library, "--takes must be 0 (all) or more")
+    started = time.perf_counter()
+    try:
+        average = load_model(args.model)
+        options = Options(
+            states=average.states,
+            blocks=str(average.info.get("blocks", "stream")),
+            use_map=not args.no_map,
+        )
+        model = adapt_from_library(average, args.library, args.style, args.takes or None, options)
+        save_model(args.output, model)
+    except MseError as error:
+        return print_error(error)
+    except ValueError as error:
+        return _fail(args.library, f"cannot adapt: {error}")
+    except OSError as error:
+        return _fail(args.output, f"cannot write model: {error.strerror or error}")
+    print(
+        f"{args.output}: {model.action} model adapted to {args.style!r} from "
+        f"{model.info.get('takes')} take(s), {time.perf_counter() - started:.1f} s",
+        file=sys.stderr,
+    )
+    return 0
+
+
+def run_synth(args: argparse.Namespace) -> int:
+    from mse.motion.bvh import write_bvh
+    from mse.motion.hsmm.io import load_model
+    from mse.motion.hsmm.synth import synthesize
+
+    problem = _positive(args.duration, "--duration") or _positive(args.steps, "--steps")
+    if problem:
+        return _fail(args.model, problem)
+    started = time.perf_counter()
+    try:
+        model = load_model(args.model)
+        motion = synthesize(
+            model, steps=args.steps, duration_s=args.duration, gv=not args.no_gv, seed=args.seed
+        )
+        write_bvh(args.output, motion)
+    except MseError as error:
+        return print_error(error)
+    except ValueError as error:
+        return _fail(args.model, f"cannot synthesize: {error}")
+    except OSError as error:
+        return _fail(args.output, f"cannot write BVH: {error.strerror or error}")
+    print(
+        f"{args.output}: {motion.frame_count} frames ({motion.duration:.2f} s) of "
+        f"{model.style} {model.action}, {1000 * (time.perf_counter() - started):.0f} ms",
+        file=sys.stderr,
+    )
+    return 0

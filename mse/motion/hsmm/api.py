@@ -1,0 +1,334 @@
+"""Library API of the HSMM method: train, adapt, synthesize, and the cached leaf entry point.
+
+``train_average`` builds the average model of an action over every style of a library with
+style-adaptive training; ``adapt_model`` adapts it to a style from a few takes (CMLLR, then
+MAP); ``synthesize`` generates a clip; ``synthesize_leaf`` chains them for the ``animate``
+pipeline with an in-process and on-disk cache keyed by the library's content hash.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import functools
+import hashlib
+import importlib
+import os
+from collections.abc import Callable, Iterator, Sequence
+from dataclasses import asdict, dataclass, replace
+from pathlib import Path
+from typing import ParamSpec, TypeVar
+
+import numpy as np
+
+from mse.diagnostics import Diagnostic, MseError, Span
+from mse.motion.bvh import Motion
+from mse.motion.hsmm.adapt import adapt_units, adaptive_training, blocks_for
+from mse.motion.hsmm.features import FloatArray, observations
+from mse.motion.hsmm.io import load_model, save_model
+from mse.motion.hsmm.mlpg import global_variance
+from mse.motion.hsmm.model import (
+    HsmmModel,
+    Instance,
+    train_units,
+    uniform_bounds,
+    variance_floor,
+)
+from mse.motion.hsmm.prep import Template, build_template, pose_positions, static_features
+from mse.motion.hsmm.segment import CYCLIC_ACTIONS, ONE_SHOT_UNIT, foot_separation, segment_clip
+from mse.motion.hsmm.synth import synthesize as _synthesize
+from mse.motion.library import MotionLibrary, load_library
+
+__all__ = [
+    "Options",
+    "adapt_from_library",
+    "adapt_model",
+    "synthesize",
+    "synthesize_leaf",
+    "train_average",
+    "train_from_library",
+    "train_scratch",
+]
+
+
+@dataclass(frozen=True, slots=True)
+class Options:
+    """Training and adaptation settings (defaults are the documented ones)."""
+
+    states: int = 5
+    iterations: int = 4
+    sat_rounds: int = 2
+    blocks: str = "stream"  # CMLLR regression blocks: stream (static/Δ/Δ²), joint (3×3), full
+    prior: float = 1.0  # weight of the identity prior of CMLLR rows
+    tau: float = 3.0  # MAP prior weight of output Gaussians (frames)
+    tau_duration: float = 0.5  # MAP prior weight of duration Gaussians (unit instances)
+    use_map: bool = True
+    gv_tau: float = 0.05  # weight of the average model's global variance when adapting
+
+
+@contextlib.contextmanager
+def single_threaded_blas() -> Iterator[None]:
+    """Pin BLAS to one thread: the matrices are small, and threads only contend."""
+    try:
+        threadpoolctl = importlib.import_module("threadpoolctl")
+    except ImportError:  # comes with scikit-learn; without it, run as configured
+        yield
+        return
+    with threadpoolctl.threadpool_limits(limits=1, user_api="blas"):
+        yield
+
+
+_P = ParamSpec("_P")
+_R = TypeVar("_R")
+
+
+def one_blas_thread(func: Callable[_P, _R]) -> Callable[_P, _R]:
+    """Decorator: run ``func`` with BLAS pinned to one thread."""
+
+    @functools.wraps(func)
+    def wrapper(*args: _P.args, **kwargs: _P.kwargs) -> _R:
+        with single_threaded_blas():
+            return func(*args, **kwargs)
+
+    return wrapper
+
+
+#: Synthesis is cheap and pins nothing (threadpoolctl's probe alone would cost more).
+synthesize = _synthesize
+
+
+def is_cyclic(action: str) -> bool:
+    return action in CYCLIC_ACTIONS
+
+
+def clip_instances(
+    motion: Motion, style: str, template: Template, cyclic: bool, states: int
+) -> tuple[list[Instance], FloatArray]:
+    """Unit instances of one clip (equal state splits) and its static features."""
+    statics = static_features(motion, template)
+    obs = observations(statics)
+    separation = foot_separation(pose_positions(statics, template), template.contacts)
+    segments = segment_clip(statics.shape[0], cyclic, separation if cyclic else None)
+    instances = [
+        Instance(s.unit, style, obs[s.start : s.stop], uniform_bounds(s.length, states))
+        for s in segments
+        if s.length >= states
+    ]
+    return instances, statics
+
+
+def _gather(
+    clips: Sequence[tuple[Motion, str]], template: Template, cyclic: bool, states: int
+) -> tuple[list[Instance], list[FloatArray]]:
+    instances: list[Instance] = []
+    statics: list[FloatArray] = []
+    for motion, style in clips:
+        found, features = clip_instances(motion, style, template, cyclic, states)
+        instances.extend(found)
+        statics.append(features)
+    if cyclic and any(i.unit != ONE_SHOT_UNIT for i in instances):
+        instances = [i for i in instances if i.unit != ONE_SHOT_UNIT]  # clips without steps
+    if not instances:
+        raise ValueError("no clip is long enough to train a model")
+    return instances, statics
+
+
+def _first_leg(instances: Sequence[Instance]) -> str:
+    legs = [i.unit.rpartition("-")[2] for i in instances if i.unit.startswith("first-")]
+    return max(("a", "b"), key=legs.count) if legs else "a"
+
+
+def _gv_stats(statics: Sequence[FloatArray]) -> tuple[FloatArray, FloatArray]:
+    values = np.array([global_variance(s) for s in statics])
+    mean = values.mean(axis=0)
+    var = np.maximum(values.var(axis=0), (0.1 * mean) ** 2 + 1e-12)
+    return mean, var
+
+
+@one_blas_thread
+def train_average(
+    clips: Sequence[tuple[Motion, str]], action: str, options: Options = Options()
+) -> HsmmModel:
+    """Average model over (motion, style) clips with style-adaptive training."""
+    cyclic = is_cyclic(action)
+    template = build_template([m for m, _ in clips])
+    instances, statics = _gather(clips, template, cyclic, options.states)
+    floor = variance_floor(instances)
+    blocks = blocks_for(template.feature_count, options.blocks)
+    units, _ = adaptive_training(
+        instances, options.states, floor, blocks, rounds=options.sat_rounds, prior=options.prior
+    )
+    gv_mean, gv_var = _gv_stats(statics)
+    return HsmmModel(
+        action=action,
+        style="average",
+        cyclic=cyclic,
+        units=units,
+        template=template,
+        gv_mean=gv_mean,
+        gv_var=gv_var,
+        variance_floor=floor,
+        first_leg=_first_leg(instances),
+        info={"clips": len(clips), "styles": sorted({s for _, s in clips}), **asdict(options)},
+    )
+
+
+@one_blas_thread
+def train_scratch(
+    clips: Sequence[tuple[Motion, str]], action: str, options: Options = Options()
+) -> HsmmModel:
+    """A style model trained from its own (little) data only: the bench's baseline."""
+    cyclic = is_cyclic(action)
+    template = build_template([m for m, _ in clips])
+    instances, statics = _gather(clips, template, cyclic, options.states)
+    floor = variance_floor(instances)
+    units, _ = train_units(instances, options.states, options.iterations, floor)
+    gv_mean, gv_var = _gv_stats(statics)
+    return HsmmModel(
+        action, clips[0][1], cyclic, units, template, gv_mean, gv_var, floor, _first_leg(instances)
+    )
+
+
+@one_blas_thread
+def adapt_model(
+    average: HsmmModel, motions: Sequence[Motion], style: str, options: Options = Options()
+) -> HsmmModel:
+    """The average model adapted to ``style`` from a few clips (CMLLR then MAP)."""
+    template = average.template
+    instances, statics = _gather(
+        [(m, style) for m in motions], template, average.cyclic, average.states
+    )
+    instances = [replace(i, unit=average.resolve(i.unit)) for i in instances]
+    blocks = blocks_for(template.feature_count, options.blocks)
+    units, _output, _ = adapt_units(
+        average.units,
+        instances,
+        average.variance_floor,
+        blocks,
+        prior=options.prior,
+        tau=options.tau,
+        tau_duration=options.tau_duration,
+        use_map=options.use_map,
+    )
+    target = np.array([global_variance(s) for s in statics])
+    gv_mean = (options.gv_tau * average.gv_mean + target.sum(axis=0)) / (
+        options.gv_tau + target.shape[0]
+    )
+    gv_var = average.gv_var * (gv_mean / np.maximum(average.gv_mean, 1e-12)) ** 2
+    return replace(
+        average,
+        style=style,
+        units=units,
+        gv_mean=gv_mean,
+        gv_var=gv_var,
+        info={**dict(average.info), "adapted_from": average.style, "takes": len(motions)},
+    )
+
+
+# -- library level ------------------------------------------------------------------------
+def _library(source: str | os.PathLike[str] | MotionLibrary) -> MotionLibrary:
+    return source if isinstance(source, MotionLibrary) else load_library(source)
+
+
+def _where(source: str | os.PathLike[str] | MotionLibrary) -> str:
+    return source.name if isinstance(source, MotionLibrary) else os.fspath(source)
+
+
+def _no_clips(source: str | os.PathLike[str] | MotionLibrary, what: str) -> MseError:
+    return MseError([Diagnostic("E213", f"no {what} in the motion library", Span(_where(source)))])
+
+
+def train_from_library(
+    source: str | os.PathLike[str] | MotionLibrary, action: str, options: Options = Options()
+) -> HsmmModel:
+    library = _library(source)
+    clips = [(library.motion(c), c.style) for c in library.select(action=action)]
+    if not clips:
+        raise _no_clips(source, f"clips of action {action!r}")
+    return train_average(clips, action, options)
+
+
+def adapt_from_library(
+    average: HsmmModel,
+    source: str | os.PathLike[str] | MotionLibrary,
+    style: str,
+    takes: int | None = 1,
+    options: Options = Options(),
+) -> HsmmModel:
+    library = _library(source)
+    chosen = sorted(library.select(action=average.action, style=style), key=lambda c: c.id)
+    if not chosen:
+        raise _no_clips(source, f"{average.action!r} clips of style {style!r}")
+    if takes is not None:
+        chosen = chosen[: max(1, takes)]
+    return adapt_model(average, [library.motion(c) for c in chosen], style, options)
+
+
+_MODELS: dict[str, HsmmModel] = {}
+
+
+def default_cache_dir() -> Path:
+    configured = os.environ.get("MSE_CACHE_DIR")
+    if configured:
+        return Path(configured) / "hsmm"
+    base = os.environ.get("XDG_CACHE_HOME") or str(Path.home() / ".cache")
+    return Path(base) / "mse" / "hsmm"
+
+
+def _cached(key: str, cache_dir: Path | None, build: Callable[[], HsmmModel]) -> HsmmModel:
+    """The model for ``key`` from memory, then disk, else ``build()`` (and store it)."""
+    if key in _MODELS:
+        return _MODELS[key]
+    path = cache_dir / f"{key}.npz" if cache_dir is not None else None
+    model: HsmmModel | None = None
+    if path is not None and path.is_file():
+        try:
+            model = load_model(path)
+        except MseError:
+            model = None  # a stale or broken cache entry: rebuild it
+    if model is None:
+        model = build()
+        if path is not None:
+            # The cache is an optimisation: a read-only disk must not fail a leaf.
+            with contextlib.suppress(OSError):
+                save_model(path, model)
+    _MODELS[key] = model
+    return model
+
+
+def synthesize_leaf(
+    source: str | os.PathLike[str] | MotionLibrary,
+    action: str,
+    style: str,
+    duration_s: float,
+    seed: int | None = None,
+    options: Options = Options(),
+    cache_dir: str | os.PathLike[str] | None = "default",
+    takes: int | None = 1,
+) -> Motion:
+    """A clip of ``action`` in ``style`` lasting exactly ``duration_s`` seconds.
+
+    The average model of the action and its adaptation to the style are cached (memory and
+    ``cache_dir``; ``None`` disables the disk cache).  A style without clips of the action
+    uses the average model.
+    """
+    library = _library(source)
+    directory = default_cache_dir() if cache_dir == "default" else cache_dir
+    folder = Path(directory) if directory is not None else None
+    settings = hashlib.sha256(repr(options).encode()).hexdigest()[:8]
+    base_key = f"{library.content_hash}-{action}-{settings}"
+    where = Span(_where(source))
+    try:
+        average = _cached(
+            f"{base_key}-average", folder, lambda: train_from_library(library, action, options)
+        )
+        model = average
+        if library.select(action=action, style=style):
+            model = _cached(
+                f"{base_key}-{style}-{takes}",
+                folder,
+                lambda: adapt_from_library(average, library, style, takes, options),
+            )
+        return _synthesize(model, duration_s=duration_s, seed=seed)
+    except ValueError as error:  # e.g. a skeleton without two legs under its root
+        message = f"HSMM {action!r} failed: {error}"
+        raise MseError([Diagnostic("E213", message, where)]) from None

@@ -1,0 +1,196 @@
+"""From BVH clips to aligned static feature sequences, and back (paper §4).
+
+* The *root joint* is the joint whose position channels move most (Bandai: ``Hips``; CMU:
+  the BVH root).  Its position is dropped and recomputed at synthesis time; its ancestors are
+  assumed static (Bandai's ``joint_Root`` is all zeros).
+* Directions are aligned: each clip is turned about the vertical (Y) axis so that its mean
+  heading (forward = up × the vector between the two leg roots) points along +Z.
+* Every joint with rotation channels is a feature: the exponential map of its local
+  rotation relative to a reference rotation (the chordal mean over the training clips),
+  three values per joint.
+* The two legs are the root's children whose subtrees reach lowest; the last two joints of
+  each leg (foot and toes) are the contact points used for steps and root translation.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from mse.motion.bvh import Motion, Skeleton
+from mse.motion.hsmm.features import (
+    FloatArray,
+    continuous_expmaps,
+    matrix_from_expmap,
+    mean_rotation,
+    yaw_matrix,
+)
+from mse.motion.kinematics import forward_kinematics
+
+
+@dataclass(frozen=True, eq=False)
+class Template:
+    """Everything about the skeleton that synthesis needs besides the features."""
+
+    skeleton: Skeleton
+    frame_time: float
+    translations: FloatArray  # (J, 3) per-joint translation (median over the reference clip)
+    root_joint: int
+    rotated: tuple[int, ...]  # joints whose rotations are features, in feature order
+    references: FloatArray  # (len(rotated), 3, 3) reference rotations
+    legs: tuple[int, int]  # the two leg roots (children of the root joint)
+    contacts: tuple[tuple[int, ...], tuple[int, ...]]  # contact joints of each leg
+    contact_height: float  # typical height of the lowest contact point above the floor
+
+    @property
+    def feature_count(self) -> int:
+        return 3 * len(self.rotated)
+
+
+def _subtree(skeleton: Skeleton, joint: int) -> list[int]:
+    out = [joint]
+    for child in skeleton.children(joint):
+        out.extend(_subtree(skeleton, child))
+    return out
+
+
+def _chain_end(skeleton: Skeleton, joint: int) -> list[int]:
+    """The joints from ``joint`` down its first-child chain to the leaf."""
+    chain = [joint]
+    while skeleton.children(chain[-1]):
+        chain.append(skeleton.children(chain[-1])[0])
+    return chain
+
+
+def find_root_joint(motion: Motion) -> int:
+    """The joint with position channels that moves most (the one carrying the translation)."""
+    skeleton = motion.skeleton
+    movable = [j for j in range(skeleton.joint_count) if skeleton.position_columns(j)]
+    if not movable:
+        return 0
+    spread = np.sum(np.var(motion.translations()[:, movable], axis=0), axis=1)
+    if float(np.max(spread)) <= 1e-9:  # nothing moves: the first joint with positions
+        return movable[0]
+    return movable[int(np.argmax(spread))]
+
+
+def find_legs(
+    skeleton: Skeleton, root: int, positions: FloatArray
+) -> tuple[tuple[int, int], tuple[tuple[int, ...], tuple[int, ...]]]:
+    """The two leg roots and their contact joints (last two joints of each leg chain)."""
+    children = list(skeleton.children(root))
+    if len(children) < 2:
+        raise ValueError("the root joint needs two legs among its children")
+    lowest = {
+        c: float(np.min(np.mean(positions[:, _subtree(skeleton, c), 1], axis=0))) for c in children
+    }
+    legs = sorted(sorted(children, key=lambda c: lowest[c])[:2])
+    contacts = []
+    for leg in legs:
+        chain = _chain_end(skeleton, leg)
+        contacts.append(tuple(chain[-2:]) if len(chain) >= 2 else tuple(chain))
+    return (legs[0], legs[1]), (contacts[0], contacts[1])
+
+
+def _ancestor_rotation(motion: Motion, root: int) -> FloatArray:
+    """World rotation of the root joint's parent at frame 0 (assumed constant)."""
+    parent = motion.skeleton.parents[root]
+    if parent < 0:
+        return np.eye(3)
+    _, rotations = forward_kinematics(
+        motion.skeleton.parents, motion.translations()[:1], motion.local_rotations()[:1]
+    )
+    result: FloatArray = rotations[0, parent]
+    return result
+
+
+def headings(positions: FloatArray, legs: tuple[int, int]) -> FloatArray:
+    """Per-frame yaw (radians) of forward = (leg a − leg b) × up, measured from +Z.
+
+    With leg a on the left of a Y-up, right-handed body this is the facing direction.
+    """
+    lateral = positions[:, legs[0]] - positions[:, legs[1]]
+    forward_x, forward_z = -lateral[:, 2], lateral[:, 0]
+    result: FloatArray = np.arctan2(forward_x, forward_z)
+    return result
+
+
+def aligned_rotations(motion: Motion, template: Template) -> FloatArray:
+    """(T, J, 3, 3) local rotations with the clip turned to face +Z on average."""
+    local = motion.local_rotations()
+    positions = motion.positions()
+    yaw = headings(positions, template.legs)
+    mean_yaw = float(np.arctan2(np.mean(np.sin(yaw)), np.mean(np.cos(yaw))))
+    ancestors = _ancestor_rotation(motion, template.root_joint)
+    turn = ancestors.T @ yaw_matrix(np.array(-mean_yaw)) @ ancestors
+    local[:, template.root_joint] = turn @ local[:, template.root_joint]
+    return local
+
+
+def build_template(motions: list[Motion]) -> Template:
+    """The template of a training set: skeleton of the first clip, references from all."""
+    first = motions[0]
+    skeleton = first.skeleton
+    root = find_root_joint(first)
+    positions = first.positions()
+    legs, contacts = find_legs(skeleton, root, positions)
+    rotated = tuple(j for j in range(skeleton.joint_count) if len(skeleton.rotation_order(j)) == 3)
+    contact_joints = list(contacts[0] + contacts[1])
+    heights = [
+        float(np.median(np.min(m.positions()[:, contact_joints, 1], axis=1))) for m in motions
+    ]
+    provisional = Template(
+        skeleton=skeleton,
+        frame_time=first.frame_time,
+        translations=np.median(first.translations(), axis=0),
+        root_joint=root,
+        rotated=rotated,
+        references=np.broadcast_to(np.eye(3), (len(rotated), 3, 3)).copy(),
+        legs=legs,
+        contacts=contacts,
+        contact_height=float(np.median(heights)),
+    )
+    stacked = np.concatenate([aligned_rotations(m, provisional)[:, list(rotated)] for m in motions])
+    references = np.stack([mean_rotation(stacked[:, k]) for k in range(len(rotated))])
+    return Template(
+        skeleton=provisional.skeleton,
+        frame_time=provisional.frame_time,
+        translations=provisional.translations,
+        root_joint=root,
+        rotated=rotated,
+        references=references,
+        legs=legs,
+        contacts=contacts,
+        contact_height=provisional.contact_height,
+    )
+
+
+def static_features(motion: Motion, template: Template) -> FloatArray:
+    """(T, 3·joints) exponential maps of the aligned rotations relative to the references."""
+    if not motion.skeleton.same_layout(template.skeleton):
+        raise ValueError("the clip's skeleton differs from the model's")
+    local = aligned_rotations(motion, template)[:, list(template.rotated)]
+    relative = np.swapaxes(template.references, -1, -2)[None] @ local
+    return continuous_expmaps(relative).reshape(local.shape[0], -1)
+
+
+def local_rotations_from_features(statics: FloatArray, template: Template) -> FloatArray:
+    """(T, J, 3, 3) local rotations from static features (identity for unrotated joints)."""
+    frames = statics.shape[0]
+    rotations = np.broadcast_to(np.eye(3), (frames, template.skeleton.joint_count, 3, 3)).copy()
+    relative = matrix_from_expmap(statics.reshape(frames, len(template.rotated), 3))
+    rotations[:, list(template.rotated)] = template.references[None] @ relative
+    return rotations
+
+
+def pose_positions(statics: FloatArray, template: Template) -> FloatArray:
+    """(T, J, 3) world positions with the root joint's translation held at the template's."""
+    frames = statics.shape[0]
+    translations = np.broadcast_to(template.translations, (frames, *template.translations.shape))
+    positions, _ = forward_kinematics(
+        template.skeleton.parents,
+        translations.copy(),
+        local_rotations_from_features(statics, template),
+    )
+    return positions

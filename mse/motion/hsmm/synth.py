@@ -1,0 +1,181 @@
+"""HSMM synthesis (paper §5.1.4, §5.2.3): units → state durations → MLPG (+GV) → BVH motion.
+
+* Units: cyclic actions concatenate ``first``, alternating ``inner`` steps and ``last``;
+  one-shot actions use their single unit.
+* Durations: per-state duration Gaussians scaled to the requested length the HTS way,
+  ``d = m + ρ σ²`` with ``ρ = (T - Σm) / Σσ²`` (states clipped at one frame are held and ρ
+  recomputed), then rounded keeping the total exact.  With a seed, the means are first drawn
+  from the duration Gaussians so that repeated leaves differ slightly.
+* Parameters: MLPG with global variance (option off), exponential maps → local rotations.
+* Root: its height puts the lowest contact point (foot/toes) at the training contact
+  height.  Walks move the root so that the lowest contact point does not slide (the stance
+  foot is pinned: no foot sliding); in-place actions keep the mean of the contact points
+  fixed, so the body does not travel.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from mse.motion.bvh import Motion
+from mse.motion.hsmm.features import FloatArray
+from mse.motion.hsmm.mlpg import generate_with_gv, mlpg
+from mse.motion.hsmm.model import HsmmModel, UnitModel
+from mse.motion.hsmm.prep import Template, local_rotations_from_features
+from mse.motion.hsmm.segment import ONE_SHOT_UNIT
+from mse.motion.kinematics import forward_kinematics, matrix_to_euler
+
+
+def _other(leg: str) -> str:
+    return "b" if leg == "a" else "a"
+
+
+def plan_units(model: HsmmModel, steps: int | None = None, frames: int | None = None) -> list[str]:
+    """Unit names for ``steps`` steps, or as many as fit ``frames`` frames on average."""
+    if not model.cyclic or ONE_SHOT_UNIT in model.units:
+        return [ONE_SHOT_UNIT if ONE_SHOT_UNIT in model.units else next(iter(model.units))]
+    leg = model.first_leg
+    if steps is None:
+        total = frames if frames is not None else 0
+        first = float(model.unit(f"first-{leg}").duration_means.sum())
+        last = float(model.unit("last-a").duration_means.sum())
+        inner = float(model.unit("inner-a").duration_means.sum())
+        steps = 2 + max(0, round((total - first - last) / max(inner, 1.0)))
+    steps = max(2, steps)
+    names = [f"first-{leg}"]
+    for _ in range(steps - 2):
+        leg = _other(leg)
+        names.append(f"inner-{leg}")
+    names.append(f"last-{_other(leg)}")
+    return names
+
+
+def state_durations(
+    units: list[UnitModel], frames: int, rng: np.random.Generator | None = None
+) -> np.ndarray:
+    """Integer frames per state (all units' states in order) summing exactly to ``frames``."""
+    means = np.concatenate([u.duration_means for u in units]).astype(np.float64)
+    variances = np.concatenate([u.duration_variances for u in units]).astype(np.float64)
+    if frames < means.size:
+        raise ValueError(f"{frames} frames cannot hold {means.size} states")
+    if rng is not None:
+        means = np.maximum(means + rng.normal(size=means.size) * np.sqrt(variances) * 0.5, 1.0)
+    free = np.ones(means.size, dtype=bool)
+    durations = means.copy()
+    for _ in range(means.size):
+        if not free.any():
+            break
+        held = float(durations[~free].sum())
+        rho = (frames - held - means[free].sum()) / variances[free].sum()
+        durations[free] = means[free] + rho * variances[free]
+        clipped = free & (durations < 1.0)
+        if not clipped.any():
+            break
+        durations[clipped] = 1.0
+        free &= ~clipped
+    whole = np.floor(durations).astype(np.int64)
+    whole = np.maximum(whole, 1)
+    remainder = frames - int(whole.sum())
+    order = np.argsort(-(durations - np.floor(durations)))
+    index = 0
+    while remainder != 0:
+        state = order[index % order.size]
+        if remainder > 0:
+            whole[state] += 1
+            remainder -= 1
+        elif whole[state] > 1:
+            whole[state] -= 1
+            remainder += 1
+        index += 1
+    return whole
+
+
+def generate_statics(
+    model: HsmmModel, unit_names: list[str], frames: int, gv: bool = True, seed: int | None = None
+) -> FloatArray:
+    """(frames, D) static features for the unit sequence."""
+    units = [model.unit(name) for name in unit_names]
+    rng = np.random.default_rng(seed) if seed is not None else None
+    durations = state_durations(units, frames, rng)
+    means = np.concatenate([u.means for u in units])
+    variances = np.concatenate([u.variances for u in units])
+    mean_seq = np.repeat(means, durations, axis=0)
+    var_seq = np.repeat(variances, durations, axis=0)
+    if gv:
+        return generate_with_gv(mean_seq, var_seq, model.gv_mean, model.gv_var)
+    return mlpg(mean_seq, var_seq)
+
+
+def root_positions(relative: FloatArray, template: Template, travel: bool) -> FloatArray:
+    """(T, 3) world root positions from joint positions relative to the root (T, J, 3)."""
+    contacts = list(template.contacts[0] + template.contacts[1])
+    points = relative[:, contacts]
+    frames = relative.shape[0]
+    root = np.zeros((frames, 3))
+    root[:, 1] = template.contact_height - points[:, :, 1].min(axis=1)
+    if travel:
+        stance = np.argmin(points[:, :, 1], axis=1)
+        for t in range(1, frames):
+            k = stance[t]
+            root[t, [0, 2]] = root[t - 1, [0, 2]] - (
+                points[t, k, [0, 2]] - points[t - 1, k, [0, 2]]
+            )
+    else:
+        centre = points[:, :, [0, 2]].mean(axis=1)
+        root[:, [0, 2]] = centre[0] - centre
+    return root
+
+
+def statics_to_motion(statics: FloatArray, model: HsmmModel) -> Motion:
+    """BVH motion from static features: rotations, template offsets, recomputed root."""
+    template = model.template
+    skeleton = template.skeleton
+    frames = statics.shape[0]
+    rotations = local_rotations_from_features(statics, template)
+    translations = np.broadcast_to(template.translations, (frames, skeleton.joint_count, 3)).copy()
+    translations[:, template.root_joint] = 0.0
+    positions, world = forward_kinematics(skeleton.parents, translations, rotations)
+    root_world = positions[:, template.root_joint]
+    relative = positions - root_world[:, None, :]
+    target = root_positions(relative, template, travel=model.cyclic)
+    parent = skeleton.parents[template.root_joint]
+    local = (
+        np.einsum("fba,fb->fa", world[:, parent], target - root_world) if parent >= 0 else target
+    )
+    translations[:, template.root_joint] = local
+    values = np.zeros((frames, skeleton.channel_count))
+    for joint in range(skeleton.joint_count):
+        columns = skeleton.position_columns(joint)
+        if columns:
+            values[:, list(columns)] = translations[:, joint]
+        order = skeleton.rotation_order(joint)
+        if len(order) == 3:
+            values[:, list(skeleton.rotation_columns(joint))] = matrix_to_euler(
+                rotations[:, joint], order
+            )
+    return Motion(skeleton, template.frame_time, values)
+
+
+def synthesize(
+    model: HsmmModel,
+    steps: int | None = None,
+    duration_s: float | None = None,
+    gv: bool = True,
+    seed: int | None = None,
+) -> Motion:
+    """A new clip: ``steps`` steps at natural speed, or exactly ``duration_s`` seconds."""
+    frame_time = model.template.frame_time
+    if duration_s is not None:
+        requested = max(1, round(duration_s / frame_time))
+        names = plan_units(model, steps=steps, frames=requested)
+    else:
+        names = plan_units(model, steps=steps)
+        requested = round(sum(float(model.unit(n).duration_means.sum()) for n in names))
+    # Short requests drop inner units until every state can have a frame.
+    while len(names) > 1 and requested < model.states * len(names):
+        names = names[:-2] + names[-1:] if len(names) > 2 else names[:1]
+    frames = max(requested, model.states)
+    statics = generate_statics(model, names, frames, gv=gv, seed=seed)
+    if frames != requested:  # fewer frames than states: sample the trajectory evenly
+        statics = statics[np.round(np.linspace(0, frames - 1, requested)).astype(np.int64)]
+    return statics_to_motion(statics, model)

@@ -1,0 +1,177 @@
+"""HSMM method on real Bandai clips (skipped without the shared data): training on a few
+walks and bows, adaptation, synthesis length/finiteness/bone lengths, files, CLI, leaf."""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from mse.motion.bvh import Motion, read_bvh
+from mse.motion.hsmm import api
+from mse.motion.hsmm.io import load_model, save_model
+from mse.motion.hsmm.model import HsmmModel
+from mse.motion.library import MotionLibrary, load_library
+
+WALK_STYLES = ("normal", "sad", "happy")
+
+
+@pytest.fixture(scope="module")
+def small_library(bandai_dir: Path) -> MotionLibrary:
+    """Walks of three styles (two takes each) and bows of the same styles."""
+    library = load_library(bandai_dir)
+    keep = [c for c in library.clips if c.style in WALK_STYLES and c.action in ("walk", "bow")]
+    return MotionLibrary("bandai-small", tuple(keep))
+
+
+@pytest.fixture(scope="module")
+def walk_average(small_library: MotionLibrary) -> HsmmModel:
+    clips = [
+        (small_library.motion(c), c.style)
+        for c in small_library.select(action="walk")
+        if c.id.endswith("_001") and c.style != "sad"
+    ]
+    return api.train_average(clips, "walk")
+
+
+@pytest.fixture(scope="module")
+def walk_sad(walk_average: HsmmModel, small_library: MotionLibrary) -> HsmmModel:
+    return api.adapt_from_library(walk_average, small_library, "sad", takes=1)
+
+
+def _bone_lengths(motion: Motion, root: int) -> np.ndarray:
+    """Parent-child distances, per frame (the root's own translation is not a bone)."""
+    positions = motion.positions()
+    parents = motion.skeleton.parents
+    return np.stack(
+        [
+            np.linalg.norm(positions[:, j] - positions[:, p], axis=1)
+            for j, p in enumerate(parents)
+            if p >= 0 and j != root
+        ],
+        axis=1,
+    )
+
+
+def test_average_walk_model_has_step_units(walk_average: HsmmModel) -> None:
+    assert walk_average.cyclic
+    assert {"inner-a", "inner-b"} <= set(walk_average.units)
+    assert walk_average.states == 5
+    for unit in walk_average.units.values():
+        assert np.all(np.isfinite(unit.means)) and np.all(unit.variances > 0)
+        assert np.all(unit.duration_means >= 1.0)
+
+
+def test_adapted_walk_is_slower_like_the_sad_data(
+    walk_average: HsmmModel, walk_sad: HsmmModel
+) -> None:
+    # Sad walks in Bandai take about 25 frames per step against 15-17 for normal/happy.
+    average_step = walk_average.unit("inner-a").duration_means.sum()
+    sad_step = walk_sad.unit("inner-a").duration_means.sum()
+    assert sad_step > average_step + 3
+
+
+@pytest.mark.parametrize("seconds", [0.1, 1.0, 5.0])
+def test_synthesized_walk_has_requested_length_and_rigid_bones(
+    walk_sad: HsmmModel, seconds: float
+) -> None:
+    motion = api.synthesize(walk_sad, duration_s=seconds, seed=3)
+    assert motion.frame_count == round(seconds / motion.frame_time)
+    assert np.all(np.isfinite(motion.values))
+    root = walk_sad.template.root_joint
+    lengths = _bone_lengths(motion, root)
+    assert np.max(lengths.std(axis=0)) < 1e-6
+    template = walk_sad.template.translations
+    expected = [
+        np.linalg.norm(template[j])
+        for j, p in enumerate(motion.skeleton.parents)
+        if p >= 0 and j != root
+    ]
+    assert np.allclose(lengths[0], expected)
+
+
+def test_synthesized_walk_travels_without_foot_sliding(walk_sad: HsmmModel) -> None:
+    motion = api.synthesize(walk_sad, steps=6)
+    positions = motion.positions()
+    root = positions[:, walk_sad.template.root_joint]
+    assert root[-1, 2] - root[0, 2] > 100.0  # several steps forward along +Z (cm)
+    contacts = list(walk_sad.template.contacts[0] + walk_sad.template.contacts[1])
+    points = positions[:, contacts]
+    stance = np.argmin(points[:, :, 1], axis=1)
+    slide = [
+        np.linalg.norm(points[t, stance[t], [0, 2]] - points[t - 1, stance[t], [0, 2]])
+        for t in range(1, motion.frame_count)
+    ]
+    assert max(slide) < 1e-6
+
+
+def test_bow_model_synthesizes_in_place(small_library: MotionLibrary) -> None:
+    clips = [(small_library.motion(c), c.style) for c in small_library.select(action="bow")]
+    model = api.train_average(clips, "bow")
+    assert not model.cyclic and list(model.units) == ["whole"]
+    motion = api.synthesize(model, duration_s=3.0)
+    assert motion.frame_count == 90
+    root = motion.positions()[:, model.template.root_joint]
+    assert np.ptp(root[:, 0]) < 30 and np.ptp(root[:, 2]) < 30
+
+
+def test_model_file_round_trip(walk_sad: HsmmModel, tmp_path: Path) -> None:
+    path = tmp_path / "walk.sad"
+    save_model(path, walk_sad)
+    loaded = load_model(path)
+    assert loaded.style == "sad" and set(loaded.units) == set(walk_sad.units)
+    a = api.synthesize(walk_sad, duration_s=2.0)
+    b = api.synthesize(loaded, duration_s=2.0)
+    assert np.allclose(a.values, b.values)
+
+
+def test_leaf_gets_its_scheduled_duration(small_library: MotionLibrary, tmp_path: Path) -> None:
+    two_walks = MotionLibrary(
+        "two-walks",
+        tuple(c for c in small_library.select(action="walk") if c.id.endswith("_001"))[:2],
+    )
+    style = two_walks.clips[1].style
+    motion = api.synthesize_leaf(two_walks, "walk", style, 2.5, seed=1, cache_dir=tmp_path)
+    assert motion.frame_count == 75
+    assert len(list(tmp_path.glob("*.npz"))) == 2  # average and adapted models cached on disk
+    api._MODELS.clear()  # the next call must come from the disk cache
+    again = api.synthesize_leaf(two_walks, "walk", style, 2.5, seed=1, cache_dir=tmp_path)
+    assert np.allclose(motion.values, again.values)
+
+
+def _run(*argv: str) -> int:
+    from mse.cli import cmd_style
+
+    parser = argparse.ArgumentParser(prog="mse")
+    cmd_style.register(parser.add_subparsers())
+    args = parser.parse_args(list(argv))
+    return int(args.handler(args))
+
+
+def test_cli_train_adapt_synth(
+    bandai_dir: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    index = tmp_path / "library.json"
+    clips = [
+        f'{{"file": "{p}", "action": "walk", "style": "{p.stem.split("_")[2]}"}}'
+        for p in sorted((bandai_dir / "data").glob("dataset-1_walk_*_001.bvh"))
+        if p.stem.split("_")[2] in ("normal", "sad")
+    ]
+    index.write_text('{"clips": [' + ", ".join(clips) + "]}")
+    avg, sad, out = tmp_path / "walk.avg", tmp_path / "walk.sad", tmp_path / "sad.bvh"
+    assert _run("style", "train", "--library", str(index), "--action", "walk", "-o", str(avg)) == 0
+    assert (
+        _run("style", "adapt", str(avg), "--library", str(index), "--style", "sad", "-o", str(sad))
+        == 0
+    )
+    assert _run("style", "synth", str(sad), "--steps", "6", "-o", str(out)) == 0
+    assert read_bvh(out).frame_count > 60
+    assert _run("style", "synth", str(tmp_path / "missing"), "--duration", "2", "-o", str(out)) == 1
+    assert (
+        _run("style", "adapt", str(avg), "--library", str(index), "--style", "nope", "-o", str(sad))
+        == 1
+    )
+    err = capsys.readouterr().err
+    assert "E100" in err and "E213" in err and "Traceback" not in err
