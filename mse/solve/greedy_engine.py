@@ -1,0 +1,405 @@
+"""One attempt of the paper's greedy algorithm (§4.3) on a :class:`Plan`.
+
+Walk the time stamps t_0 .. t_{n-1}.  At each stamp every available signal is a candidate
+with the probability the table gives it there (owed signals first, with a raised weight);
+candidates are tried in random order.  For a candidate: draw its start in
+[max(t_j, frontier), t_{j+1}), check the partial animation with the start and an open stop;
+draw its stop (triangular, mode at the middle of [min, max]) and check again.  When a drawn
+time fails, the ad-hoc inference computes the exact set of times the instantiated constraints
+allow (critical points, docs/sampler.md) and draws inside it, so equalities and offsets are
+met exactly.  Starts never decrease.  The attempt returns its occurrences; the caller verifies
+them with the full evaluator and restarts when needed.
+"""
+
+from __future__ import annotations
+
+import bisect
+import math
+import random
+from collections.abc import Iterable
+
+from mse.ir.schedule import Occurrence
+from mse.solve.greedy_partial import Box, CompiledConstraint
+from mse.solve.greedy_plan import Plan, SignalPlan
+from mse.solve.greedy_windows import Intervals, feasible, latest_feasible, nearest, pick_uniform, probes
+
+
+class Doomed(Exception):
+    """An obligation can no longer be met: give up this attempt early."""
+
+
+class Attempt:
+    """The mutable state of one attempt: placed occurrences, frontier, obligations."""
+
+    def __init__(self, plan: Plan, rng: random.Random, forbid: frozenset[str], require: frozenset[str]) -> None:
+        self.plan = plan
+        self.rng = rng
+        self.forbid = forbid
+        self.require = require
+        self.env: dict[str, list[Box]] = {}
+        self.count: dict[str, int] = {}
+        self.last_stop: dict[str, int] = {}
+        self.modality_free: dict[str, int] = {}  # exclusive modality -> when it is free again
+        self.frontier = 0
+        self.stamp_low = 0  # start of the current stamp
+        self.occurrences: list[Occurrence] = []
+        self.owing: set[str] = set()  # ids of constraints violated if nothing more occurred
+        self.latest: dict[str, int] = {}  # owed signal -> latest start that may pay its debt
+        self.checked: tuple[str, Box, list[str]] | None = None  # last accepted check
+        self.dead: set[str] = set(forbid)  # signals that can no longer be placed in this attempt
+        # buckets[j]: signals whose next candidacy is at stamp j (see Plan.cumulative)
+        self.buckets: list[list[SignalPlan]] = [[] for _ in range(len(plan.stamps) - 1)]
+
+    # -- structure -------------------------------------------------------------------------
+    def earliest(self, signal: SignalPlan, frontier: int, extra: tuple[SignalPlan, int] | None = None) -> int:
+        """Earliest start the semantics' occurrence rules allow (``extra``: a candidate
+        placed at ``extra[1]`` before it, whose shortest stop counts)."""
+        low = max(frontier, self.last_stop.get(signal.id, 0))
+        if signal.exclusive is not None:
+            low = max(low, self.modality_free.get(signal.exclusive, 0))
+        if extra is not None:
+            other, start = extra
+            if other.id == signal.id or (signal.exclusive is not None and other.exclusive == signal.exclusive):
+                low = max(low, start + other.shortest)
+        return low
+
+    def can_add(self, signal: SignalPlan, pending: int = 0) -> bool:
+        return signal.id not in self.forbid and self.count.get(signal.id, 0) + pending < signal.limit
+
+    def future_box(self, signal: SignalPlan, frontier: int, extra: tuple[SignalPlan, int] | None) -> Box | None:
+        """Where one more occurrence of ``signal`` could still go, or None."""
+        pending = 1 if extra is not None and extra[0].id == signal.id else 0
+        if not self.can_add(signal, pending):
+            return None
+        low = self.earliest(signal, frontier, extra)
+        high = self.plan.duration - signal.shortest
+        if low > high:
+            return None
+        return (low, high, low + signal.shortest, self.plan.duration)
+
+    # -- checking a candidate --------------------------------------------------------------------
+    def allows(self, signal: SignalPlan, box: Box) -> bool:
+        """The partial animation plus ``box`` for ``signal`` may still satisfy every
+        constraint that names the signal."""
+        constraints = self.plan.by_signal[signal.id]
+        if not constraints:
+            return True
+        env = self.env
+        boxes = env.get(signal.id)
+        if boxes is None:
+            boxes = env[signal.id] = []
+        boxes.append(box)  # evaluated in place, removed below: no copy of the state
+        try:
+            optional: dict[str, Box] = {}
+            owing: list[str] = []
+            for compiled in constraints:
+                if compiled.acceptable(env):
+                    continue
+                owing.append(compiled.constraint.id)
+                for name in compiled.mentioned:
+                    if name not in optional:
+                        future = self.future_box(self.plan.by_id[name], box[0], (signal, box[0]))
+                        if future is not None:
+                            optional[name] = future
+                if not compiled.in_other_world(env, optional):
+                    if compiled is not constraints[0]:  # check the usual culprit first next time
+                        constraints.remove(compiled)
+                        constraints.insert(0, compiled)
+                    return False
+            # For a point box these are exactly the constraints that placing it leaves owing.
+            self.checked = (signal.id, box, owing)
+            return True
+        finally:
+            boxes.pop()
+
+    def _critical(self, signal: SignalPlan, variable: str, start: int | None) -> list[int]:
+        """Values of the drawn edge (``variable``) at which some comparison may flip."""
+        points: list[int] = []
+        for edge in self.plan.edges[signal.id]:
+            if edge.other_signal is None:
+                values = [edge.other_offset]
+            elif edge.other_signal == signal.id:
+                if start is None or edge.other_edge != "start":
+                    continue
+                values = [start + edge.other_offset]
+            else:
+                boxes = self.env.get(edge.other_signal, ())
+                index = 0 if edge.other_edge == "start" else 2
+                values = [box[index] + edge.other_offset for box in boxes]
+            shifts = [0]
+            if variable == "start" and edge.my_edge == "stop":
+                shifts = [signal.shortest, signal.longest]
+            elif variable != edge.my_edge:
+                continue
+            for value in values:
+                pivot = value - edge.my_offset
+                for shift in shifts:
+                    for delta in (-edge.tolerance - 1, -edge.tolerance, edge.tolerance, edge.tolerance + 1):
+                        points.append(pivot - shift + delta)
+        return points
+
+    def start_box(self, signal: SignalPlan, start: int) -> Box:
+        return (start, start, start + signal.shortest, min(start + signal.longest, self.plan.duration))
+
+    def feasible_starts(self, signal: SignalPlan, low: int, high: int) -> Intervals:
+        return feasible(
+            lambda x: self.allows(signal, self.start_box(signal, x)), low, high, self._critical(signal, "start", None)
+        )
+
+    def try_place(self, signal: SignalPlan, low: int, high: int) -> bool:
+        """Draw, check and place one occurrence starting in [low, high]; False if impossible."""
+        sid = signal.id
+        if self.count.get(sid, 0) >= signal.limit:
+            self.dead.add(sid)
+            return False
+        first_start, last_start = self.start_window(signal)
+        # Lower bounds only grow (frontier, placed partners) and upper bounds only shrink, so
+        # a signal whose window closed stays out for the rest of the attempt.
+        if first_start > last_start or last_start < low:
+            self.dead.add(signal.id)
+            return False
+        low, high = max(low, first_start), min(high, last_start)
+        if self.latest:
+            # Starts never decrease: starting past an owed signal's deadline would leave its
+            # debt unpayable, so the others wait (the owed one is tried first in its stamp).
+            for name, deadline in self.latest.items():
+                if name != sid and deadline < high:
+                    high = deadline
+        if low > high:
+            return False
+        rng = self.rng
+        start = low + int(rng.random() * (high - low + 1))
+        stop = self.draw_stop(signal, start)
+        window = [(stop, stop)]
+        # The paper checks (start, open stop) and then (start, stop).  A point that passes the
+        # second check always passes the first (the open stop's box contains it), so the
+        # first check is only run when the pair fails: same outcomes, one check fewer.
+        if not self.allows(signal, (start, start, stop, stop)):
+            if not self.allows(signal, self.start_box(signal, start)):
+                starts = self.feasible_starts(signal, low, high)
+                if not starts:
+                    return False
+                start = pick_uniform(rng, starts)
+                stop = self.draw_stop(signal, start)
+                window = [(stop, stop)]
+            if not self.allows(signal, (start, start, stop, stop)):
+                first, last = start + signal.shortest, min(start + signal.longest, self.plan.duration)
+                window = feasible(
+                    lambda y: self.allows(signal, (start, start, y, y)), first, last,
+                    self._critical(signal, "stop", start),
+                )
+                if not window:
+                    return False
+                stop = nearest(window, stop)
+        if self.commit(signal, start, stop):
+            return True
+        # Placing it would leave a debt that nothing can pay any more (one-step lookahead):
+        # try a few other stops of the allowed window, nearest to the drawn one first.
+        if window == [(stop, stop)]:
+            window = [(start + signal.shortest, min(start + signal.longest, self.plan.duration))]
+        others = sorted(probes(window), key=lambda y: (abs(y - stop), y))
+        return any(self.commit(signal, start, y) for y in others if y != stop)
+
+    def start_window(self, signal: SignalPlan) -> tuple[int, int]:
+        """Earliest and latest start allowed by the occurrence rules and the necessary bounds
+        of the constraints (``StartBound``) given the placed occurrences."""
+        sid = signal.id
+        first_start, last_start = self.plan.fixed[sid]
+        first_start = max(first_start, self.frontier, self.last_stop.get(sid, 0))
+        if signal.exclusive is not None:
+            first_start = max(first_start, self.modality_free.get(signal.exclusive, 0))
+        env = self.env
+        for other, index, delta, upper in self.plan.partner_bounds[sid]:
+            boxes = env.get(other)
+            if not boxes:
+                continue
+            for box in boxes:
+                value = box[index] + delta
+                if upper:
+                    if value < last_start:
+                        last_start = value
+                elif value > first_start:
+                    first_start = value
+        return first_start, last_start
+
+    def draw_stop(self, signal: SignalPlan, start: int) -> int:
+        """Triangular over [start + min, start + max] with the mode at the middle."""
+        first, last = start + signal.shortest, start + signal.longest
+        if last > self.plan.duration:
+            last = self.plan.duration
+        if last <= first:
+            return first
+        # random.triangular with the mode at the midpoint, inlined (this is a hot path)
+        half = (last - first) / 2
+        u = self.rng.random()
+        if u > 0.5:
+            return round(last - half * math.sqrt(2 * (1 - u)))
+        return round(first + half * math.sqrt(2 * u))
+
+    def commit(self, signal: SignalPlan, start: int, stop: int) -> bool:
+        """Place the occurrence unless that leaves an obligation nothing can meet."""
+        saved = (
+            self.last_stop.get(signal.id), self.modality_free.get(signal.exclusive or ""), self.frontier,
+            self.owing, self.latest,  # both are replaced, never mutated, once saved
+        )
+        try:
+            self.place(signal, start, stop)
+        except Doomed:
+            last_stop, free, self.frontier, self.owing, self.latest = saved
+            self.env[signal.id].pop()
+            self.count[signal.id] -= 1
+            if signal.id not in self.forbid:
+                self.dead.discard(signal.id)  # it was alive: try_place checked its window
+            self.occurrences.pop()
+            if last_stop is None:
+                del self.last_stop[signal.id]
+            else:
+                self.last_stop[signal.id] = last_stop
+            if signal.exclusive is not None:
+                if free is None:
+                    del self.modality_free[signal.exclusive]
+                else:
+                    self.modality_free[signal.exclusive] = free
+            return False
+        return True
+
+    def place(self, signal: SignalPlan, start: int, stop: int) -> None:
+        self.env.setdefault(signal.id, []).append((start, start, stop, stop))
+        self.count[signal.id] = self.count.get(signal.id, 0) + 1
+        if self.count[signal.id] >= signal.limit:
+            self.dead.add(signal.id)
+        self.last_stop[signal.id] = stop
+        if signal.exclusive is not None:
+            self.modality_free[signal.exclusive] = max(stop, self.modality_free.get(signal.exclusive, 0))
+        self.frontier = start
+        self.occurrences.append(Occurrence(start, stop, signal.id))
+        checked, self.checked = self.checked, None
+        constraints = self.plan.by_signal[signal.id]
+        if checked is not None and checked[0] == signal.id and checked[1] == (start, start, stop, stop):
+            # allows() just evaluated exactly this state: reuse its verdicts.
+            owing = checked[2]
+            changed = bool(owing or self.owing) and self.set_owing((c, c.constraint.id in owing) for c in constraints)
+        else:
+            changed = self.set_owing((c, c.violated(self.env)) for c in constraints)
+        if changed or (self.latest and self.narrows_debts(signal)):
+            self.refresh_latest()
+
+    def narrows_debts(self, signal: SignalPlan) -> bool:
+        """Whether placing ``signal`` may have moved the latest start of an owed signal."""
+        if any(name in self.latest for name in self.plan.related[signal.id]):
+            return True
+        exclusive = signal.exclusive
+        return exclusive is not None and any(self.plan.by_id[n].exclusive == exclusive for n in self.latest)
+
+    # -- obligations ---------------------------------------------------------------------------
+    def set_owing(self, verdicts: Iterable[tuple[CompiledConstraint, bool]]) -> bool:
+        """Record which constraints would be violated if nothing more occurred; True if the
+        set changed."""
+        changed = False
+        for compiled, owes in verdicts:
+            cid = compiled.constraint.id
+            if owes != (cid in self.owing):
+                if not changed:
+                    self.owing = set(self.owing)  # copy on write: commit() keeps the old one
+                changed = True
+                (self.owing.add if owes else self.owing.discard)(cid)
+        return changed
+
+    def owed_signals(self) -> set[str]:
+        owed = {s for s in self.require if not self.env.get(s)}
+        for compiled in self.plan.constraints:
+            if compiled.constraint.id in self.owing:
+                owed.update(name for name in compiled.mentioned if name not in self.forbid)
+        return owed
+
+    def refresh_latest(self) -> None:
+        """Latest useful start of every owed signal (the ad-hoc inference over the rest of
+        the timeline); raise :class:`Doomed` when some debt can no longer be paid."""
+        previous, self.latest = self.latest, {}
+        boxes: dict[str, Box] = {}
+        for name in sorted(self.owed_signals()):
+            signal = self.plan.by_id[name]
+            if not self.can_add(signal):
+                continue
+            low, high = self.start_window(signal)
+            low = max(low, self.stamp_low)  # no start before the current stamp any more
+            if low > high:
+                continue
+            check = lambda x: self.allows(signal, self.start_box(signal, x))  # noqa: B023, E731
+            points = lambda: self._critical(signal, "start", None)  # noqa: B023, E731
+            # Placements rarely move a latest start later: probe below the previous one first,
+            # and search the whole rest only when that finds nothing.
+            bound = previous.get(name, high)
+            latest = latest_feasible(check, low, min(bound, high), points) if low <= bound else None
+            if latest is None and bound < high:
+                latest = latest_feasible(check, max(low, bound + 1), high, points)
+            if latest is not None:
+                self.latest[name] = latest
+                boxes[name] = (low, latest, low + signal.shortest, self.plan.duration)
+        for compiled in self.plan.constraints:
+            # Doomed unless the signals that can still start may, together, pay this debt.
+            if compiled.constraint.id in self.owing and not compiled.in_other_world(self.env, boxes):
+                raise Doomed(compiled.constraint.id)
+        for name in self.require:
+            if not self.env.get(name) and name not in self.latest:
+                raise Doomed(f"require {name}")
+
+    # -- the walk over the time stamps -----------------------------------------------------------
+    def run(self) -> list[Occurrence]:
+        plan, rng = self.plan, self.rng
+        for signal in plan.signals:
+            if signal.id not in self.dead:
+                self.schedule(signal, 0)
+        if self.set_owing((c, c.violated(self.env)) for c in plan.constraints) or self.require:
+            self.refresh_latest()
+        for j in range(len(plan.stamps) - 1):
+            low, high = plan.stamps[j], plan.stamps[j + 1] - 1
+            if high < low:
+                continue
+            self.stamp_low = low
+            if self.latest and any(latest < low for latest in self.latest.values()):
+                self.refresh_latest()
+            row = plan.table[j]
+            queue: list[SignalPlan] = []
+            if self.latest:
+                for name in sorted(self.latest):
+                    remaining = plan.stamp_of(self.latest[name]) - j + 1
+                    if remaining >= 1 and rng.random() < max(row[plan.by_id[name].index], 1 / remaining):
+                        queue.append(plan.by_id[name])
+            dead = self.dead
+            proposals = [s for s in self.buckets[j] if s.id not in dead]
+            if len(proposals) > 1:
+                rng.shuffle(proposals)
+            queue.extend(proposals)
+            # Each signal is tried once per stamp and state: a placement may open the window of
+            # a signal tried before it (an owed partner), which is then tried again at once.
+            tried: dict[str, int] = {}
+            position = 0
+            while position < len(queue):
+                signal = queue[position]
+                position += 1
+                version = len(self.occurrences)
+                if tried.get(signal.id) == version:
+                    continue
+                tried[signal.id] = version
+                if self.try_place(signal, max(low, self.frontier), high) and self.latest:
+                    version += 1
+                    urgent = [
+                        plan.by_id[n] for n, t in sorted(self.latest.items()) if t <= high and tried.get(n) != version
+                    ]
+                    queue[position:position] = urgent
+            for signal in proposals:
+                if signal.id not in dead:
+                    self.schedule(signal, j + 1)
+        return self.occurrences
+
+    def schedule(self, signal: SignalPlan, first: int) -> None:
+        """Put ``signal`` in the bucket of its next candidacy at stamp ``first`` or later."""
+        cumulative = self.plan.cumulative[signal.index]
+        stamps = len(cumulative) - 1
+        if first >= stamps:
+            return
+        target = cumulative[first] - math.log(1.0 - self.rng.random())
+        after = bisect.bisect_right(cumulative, target, first + 1)
+        if after <= stamps:
+            self.buckets[after - 1].append(signal)

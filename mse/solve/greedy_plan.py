@@ -1,0 +1,359 @@
+"""Per-model structures of the greedy sampler, computed once and cached.
+
+A :class:`Plan` holds everything that does not depend on the random draws: tick durations
+and occurrence limits of every signal, the time stamps and the probability table, the
+compiled constraints indexed by the signals they mention, and the *critical-point edges*
+used by the ad-hoc inference (docs/sampler.md): for every comparison between an edge of a
+signal and another time, the offset and tolerance that say where its truth may change.
+"""
+
+from __future__ import annotations
+
+import math
+import weakref
+from collections.abc import Sequence
+from typing import NamedTuple
+
+from mse.ir import model as ir
+from mse.ir.schedule import to_ticks
+from mse.solve.greedy_partial import CompiledConstraint
+
+#: Default length of a time stamp in seconds (the original implementation's ~1 s).
+DEFAULT_SLOT = 1.0
+
+#: Stamps of the paper's reference animation (about 10 s in stamps of about 1 s).
+REFERENCE_STAMPS = 10
+
+#: How often a repetitive signal may occur when the model sets no limit: more than fits.
+UNBOUNDED = 1 << 30
+
+
+class Edge(NamedTuple):
+    """``edge(me) + my_offset  ~  other`` where other is ``edge(other_signal) + other_offset``
+    or, when ``other_signal`` is None, the constant ``other_offset``."""
+
+    my_edge: str
+    my_offset: int
+    other_signal: str | None
+    other_edge: str
+    other_offset: int
+    tolerance: int
+
+
+class StartBound(NamedTuple):
+    """A necessary bound on the start of a signal: ``start <= / >= edge(other) + delta`` for
+    every placed occurrence of ``other`` (or the constant ``delta`` when other is None).
+
+    Derived from atoms that are the whole constraint or a top-level conjunct: once the signal
+    occurs the constraint is instantiated, and with ``other`` placed the atom cannot be
+    unknown, so it must hold.  Checking these first rejects hopeless candidates cheaply."""
+
+    other: str | None
+    box_index: int  # 0: start of other, 2: stop of other
+    delta: int
+    upper: bool
+
+
+# Plain classes with __slots__ rather than dataclasses: `mse sample` imports this module at
+# start-up, and each dataclass costs about a millisecond to create.
+class SignalPlan:
+    """One signal in ticks: what the walk needs of it."""
+
+    __slots__ = ("exclusive", "id", "index", "limit", "longest", "probability_end", "probability_start", "shortest")
+
+    def __init__(
+        self, index: int, id: str, shortest: int, longest: int, limit: int, exclusive: str | None,
+        probability_start: float, probability_end: float,
+    ) -> None:
+        self.index = index
+        self.id = id
+        self.shortest = shortest  # ms, at least 1 (start < stop)
+        self.longest = longest  # ms, at most the duration
+        self.limit = limit  # occurrences allowed
+        self.exclusive = exclusive  # its modality, when that modality is exclusive
+        self.probability_start = probability_start
+        self.probability_end = probability_end
+
+
+class Plan:
+    """Everything about one model, duration and slot that does not depend on the draws."""
+
+    __slots__ = (
+        "bounds", "by_id", "by_signal", "constraints", "cumulative", "duration", "edges", "fixed",
+        "partner_bounds", "related", "signals", "stamps", "table",
+    )
+
+    def __init__(
+        self,
+        duration: int,
+        stamps: tuple[int, ...],
+        table: tuple[tuple[float, ...], ...],
+        signals: tuple[SignalPlan, ...],
+        constraints: tuple[CompiledConstraint, ...],
+        by_signal: dict[str, list[CompiledConstraint]],
+        related: dict[str, tuple[str, ...]],
+        edges: dict[str, tuple[Edge, ...]],
+        bounds: dict[str, tuple[StartBound, ...]],
+    ) -> None:
+        self.duration = duration
+        self.stamps = stamps  # t_0 .. t_n (t_n = duration)
+        self.table = table  # table[j][k]: probability that signal k is a candidate at stamp j
+        # Per signal, the cumulative hazard H[j] = -sum_{i<j} log(1 - table[i][k]): the next
+        # stamp at which a signal is a candidate is drawn at once by inverting it (one draw per
+        # candidacy instead of one per stamp; the same distribution as a trial per stamp).
+        self.cumulative = tuple(_cumulative([row[s.index] for row in table]) for s in signals)
+        self.signals = signals
+        self.by_id = {s.id: s for s in signals}
+        self.constraints = constraints
+        # Lists, reordered by the sampler (most recently failing first: order never changes results)
+        self.by_signal = by_signal
+        self.related = related  # signals sharing a constraint with it (itself too)
+        self.edges = edges
+        self.bounds = bounds
+        # earliest/latest start from the constant bounds alone
+        self.fixed = {s.id: _fixed_window(s, bounds[s.id], duration) for s in signals}
+        # the bounds that name another signal, as (other, box index, delta, upper) for speed
+        self.partner_bounds = {
+            s.id: tuple((b.other, b.box_index, b.delta, b.upper) for b in bounds[s.id] if b.other is not None)
+            for s in signals
+        }
+
+    def stamp_of(self, tick: int) -> int:
+        """Index j of the stamp [t_j, t_{j+1}) holding ``tick``."""
+        n = len(self.stamps) - 1
+        j = min(n - 1, tick * n // self.duration) if self.duration else 0
+        while j > 0 and self.stamps[j] > tick:
+            j -= 1
+        while j < n - 1 and self.stamps[j + 1] <= tick:
+            j += 1
+        return j
+
+
+def _term_edge(term: ir.Term, duration: int) -> tuple[str | None, str, int]:
+    if isinstance(term, ir.SignalTime):
+        return term.signal, term.edge, term.offset
+    if isinstance(term, ir.DurationTime):
+        return None, "", duration + term.offset
+    return None, "", term.value
+
+
+def _comparisons(atom: ir.Atom, duration: int) -> list[tuple[ir.Term, ir.Term, int]]:
+    """The edge comparisons an atom is made of (relations decomposed), with tolerance."""
+    if isinstance(atom, ir.Compare):
+        return [(atom.left, atom.right, atom.tolerance)]
+    if isinstance(atom, ir.Exists):
+        return []
+    a_start, a_stop = ir.SignalTime(atom.left, "start"), ir.SignalTime(atom.left, "stop")
+    b_start, b_stop = ir.SignalTime(atom.right, "start"), ir.SignalTime(atom.right, "stop")
+    pairs = {
+        "includes": [(a_start, b_start), (b_stop, a_stop)],
+        "excludes": [(a_stop, b_start), (b_stop, a_start)],
+        "precedes": [(a_stop, b_start)],
+        "rightincludes": [(a_start, b_stop), (b_stop, a_stop)],
+    }[atom.kind]
+    return [(left, right, 0) for left, right in pairs]
+
+
+def _edges_of(signal_id: str, constraints: Sequence[CompiledConstraint], duration: int) -> tuple[Edge, ...]:
+    found: dict[Edge, None] = {}
+    for compiled in constraints:
+        for node in ir.walk(compiled.constraint.expr):
+            if not isinstance(node, ir.Exists | ir.Relation | ir.Compare):
+                continue
+            for left, right, tolerance in _comparisons(node, duration):
+                for mine, other in ((left, right), (right, left)):
+                    if isinstance(mine, ir.SignalTime) and mine.signal == signal_id:
+                        other_signal, other_edge, other_offset = _term_edge(other, duration)
+                        edge = Edge(mine.edge, mine.offset, other_signal, other_edge, other_offset, tolerance)
+                        found[edge] = None
+    return tuple(found)
+
+
+def _conjuncts(expr: ir.Expr) -> list[ir.Expr]:
+    if isinstance(expr, ir.And):
+        return [part for operand in expr.operands for part in _conjuncts(operand)]
+    return [expr]
+
+
+def _relation_bounds(atom: ir.Relation, me: str, shortest: int) -> list[StartBound]:
+    """Bounds on start(me) from a relation with a placed partner.  Placed occurrences start
+    no later than any new one (starts never decrease), which settles the disjunctions."""
+    if atom.left == atom.right:
+        return []
+    mine_left = atom.left == me
+    other = atom.right if mine_left else atom.left
+    start, stop = 0, 2
+    if atom.kind == "excludes":  # the partner started first: it must have stopped
+        return [StartBound(other, stop, 0, False)]
+    if atom.kind == "precedes":
+        if mine_left:  # me.stop <= other.start <= me.start: impossible
+            return [StartBound(other, start, -shortest, True)]
+        return [StartBound(other, stop, 0, False)]
+    if atom.kind == "includes":
+        if mine_left:
+            return [StartBound(other, start, 0, True)]
+        return [StartBound(other, start, 0, False), StartBound(other, stop, -shortest, True)]
+    if mine_left:  # rightincludes(me, other): me.start <= other.stop
+        return [StartBound(other, stop, 0, True)]
+    return [StartBound(other, stop, -shortest, True)]  # other.start <= me.stop <= other.stop
+
+
+_FLIP = {"<": ">", ">": "<", "<=": ">=", ">=": "<=", "=": "="}
+
+
+def _compare_bounds(atom: ir.Compare, me: str, duration: int) -> list[StartBound]:
+    for mine, other, op in ((atom.left, atom.right, atom.op), (atom.right, atom.left, _FLIP[atom.op])):
+        if not (isinstance(mine, ir.SignalTime) and mine.signal == me and mine.edge == "start"):
+            continue
+        if isinstance(other, ir.SignalTime):
+            if other.signal == me:
+                return []
+            name: str | None = other.signal
+            index, base = (0 if other.edge == "start" else 2), other.offset - mine.offset
+        else:
+            name, index = None, 0
+            base = (duration + other.offset if isinstance(other, ir.DurationTime) else other.value) - mine.offset
+        if op == "<":
+            return [StartBound(name, index, base - 1, True)]
+        if op == "<=":
+            return [StartBound(name, index, base, True)]
+        if op == ">":
+            return [StartBound(name, index, base + 1, False)]
+        if op == ">=":
+            return [StartBound(name, index, base, False)]
+        tolerance = atom.tolerance
+        return [StartBound(name, index, base - tolerance, False), StartBound(name, index, base + tolerance, True)]
+    return []
+
+
+def _bounds_of(signal: SignalPlan, constraints: Sequence[CompiledConstraint], duration: int) -> tuple[StartBound, ...]:
+    found: dict[StartBound, None] = {}
+    for compiled in constraints:
+        for atom in _conjuncts(compiled.constraint.expr):
+            if isinstance(atom, ir.Relation) and signal.id in (atom.left, atom.right):
+                found.update(dict.fromkeys(_relation_bounds(atom, signal.id, signal.shortest)))
+            elif isinstance(atom, ir.Compare):
+                found.update(dict.fromkeys(_compare_bounds(atom, signal.id, duration)))
+    return tuple(found)
+
+
+def _cumulative(hazards: Sequence[float]) -> tuple[float, ...]:
+    total, found = 0.0, [0.0]
+    for hazard in hazards:
+        total -= math.log1p(-min(hazard, 1.0 - 1e-12))  # a certain candidacy: 1 - 1e-12
+        found.append(total)
+    return tuple(found)
+
+
+def _fixed_window(signal: SignalPlan, bounds: Sequence[StartBound], duration: int) -> tuple[int, int]:
+    first, last = 0, duration - signal.shortest
+    for bound in bounds:
+        if bound.other is None:
+            if bound.upper:
+                last = min(last, bound.delta)
+            else:
+                first = max(first, bound.delta)
+    return first, last
+
+
+def _signal_plan(index: int, signal: ir.Signal, duration: int, exclusive: frozenset[str]) -> SignalPlan:
+    longest = duration if signal.max_duration is None else min(duration, to_ticks(signal.max_duration))
+    limit = 1
+    if signal.repetitive:
+        limit = UNBOUNDED if signal.max_occurrences is None else signal.max_occurrences
+    return SignalPlan(
+        index=index,
+        id=signal.id,
+        shortest=max(1, to_ticks(signal.min_duration)),
+        longest=longest,
+        limit=limit,
+        exclusive=signal.modality if signal.modality in exclusive else None,
+        probability_start=signal.probability_start,
+        probability_end=signal.probability_end,
+    )
+
+
+def _occurs(signal: SignalPlan) -> float:
+    """Probability that a signal occurring once is a candidate at all: as in a walk of
+    REFERENCE_STAMPS stamps (the paper's ~10 s at ~1 s) where it is a candidate at each stamp
+    with the table's probability."""
+    never = 1.0
+    for i in range(REFERENCE_STAMPS):
+        position = i / (REFERENCE_STAMPS - 1)
+        never *= 1.0 - (signal.probability_start + (signal.probability_end - signal.probability_start) * position)
+    return 1.0 - never
+
+
+def _hazards(profile: list[float], repetitive: bool, slot: float, occurs: float) -> list[float]:
+    """Per-stamp probability that a still available signal is a candidate (docs/sampler.md).
+
+    Repetitive signals: the table value itself (scaled down for stamps shorter than the
+    default slot, so the rate per second does not depend on the slot).  Signals that occur
+    once: the hazard that makes "starts in stamp j" have probability occurs * p(t_j) / sum(p),
+    so the start follows the profile over the whole span, whatever the duration, instead of
+    being used up in the first seconds (``occurs``: see :func:`_occurs`)."""
+    if repetitive:
+        scale = min(1.0, slot / DEFAULT_SLOT)
+        return [scale * p for p in profile]
+    count, total = len(profile), sum(profile)
+    if total <= 0:
+        return [0.0] * count
+    hazards, used = [], 0.0
+    for p in profile:
+        share = occurs * p / total
+        left = 1.0 - used
+        hazards.append(min(1.0, share / left) if left > 1e-12 else 0.0)
+        used += share
+    return hazards
+
+
+def build_plan(model: ir.Model, duration: int, slot: float, with_constraints: bool = True) -> Plan:
+    """Everything the sampler needs for ``model`` at ``duration`` ms with ``slot``-second stamps."""
+    count = max(1, round(duration / max(1, to_ticks(slot))))
+    stamps = tuple(round(j * duration / count) for j in range(count + 1))
+    signals = tuple(_signal_plan(i, s, duration, model.exclusive_modalities) for i, s in enumerate(model.signals))
+    profiles = [
+        [s.probability_start + (s.probability_end - s.probability_start) * (j / (count - 1) if count > 1 else 0.0)
+         for j in range(count)]
+        for s in signals
+    ]
+    columns = [_hazards(profile, s.limit > 1, slot, _occurs(s)) for s, profile in zip(signals, profiles, strict=True)]
+    table = tuple(tuple(column[j] for column in columns) for j in range(count))
+    constraints = (
+        tuple(CompiledConstraint(c, duration) for c in model.constraints) if with_constraints else ()
+    )
+    by_signal = {s.id: [c for c in constraints if s.id in c.mentioned] for s in signals}
+    related = {
+        s.id: tuple(sorted({name for c in by_signal[s.id] for name in c.mentioned} | {s.id})) for s in signals
+    }
+    edges = {s.id: _edges_of(s.id, by_signal[s.id], duration) for s in signals}
+    bounds = {s.id: _bounds_of(s, by_signal[s.id], duration) for s in signals}
+    return Plan(
+        duration=duration,
+        stamps=stamps,
+        table=table,
+        signals=signals,
+        constraints=constraints,
+        by_signal=by_signal,
+        related=related,
+        edges=edges,
+        bounds=bounds,
+    )
+
+
+# A model is cached by identity (hashing a whole model per call would cost more than it saves);
+# the weak reference drops the entry's meaning when the model is garbage collected.
+_CACHE: dict[tuple[int, int, float, bool], tuple[weakref.ref[ir.Model], Plan]] = {}
+_CACHE_LIMIT = 256
+
+
+def plan_for(model: ir.Model, duration: int, slot: float, with_constraints: bool = True) -> Plan:
+    key = (id(model), duration, slot, with_constraints)
+    entry = _CACHE.get(key)
+    if entry is not None and entry[0]() is model:
+        return entry[1]
+    plan = build_plan(model, duration, slot, with_constraints)
+    if len(_CACHE) >= _CACHE_LIMIT:
+        _CACHE.clear()
+    _CACHE[key] = (weakref.ref(model), plan)
+    return plan

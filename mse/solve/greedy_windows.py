@@ -1,0 +1,85 @@
+"""Sets of ticks as sorted inclusive intervals: the ad-hoc inference of the greedy sampler.
+
+A check over one variable tick (a start or a stop) changes its answer only at *critical
+points*: where some comparison with a known time flips.  :func:`feasible` probes every point
+and one tick inside every open segment between two of them, which gives the exact allowed set
+for the exact comparisons (docs/sampler.md, "Placing one candidate").
+"""
+
+from __future__ import annotations
+
+import random
+from collections.abc import Callable, Iterable
+
+Intervals = list[tuple[int, int]]
+
+
+def feasible(check: Callable[[int], bool], low: int, high: int, points: Iterable[int]) -> Intervals:
+    """The ticks of [low, high] where ``check`` holds, as inclusive intervals.
+
+    ``points`` are the critical values where a comparison may change truth; between two of
+    them every exact comparison is constant, so one probe stands for the open segment."""
+    probes = sorted({p for p in points if low < p < high} | {low, high})
+    found: Intervals = []
+
+    def add(first: int, last: int) -> None:
+        if found and found[-1][1] + 1 >= first:
+            found[-1] = (found[-1][0], last)
+        else:
+            found.append((first, last))
+
+    previous: int | None = None
+    for point in probes:
+        if previous is not None and point - previous > 1 and check((previous + point) // 2):
+            add(previous + 1, point - 1)
+        if check(point):
+            add(point, point)
+        previous = point
+    return found
+
+
+def latest_feasible(
+    check: Callable[[int], bool], low: int, high: int, points: Callable[[], Iterable[int]]
+) -> int | None:
+    """The largest tick of [low, high] where ``check`` holds (probing from the end), or None.
+    ``points`` (the critical values) are only computed when ``high`` itself fails."""
+    if check(high):
+        return high
+    probes = sorted({p for p in points() if low < p < high} | {low, high}, reverse=True)
+    previous: int | None = None
+    for point in probes:
+        if previous is not None and previous - point > 1 and check((previous + point) // 2):
+            return previous - 1
+        if point != high and check(point):
+            return point
+        previous = point
+    return None
+
+
+def pick_uniform(rng: random.Random, intervals: Intervals) -> int:
+    total = sum(last - first + 1 for first, last in intervals)
+    index = rng.randrange(total)
+    for first, last in intervals:
+        size = last - first + 1
+        if index < size:
+            return first + index
+        index -= size
+    raise AssertionError("unreachable")
+
+
+def nearest(intervals: Intervals, value: int) -> int:
+    best, distance = intervals[0][0], abs(intervals[0][0] - value)
+    for first, last in intervals:
+        candidate = min(max(value, first), last)
+        if abs(candidate - value) < distance:
+            best, distance = candidate, abs(candidate - value)
+    return best
+
+
+def probes(window: Intervals, per_interval: int = 4) -> list[int]:
+    """A few evenly spread ticks of each interval (ends included)."""
+    found: set[int] = set()
+    for first, last in window:
+        for i in range(per_interval + 1):
+            found.add(first + (last - first) * i // per_interval)
+    return sorted(found)

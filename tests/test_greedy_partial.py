@@ -1,0 +1,111 @@
+"""The sampler's partial evaluation keeps the one semantics of mse.ir.evaluate.
+
+* On complete timelines it is exactly the evaluator.
+* On a prefix of a timeline (what the sampler sees while it walks the stamps) it never says
+  "doomed" when the complete timeline satisfies the constraint (sound over-approximation).
+"""
+
+from __future__ import annotations
+
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+from strategies import models
+
+from mse.ir import model as ir
+from mse.ir.evaluate import evaluate_expr, is_violated
+from mse.solve.greedy_partial import Box, CompiledConstraint, F, N, T, compare_mask, mask_and, mask_not, mask_or
+from mse.solve.greedy_windows import feasible
+
+DURATION = 10_000
+
+
+@st.composite
+def timelines(draw: st.DrawFn, model: ir.Model) -> list[tuple[str, int, int]]:
+    """Any occurrences of the model's signals (the evaluator applies to any set)."""
+    ids = [s.id for s in model.signals]
+    found = []
+    for _ in range(draw(st.integers(0, 7))):
+        start = draw(st.integers(0, DURATION - 1)) // 100 * 100
+        stop = min(DURATION, start + draw(st.integers(1, 40)) * 100)
+        found.append((draw(st.sampled_from(ids)), start, stop))
+    return sorted(found, key=lambda o: (o[1], o[0]))
+
+
+def env_of(occurrences: list[tuple[str, int, int]]) -> dict[str, list[Box]]:
+    env: dict[str, list[Box]] = {}
+    for name, start, stop in occurrences:
+        env.setdefault(name, []).append((start, start, stop, stop))
+    return env
+
+
+@settings(max_examples=200, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(data=st.data(), model=models(max_signals=4, max_constraints=4))
+def test_complete_timelines_evaluate_exactly_as_the_evaluator(data: st.DataObject, model: ir.Model) -> None:
+    occurrences = data.draw(timelines(model))
+    env = env_of(occurrences)
+    intervals = {k: [(b[0], b[2]) for b in v] for k, v in env.items()}
+    for constraint in model.constraints:
+        compiled = CompiledConstraint(constraint, DURATION)
+        assert compiled.violated(env) == is_violated(constraint, intervals, DURATION)
+        value = evaluate_expr(constraint.expr, intervals, DURATION)
+        expected = {True: T, False: F, None: N}[value]
+        assert compiled.node(env) == expected
+
+
+@settings(max_examples=200, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(data=st.data(), model=models(max_signals=4, max_constraints=4))
+def test_prefixes_of_satisfying_timelines_are_never_rejected(data: st.DataObject, model: ir.Model) -> None:
+    occurrences = data.draw(timelines(model))
+    if not occurrences:
+        return
+    cut = data.draw(st.integers(1, len(occurrences)))
+    prefix, suffix = occurrences[:cut], occurrences[cut:]
+    frontier = prefix[-1][1]
+    env = env_of(prefix)
+    if data.draw(st.booleans()):  # the last one is a candidate whose stop is not drawn yet
+        name, start, _stop = prefix[-1]
+        env[name][-1] = (start, start, start + 1, DURATION)
+    optional: dict[str, Box] = {name: (frontier, DURATION - 1, frontier + 1, DURATION) for name, _, _ in suffix}
+    intervals: dict[str, list[tuple[int, int]]] = {}
+    for name, start, stop in occurrences:
+        intervals.setdefault(name, []).append((start, stop))
+    for constraint in model.constraints:
+        if not is_violated(constraint, intervals, DURATION):
+            assert CompiledConstraint(constraint, DURATION).may_hold(env, optional), constraint.text
+
+
+def test_kleene_tables_on_value_sets() -> None:
+    assert mask_not(T) == F and mask_not(F) == T and mask_not(N) == N
+    assert mask_and([T, N]) == N and mask_and([F, N]) == F and mask_and([T, T]) == T
+    assert mask_or([F, N]) == N and mask_or([T, N]) == T and mask_or([F, F]) == F
+    assert mask_and([T | F, T]) == T | F
+    assert mask_or([T | F, N]) == T | N
+
+
+def test_interval_comparisons() -> None:
+    assert compare_mask("<=", 1, 1, 2, 2) == T
+    assert compare_mask("<=", 1, 3, 2, 2) == T | F
+    assert compare_mask("=", 5, 5, 5, 5) == T
+    assert compare_mask("=", 5, 5, 6, 6, 0) == F
+    assert compare_mask("=", 5, 5, 6, 6, 1) == T
+    assert compare_mask("=", 0, 10, 5, 5) == T | F
+
+
+def test_feasible_finds_single_ticks() -> None:
+    assert feasible(lambda x: x == 437, 0, 999, [436, 437, 438]) == [(437, 437)]
+    assert feasible(lambda x: 200 <= x <= 300, 0, 999, [199, 200, 300, 301]) == [(200, 300)]
+    assert feasible(lambda x: False, 0, 10, []) == []
+
+
+@settings(max_examples=100, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(model=models())
+def test_generated_models_are_valid_and_round_trip_through_the_ir(model: ir.Model) -> None:
+    """tests/strategies.py yields models the canonical IR reads back unchanged."""
+    import json
+
+    from mse.ir.canonical import model_from_json, model_to_json
+
+    again = model_from_json(json.loads(json.dumps(model_to_json(model))), path="generated")
+    assert again.signals == model.signals
+    assert [c.expr for c in again.constraints] == [c.expr for c in model.constraints]
+    assert again.exclusive_modalities == model.exclusive_modalities
