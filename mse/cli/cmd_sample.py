@@ -170,9 +170,11 @@ def _sample(model: Any, args: argparse.Namespace) -> int:
     )
     timelines = result if isinstance(result, list) else [result]
     if args.animate:
-        from mse.motion.animate import animate
+        from pathlib import Path
 
-        timelines = [animate(t, model, args.animate, library=args.library) for t in timelines]
+        from mse.cli.cmd_animate import animate_timelines
+
+        timelines = animate_timelines([(t, model) for t in timelines], Path(args.animate), args.library)
     fmt = args.format or ("table" if sys.stdout.isatty() and not args.output else "json")
     emit(_render(timelines, fmt, args, many=args.count is not None), args.output)
     return 0

@@ -143,6 +143,10 @@ def intervals_of(schedule: Schedule) -> dict[str, list[tuple[int, int]]]:
     return grouped
 
 
+def _where(occurrence: Occurrence) -> str:
+    return f"{occurrence.signal} [{_fmt(occurrence.start)}, {_fmt(occurrence.stop)}]"
+
+
 def _fmt(ticks: int) -> str:
     return f"{to_seconds(ticks):g}"
 
@@ -163,12 +167,11 @@ def _occurrence_violations(model: ir.Model, schedule: Schedule) -> list[Violatio
             )
             continue
         by_signal.setdefault(signal.id, []).append(occurrence)
-        where = f"{signal.id} [{_fmt(occurrence.start)}, {_fmt(occurrence.stop)}]"
         if not 0 <= occurrence.start < occurrence.stop <= schedule.duration:
             found.append(
                 Violation(
                     "bounds",
-                    f"{where} is outside 0 <= start < stop <= {_fmt(schedule.duration)}",
+                    f"{_where(occurrence)} is outside 0 <= start < stop <= {_fmt(schedule.duration)}",
                     signal.span,
                     signals=(signal.id,),
                 )
@@ -180,7 +183,7 @@ def _occurrence_violations(model: ir.Model, schedule: Schedule) -> list[Violatio
             bound = f"[{signal.min_duration:g}, {'inf' if signal.max_duration is None else f'{signal.max_duration:g}'}]"
             found.append(
                 Violation(
-                    "duration", f"{where} lasts {_fmt(length)} s, outside {bound}", signal.span, signals=(signal.id,)
+                    "duration", f"{_where(occurrence)} lasts {_fmt(length)} s, outside {bound}", signal.span, signals=(signal.id,)
                 )
             )
     for signal_id, occurrences in by_signal.items():

@@ -1,0 +1,46 @@
+"""``mse lma CLIP.bvh``: the LMA Effort and Shape components of a clip."""
+
+from __future__ import annotations
+
+import argparse
+import json
+from typing import Any
+
+
+def register(subparsers: Any) -> None:
+    parser = subparsers.add_parser(
+        "lma",
+        help="LMA Effort/Shape components of a BVH clip",
+        description="Print the Laban Effort (Weight, Time, Flow) and Shape components of a BVH "
+        "clip, for the whole body and per body part (Samadani et al., §III-A).",
+    )
+    parser.add_argument("clip", nargs="+", help="BVH file(s)")
+    parser.add_argument("--format", choices=("json", "text"), default="json", help="output format")
+    parser.add_argument("-o", "--output", help="write to this file instead of stdout")
+    parser.set_defaults(handler=run)
+
+
+def run(args: argparse.Namespace) -> int:
+    from mse.cli.common import emit, print_error
+    from mse.diagnostics import MseError
+    from mse.motion.bvh import read_bvh
+    from mse.motion.lma import format_text, lma_features
+
+    results = {}
+    try:
+        for path in args.clip:
+            results[path] = lma_features(read_bvh(path), path=path)
+    except MseError as error:
+        return print_error(error)
+    if args.format == "json":
+        if len(results) == 1:
+            payload: Any = next(iter(results.values())).to_json()
+        else:
+            payload = {path: features.to_json() for path, features in results.items()}
+        emit(json.dumps(payload, indent=2) + "\n", args.output)
+    else:
+        blocks = [
+            (f"{path}\n" if len(results) > 1 else "") + format_text(features) for path, features in results.items()
+        ]
+        emit("\n".join(blocks), args.output)
+    return 0

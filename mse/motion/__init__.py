@@ -1,0 +1,1 @@
+"""Typed motion leaves: BVH I/O, LMA features, motion generation."""

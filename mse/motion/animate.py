@@ -1,0 +1,207 @@
+"""``animate``: motion for every motion-leaf occurrence of a timeline.
+
+``animate(timeline, model, out_dir, library=None)`` writes into ``out_dir``:
+
+- one BVH per motion occurrence, ``<signal>_<start ms>.bvh``, lasting exactly the
+  occurrence's scheduled duration (frame time adjusted, see :func:`generate.time_warp`);
+- ``timeline.bvh``: the whole timeline, every track composed over a rest pose
+  (:mod:`mse.motion.compose`). Its skeleton is the one most generated clips use; clips on
+  another skeleton (e.g. starter fallbacks next to Bandai clips) are left out of it with a
+  warning. The rest pose is the starter's for the starter skeleton, else the first frame of
+  the first clip;
+- ``lma.json``: the LMA Effort/Shape components of each generated clip, by file name;
+
+and returns the timeline with ``"motion": {"action", "emotion", "style", "file"}`` on those
+signals (``emotion`` is the expression's, ``style`` the library label it mapped to).
+
+The emotion of the expression (``timeline.expression``, else ``model.name``; a leaf's own
+``emotion`` attribute wins) maps to a style
+through :data:`mse.motion.library.EMOTION_STYLES`, overridden by the library index and then
+by ``emotion_styles``. When the library lacks the leaf's action (or that style of it), the
+starter library is used with a :class:`MotionWarning` naming the action. ``method="hsmm"``
+leaves go to :func:`mse.motion.hsmm.api.synthesize_leaf` (falling back to lma-hmm with a
+warning when it cannot serve them). Warnings go through
+:mod:`warnings` so that front-ends decide how to show them.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import warnings
+from collections.abc import Mapping
+from pathlib import Path
+from typing import Any
+
+from mse.diagnostics import Span
+from mse.fileio import write_atomic
+from mse.ir.model import Model, MotionLeaf
+from mse.motion.bvh import Motion, write_bvh
+from mse.motion.compose import Track, compose
+from mse.motion.generate import GenerationParams, MotionUnavailable, generate_motion
+from mse.motion.library import MotionLibrary
+from mse.motion.lma import lma_features
+from mse.motion.starter import STYLE_EFFORT, rest_motion, starter_library, unknown_action_error
+from mse.timeline import Timeline, TimelineSignal
+
+TIMELINE_BVH = "timeline.bvh"
+LMA_JSON = "lma.json"
+
+
+class MotionWarning(UserWarning):
+    """A motion leaf was served by a fallback (starter library, another style)."""
+
+
+def motion_annotations(model: Model) -> dict[str, dict[str, Any]]:
+    """``{"action": ...}`` for every motion-leaf signal, keyed by signal id."""
+    return {s.id: {"action": s.motion.action} for s in model.signals if s.motion is not None}
+
+
+def _where(leaf: MotionLeaf) -> str:
+    span: Span = leaf.span
+    return "" if span.path == "<none>" else f"{span.render()}: "
+
+
+def _generate_leaf(
+    leaf: MotionLeaf,
+    style: str,
+    duration: float,
+    library: MotionLibrary,
+    warned: set[str],
+) -> tuple[Motion, str, str]:
+    """(motion, library name used, style used) for one occurrence."""
+    params = GenerationParams(states=leaf.states, nd=leaf.nd)
+    if leaf.method == "hsmm":
+        hsmm = _generate_hsmm(leaf, style, duration, library, warned)
+        if hsmm is not None:
+            return hsmm, library.name, style
+    if library is not starter_library():
+        try:
+            clip = leaf.clip if leaf.clip and library.clip(leaf.clip) else None
+            if leaf.clip and clip is None and f"clip:{leaf.clip}" not in warned:
+                warned.add(f"clip:{leaf.clip}")
+                message = f"{_where(leaf)}clip {leaf.clip!r} is not in {library.name!r}; using the default"
+                warnings.warn(MotionWarning(message), stacklevel=3)
+            result = generate_motion(library, leaf.action, style, duration=duration, clip=clip, params=params)
+            return result.motion, library.name, style
+        except MotionUnavailable as reason:
+            if leaf.action not in warned:  # once per action and call
+                warned.add(leaf.action)
+                warnings.warn(
+                    MotionWarning(
+                        f"{_where(leaf)}motion library {library.name!r} lacks action "
+                        f"{leaf.action!r} ({reason}); using the starter library"
+                    ),
+                    stacklevel=3,
+                )
+    starter = starter_library()
+    if not starter.select(leaf.action):
+        raise unknown_action_error(leaf.action, leaf.span)
+    if style not in STYLE_EFFORT:
+        if f"style:{style}" not in warned:
+            warned.add(f"style:{style}")
+            warnings.warn(
+                MotionWarning(f"the starter library has no style {style!r}; using 'normal'"),
+                stacklevel=3,
+            )
+        style = "normal"
+    result = generate_motion(starter, leaf.action, style, duration=duration, params=params)
+    return result.motion, starter.name, style
+
+
+def _generate_hsmm(
+    leaf: MotionLeaf, style: str, duration: float, library: MotionLibrary, warned: set[str]
+) -> Motion | None:
+    """``method="hsmm"``: the HSMM method (:mod:`mse.motion.hsmm`); None -> use lma-hmm."""
+    from mse.diagnostics import MseError
+    from mse.motion.hsmm.api import synthesize_leaf
+
+    try:
+        return synthesize_leaf(library, leaf.action, style, duration, seed=0)
+    except (MseError, ValueError) as reason:
+        if f"hsmm:{leaf.action}" not in warned:
+            warned.add(f"hsmm:{leaf.action}")
+            warnings.warn(
+                MotionWarning(f"{_where(leaf)}the HSMM method cannot serve {leaf.action!r} ({reason}); using lma-hmm"),
+                stacklevel=4,
+            )
+        return None
+
+
+def animate(
+    timeline: Timeline,
+    model: Model,
+    out_dir: str | os.PathLike[str],
+    library: MotionLibrary | None = None,
+    *,
+    emotion_styles: Mapping[str, str] | None = None,
+) -> Timeline:
+    """Generate and write the motion of every motion-leaf occurrence (module docstring)."""
+    library = library or starter_library()
+    out = Path(out_dir)
+    emotion = timeline.expression or model.name
+    style = library.style_for(emotion, emotion_styles)
+    signals: list[TimelineSignal] = []
+    tracks: list[Track] = []
+    features: dict[str, Any] = {}
+    warned: set[str] = set()
+    for entry in timeline.signals:
+        declared = model.signal_by_id.get(entry.id)
+        leaf = declared.motion if declared is not None else None
+        if leaf is None or entry.stop <= entry.start:
+            signals.append(entry)
+            continue
+        duration = entry.stop - entry.start
+        leaf_emotion = leaf.attributes.get("emotion") or emotion  # a leaf may set its own
+        leaf_style = library.style_for(leaf_emotion, emotion_styles) if leaf_emotion != emotion else style
+        motion, used_library, used_style = _generate_leaf(leaf, leaf_style, duration, library, warned)
+        name = f"{entry.id}_{round(entry.start * 1000)}ms.bvh"
+        write_bvh(out / name, motion)
+        features[name] = {
+            "signal": entry.id,
+            "action": leaf.action,
+            "style": used_style,
+            "library": used_library,
+            "start": round(entry.start, 3),
+            "stop": round(entry.stop, 3),
+            **lma_features(motion, path=name).to_json(),
+        }
+        tracks.append(Track(entry.start, motion))
+        annotation = dict(entry.motion or {})
+        annotation.update(action=leaf.action, emotion=leaf_emotion, style=used_style, file=name)
+        signals.append(TimelineSignal(entry.id, entry.modality, entry.lexeme, entry.start, entry.stop, annotation))
+    _write_timeline_bvh(out, timeline.duration, tracks)
+    write_atomic(out / LMA_JSON, json.dumps(features, indent=2) + "\n")
+    extra = dict(timeline.extra)
+    extra["animation"] = {
+        "library": library.name,
+        "style": style,
+        "timeline_bvh": TIMELINE_BVH,
+        "lma": LMA_JSON,
+    }
+    return Timeline(
+        timeline.expression,
+        timeline.duration,
+        tuple(signals),
+        timeline.solver,
+        timeline.seed,
+        extra,
+    )
+
+
+def _write_timeline_bvh(out: Path, duration: float, tracks: list[Track]) -> None:
+    if tracks:
+        # the skeleton that carries the most tracks (the first of them on ties)
+        counts = [sum(t.motion.skeleton.same_layout(u.motion.skeleton) for u in tracks) for t in tracks]
+        skeleton = tracks[counts.index(max(counts))].motion.skeleton
+        first = next(t for t in tracks if t.motion.skeleton.same_layout(skeleton))
+        rest = rest_motion(1, skeleton) if skeleton.names == rest_motion(1).skeleton.names else first.motion.slice(0, 1)
+    else:
+        rest = rest_motion(1)
+    usable = [t for t in tracks if t.motion.skeleton.same_layout(rest.skeleton)]
+    if len(usable) < len(tracks):
+        warnings.warn(
+            MotionWarning(f"{len(tracks) - len(usable)} clip(s) on another skeleton left out of {TIMELINE_BVH}"),
+            stacklevel=3,
+        )
+    write_bvh(out / TIMELINE_BVH, compose(rest, usable, duration))

@@ -1,0 +1,111 @@
+"""Generation (RMLR + LMA neighbours + HMM/Viterbi): lengths, finiteness, bone lengths,
+degenerate inputs."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from mse.motion.bvh import Motion
+from mse.motion.generate import GenerationParams, MotionUnavailable, generate_motion, time_warp
+from mse.motion.library import Clip, MotionLibrary, load_library
+from mse.motion.search import fit_rmlr, nearest_neighbours
+from mse.motion.starter import generate_clip, starter_library
+
+
+def _bone_lengths(motion: Motion) -> np.ndarray:
+    """Lengths of the bones whose child has no varying position channel."""
+    skeleton = motion.skeleton
+    positions = motion.positions()
+    rows = []
+    for joint in range(1, skeleton.joint_count):
+        columns = list(skeleton.position_columns(joint))
+        if columns and motion.values[:, columns].std(axis=0).max() > 1e-9:
+            continue  # a root translation, not a bone
+        parent = skeleton.parents[joint]
+        rows.append(np.linalg.norm(positions[:, joint] - positions[:, parent], axis=-1))
+    return np.array(rows)
+
+
+def _check_clip(motion: Motion, duration: float) -> None:
+    assert motion.duration == pytest.approx(duration, abs=1e-9)
+    assert np.all(np.isfinite(motion.values))
+    lengths = _bone_lengths(motion)
+    assert np.allclose(lengths, lengths[:, :1], atol=1e-6)
+
+
+def test_starter_generation_has_the_scheduled_length() -> None:
+    library = starter_library()
+    result = generate_motion(library, "bow", "sad", duration=1.234)
+    _check_clip(result.motion, 1.234)
+    assert result.neighbours and all("_sad_" in n for n in result.neighbours)
+    again = generate_motion(library, "bow", "sad", duration=3.0)
+    assert again.cached
+    _check_clip(again.motion, 3.0)
+    # bone lengths are the desired path's skeleton's
+    assert np.allclose(
+        again.motion.skeleton.offsets,
+        library.motion(library.clip(result.desired)).skeleton.offsets,
+    )
+
+
+def test_generated_motion_actually_moves() -> None:
+    result = generate_motion(starter_library(), "arms_raised", "angry", duration=2.0)
+    positions = result.motion.positions()
+    hand = result.motion.skeleton.index("Hand_L")
+    assert np.ptp(positions[:, hand, 1]) > 20.0  # cm: the arms do go up
+
+
+def test_unknown_action_is_unavailable() -> None:
+    with pytest.raises(MotionUnavailable):
+        generate_motion(starter_library(), "moonwalk", "sad", duration=1.0)
+
+
+def test_short_clips_do_not_crash_hmmlearn() -> None:
+    short = {f"short_{style}": generate_clip("shrug", style, 0).slice(0, 5) for style in ("normal", "angry")}
+    clips = tuple(Clip(clip_id, "shrug", clip_id.split("_")[1], "p1", f"memory:{clip_id}") for clip_id in short)
+    library = MotionLibrary("short", clips, {}, short)
+    for nd in (0, 2):
+        result = generate_motion(library, "shrug", "angry", duration=0.5, params=GenerationParams(states=12, nd=nd))
+        _check_clip(result.motion, 0.5)
+    single = MotionLibrary("single", clips[:1], {}, {clips[0].id: short[clips[0].id].slice(0, 1)})
+    result = generate_motion(single, "shrug", "normal", duration=0.3)
+    assert np.all(np.isfinite(result.motion.values))
+
+
+def test_one_neighbour_on_bandai(bandai_dir: Path, tmp_path: Path) -> None:
+    data = bandai_dir / "data"
+    entries = [
+        {"file": str(data / f"dataset-1_bow_{style}_001.bvh"), "action": "bow", "style": style}
+        for style in ("normal", "angry", "sad", "active")
+    ]
+    (tmp_path / "library.json").write_text(json.dumps({"clips": entries}))
+    library = load_library(tmp_path)
+    result = generate_motion(library, "bow", "angry", duration=2.0)
+    assert result.neighbours == ("dataset-1_bow_angry_001",)
+    _check_clip(result.motion, 2.0)
+    assert result.motion.skeleton.joint_count == 22
+
+
+def test_rmlr_and_epsilon_neighbourhood() -> None:
+    rng = np.random.default_rng(0)
+    # component 0 separates the classes, the others are noise
+    labels = ["a"] * 12 + ["b"] * 12
+    raw = np.abs(rng.normal(1.0, 0.3, (24, 27)))
+    raw[:12, 0] += 5.0
+    saliency = fit_rmlr(raw, labels)
+    assert saliency.salient[:, 0].all()
+    components = saliency.search_components("b", "a")
+    assert 0 not in components and len(components) >= 3
+    chosen = nearest_neighbours(raw[0], raw[12:], components, saliency)
+    assert len(chosen) >= 1
+
+
+def test_time_warp_exact_duration() -> None:
+    values = np.arange(20, dtype=float)[:, None]
+    warped, frame_time = time_warp(values, 1 / 30, 1.0)
+    assert len(warped) * frame_time == pytest.approx(1.0)
+    assert warped[0, 0] == 0 and warped[-1, 0] == 19
