@@ -11,11 +11,43 @@ from __future__ import annotations
 
 __version__ = "0.1.0"
 
-from mse.api import check, explain, iter_sample, lint, load, loads, sample
-from mse.diagnostics import Diagnostic, MseError
-from mse.ir.evaluate import Violation
-from mse.ir.model import Model
-from mse.timeline import Timeline
+from typing import TYPE_CHECKING, Any
+
+if TYPE_CHECKING:
+    from mse.api import check, explain, iter_sample, lint, load, loads, sample
+    from mse.diagnostics import Diagnostic, MseError
+    from mse.ir.evaluate import Violation
+    from mse.ir.model import Model
+    from mse.timeline import Timeline
+
+# The public names are imported on first use, so that `import mse` (and the command
+# line's start) stays cheap.
+_LAZY = {
+    "check": "mse.api",
+    "explain": "mse.api",
+    "iter_sample": "mse.api",
+    "lint": "mse.api",
+    "load": "mse.api",
+    "loads": "mse.api",
+    "sample": "mse.api",
+    "Diagnostic": "mse.diagnostics",
+    "MseError": "mse.diagnostics",
+    "Violation": "mse.ir.evaluate",
+    "Model": "mse.ir.model",
+    "Timeline": "mse.timeline",
+}
+
+
+def __getattr__(name: str) -> Any:
+    module = _LAZY.get(name)
+    if module is None:
+        raise AttributeError(f"module 'mse' has no attribute {name!r}")
+    import importlib
+
+    value = getattr(importlib.import_module(module), name)
+    globals()[name] = value
+    return value
+
 
 __all__ = [
     "Diagnostic",

@@ -7,19 +7,18 @@ import json
 import random
 from collections.abc import Iterable, Iterator, Sequence
 from pathlib import Path
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 from mse.diagnostics import Diagnostic, MseError, Span, has_errors
-from mse.ir.build import build_model
-from mse.ir.canonical import model_from_json
 from mse.ir.evaluate import Violation, check_schedule
-from mse.ir.lint import lint_model
 from mse.ir.model import Model
 from mse.ir.schedule import to_seconds
 from mse.resources import bundled_names, bundled_path
 from mse.solve.protocol import SolveRequest, check_supported, derive_seed, get_solver
-from mse.syntax.reader import read_document
 from mse.timeline import Timeline, TimelineSignal, from_schedule
+
+# The XML reader, the grammar and the IR builder (lxml, lark) are imported inside the
+# functions that parse: a model from the compiled-model cache needs none of them.
 
 if TYPE_CHECKING:
     from mse.solve.explain import Explanation
@@ -27,6 +26,9 @@ if TYPE_CHECKING:
 
 def compile_source(path: str | Path, data: bytes | None = None) -> tuple[Model | None, list[Diagnostic]]:
     """Parse and resolve one native file; the model is None when there are errors."""
+    from mse.ir.build import build_model
+    from mse.syntax.reader import read_document
+
     document, diagnostics = read_document(path, data)
     if document is None:
         return None, diagnostics
@@ -52,11 +54,18 @@ def resolve_path(path_or_name: str | Path) -> Path:
     raise MseError([Diagnostic("E100", message, Span(str(path_or_name)))])
 
 
-def load(path_or_name: str | Path) -> Model:
-    """Load a behaviour-set file, a compiled IR JSON file, or a bundled expression by name."""
+def load(path_or_name: str | Path, *, cache: bool = False) -> Model:
+    """Load a behaviour-set file, a compiled IR JSON file, or a bundled expression by name.
+
+    With ``cache=True`` a file that compiled before is read from the compiled-model cache
+    (keyed by its path and exact bytes), which skips XML parsing and the grammar."""
     path = resolve_path(path_or_name)
     if path.suffix == ".json":
         return loads_ir(path.read_text(encoding="utf-8"), path=str(path))
+    if cache:
+        from mse.model_cache import load_cached
+
+        return load_cached(path, compile_source)
     model, diagnostics = compile_source(path)
     if model is None:
         raise MseError(diagnostics)
@@ -75,6 +84,8 @@ def loads(data: bytes | str, *, path: str = "<string>") -> Model:
 
 
 def loads_ir(text: str, *, path: str = "<stdin>") -> Model:
+    from mse.ir.canonical import model_from_json
+
     try:
         obj = json.loads(text)
     except json.JSONDecodeError as error:
@@ -111,6 +122,8 @@ def lint(
     """Errors and lint warnings of every file (directories are searched for ``*.xml``).
 
     ``select``/``ignore`` are code prefixes; ``deep`` adds the solver-backed W4xx rules."""
+    from mse.ir.lint import lint_model
+
     found: list[Diagnostic] = []
     for path in expand_paths(paths):
         model, diagnostics = compile_source(path)
@@ -204,7 +217,7 @@ def iter_sample(
         )
 
 
-def explain(model: Model, duration: float = 10.0, **options: object) -> Explanation | None:
+def explain(model: Model, duration: float = 10.0, **options: Any) -> Explanation | None:
     """Why no timeline of ``duration`` exists (a minimal conflicting set), or None."""
     from mse.solve.explain import explain as explain_model
 

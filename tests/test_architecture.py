@@ -23,6 +23,7 @@ LAYERS: dict[str, int] = {
     "mse.export": 5,
     "mse.motion": 5,
     "mse.api": 6,
+    "mse.model_cache": 6,
     "mse.cli": 7,
     "mse.__main__": 7,
 }

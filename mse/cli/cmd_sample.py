@@ -77,13 +77,13 @@ def load_model_argument(source: str | None) -> Any:
     if source == "-":
         return loads(read_stdin_bytes(), path="<stdin>")
     if source is not None:
-        return load(source)
+        return load(source, cache=True)
     if _stdin_has_data():
         data = read_stdin_bytes()
         if data.strip():
             return loads(data, path="<stdin>")
     print(f"mse: sampling the bundled expression '{DEFAULT_EXPRESSION}'", file=sys.stderr)
-    return load(DEFAULT_EXPRESSION)
+    return load(DEFAULT_EXPRESSION, cache=True)
 
 
 def _pins(values: list[str]) -> tuple[Any, ...]:

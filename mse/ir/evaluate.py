@@ -183,7 +183,10 @@ def _occurrence_violations(model: ir.Model, schedule: Schedule) -> list[Violatio
             bound = f"[{signal.min_duration:g}, {'inf' if signal.max_duration is None else f'{signal.max_duration:g}'}]"
             found.append(
                 Violation(
-                    "duration", f"{_where(occurrence)} lasts {_fmt(length)} s, outside {bound}", signal.span, signals=(signal.id,)
+                    "duration",
+                    f"{_where(occurrence)} lasts {_fmt(length)} s, outside {bound}",
+                    signal.span,
+                    signals=(signal.id,),
                 )
             )
     for signal_id, occurrences in by_signal.items():
