@@ -44,10 +44,8 @@ def register(subparsers: Any) -> None:
 
 def run(args: argparse.Namespace) -> int:
     from mse.api import load
-    from mse.cli.common import print_error
+    from mse.cli.common import print_error, read_timelines
     from mse.diagnostics import Diagnostic, MseError, Span
-    from mse.timeline import loads_many
-
     overrides = {}
     for item in args.style:
         emotion, _, style = item.partition("=")
@@ -56,21 +54,13 @@ def run(args: argparse.Namespace) -> int:
             return 2
         overrides[emotion] = style
     try:
-        if args.timeline == "-":
-            text, name = sys.stdin.read(), "<stdin>"
-        else:
-            try:
-                text, name = Path(args.timeline).read_text(encoding="utf-8"), args.timeline
-            except (OSError, UnicodeDecodeError) as error:
-                message = f"cannot read timeline: {error}"
-                raise MseError([Diagnostic("E100", message, Span(args.timeline))]) from None
-        timelines = loads_many(text, path=name)
+        timelines = read_timelines(args.timeline)
         resolved: list[tuple[Timeline, Model]] = []
         for timeline in timelines:
             expression = args.expression or timeline.expression
             if not expression:
                 message = "the timeline names no expression: use --expression"
-                raise MseError([Diagnostic("E212", message, Span(name))])
+                raise MseError([Diagnostic("E212", message, Span(args.timeline))])
             resolved.append((timeline, load(expression)))
         animate_timelines(resolved, Path(args.output), args.library, overrides)
     except MseError as error:

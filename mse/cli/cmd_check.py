@@ -4,11 +4,10 @@ from __future__ import annotations
 
 import argparse
 import sys
-from pathlib import Path
 from typing import Any
 
-from mse.cli.common import print_error
-from mse.diagnostics import Diagnostic, MseError, Span
+from mse.cli.common import print_error, read_timelines
+from mse.diagnostics import MseError
 
 
 def register(subparsers: Any) -> None:
@@ -26,18 +25,10 @@ def register(subparsers: Any) -> None:
 
 def run(args: argparse.Namespace) -> int:
     from mse.api import check, load
-    from mse.timeline import loads_many
 
     try:
         model = load(args.source)
-        if args.timeline == "-":
-            text, name = sys.stdin.read(), "<stdin>"
-        else:
-            try:
-                text, name = Path(args.timeline).read_text(encoding="utf-8"), args.timeline
-            except (OSError, UnicodeDecodeError) as error:
-                raise MseError([Diagnostic("E100", f"cannot read timeline: {error}", Span(args.timeline))]) from None
-        timelines = loads_many(text, path=name)
+        timelines = read_timelines(args.timeline)
     except MseError as error:
         return print_error(error)
     failing = 0

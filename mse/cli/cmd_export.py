@@ -47,29 +47,16 @@ def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) ->
     p.set_defaults(handler=run)
 
 
-def _read_input(name: str) -> tuple[str, str]:
-    """(text, path for messages); unreadable input raises MseError (E100)."""
-    from mse.diagnostics import Diagnostic, MseError, Span
-
-    if name == "-":
-        return sys.stdin.read(), "<stdin>"
-    try:
-        return Path(name).read_text(encoding="utf-8"), name
-    except (OSError, UnicodeDecodeError) as error:
-        reason = getattr(error, "strerror", None) or str(error)
-        raise MseError([Diagnostic("E100", f"cannot read timeline: {reason}", Span(name))]) from None
-
-
 def run(args: argparse.Namespace) -> int:
+    from mse.cli.common import read_timelines
     from mse.diagnostics import Diagnostic, MseError, Span
     from mse.export import SUFFIXES, ExportOptions, render
     from mse.fileio import write_atomic
-    from mse.timeline import loads_many
 
     output: str | None = args.output
     try:
-        text, where = _read_input(args.timeline)
-        timelines = loads_many(text, path=where)
+        where = "<stdin>" if args.timeline == "-" else args.timeline
+        timelines = read_timelines(args.timeline)
         if not timelines:
             raise MseError([Diagnostic("E212", "no timeline in the input", Span(where))])
         base_dir = args.motion_dir

@@ -6,10 +6,14 @@ from __future__ import annotations
 import os
 import sys
 from collections.abc import Iterable
-from typing import TextIO
+from pathlib import Path
+from typing import TYPE_CHECKING, TextIO
 
-from mse.diagnostics import Diagnostic, MseError
+from mse.diagnostics import Diagnostic, MseError, Span
 from mse.fileio import write_atomic
+
+if TYPE_CHECKING:
+    from mse.timeline import Timeline
 
 _COLOURS = {"E": "\033[31m", "W": "\033[33m"}
 _RESET = "\033[0m"
@@ -50,3 +54,18 @@ def emit(text: str, output: str | None) -> None:
 
 def read_stdin_bytes() -> bytes:
     return sys.stdin.buffer.read()
+
+
+def read_timelines(name: str) -> list[Timeline]:
+    """The timelines in file ``name`` ('-': stdin): one, a JSON array, or JSON lines.
+    Unreadable or malformed input raises MseError (E100, E212)."""
+    from mse.timeline import loads_many
+
+    if name == "-":
+        return loads_many(sys.stdin.read(), path="<stdin>")
+    try:
+        text = Path(name).read_text(encoding="utf-8")
+    except (OSError, UnicodeDecodeError) as error:
+        reason = getattr(error, "strerror", None) or str(error)
+        raise MseError([Diagnostic("E100", f"cannot read timeline: {reason}", Span(name))]) from None
+    return loads_many(text, path=name)
