@@ -7,8 +7,10 @@ Reports, per bundled emotion and duration: timelines per second in one process f
 ``--count`` request (wall clock, and per second of CPU time of this process, which other
 processes on the machine disturb less; every timeline is verified by ``check_schedule``, as
 the sampler always does), mean signals per timeline, restart rate (restarted attempts /
-attempts); then the wall time of
-``mse sample --duration 10`` against a bare ``python -c pass``.
+attempts), with the load average before and after; then the wall time of
+``mse sample --duration 10`` against a bare ``python -c pass``, both with byte-code caching on
+as for an installed user (PYTHONDONTWRITEBYTECODE, set in this environment, is removed for
+those subprocesses; one warm-up run writes the cache), and for comparison without it.
 """
 
 from __future__ import annotations
@@ -57,23 +59,52 @@ def bench_emotion(name: str, duration: float, count: int, seed: int) -> tuple[fl
     return count / wall, count / cpu, signals, restarts / max(1, attempts), failures
 
 
-def wall_time(command: list[str], repeat: int, env: dict[str, str] | None = None) -> float:
-    """Median wall time of ``command`` in seconds (after one warm-up run)."""
-    times = []
-    for index in range(repeat + 1):
+def wall_times(commands: list[list[str]], repeat: int, env: dict[str, str]) -> list[float]:
+    """Median wall time in seconds of each command over ``repeat`` runs.  Each is run once
+    first (not counted: it writes the byte-code cache), then the commands alternate, so a
+    change of load on the machine affects them alike."""
+    def run(command: list[str]) -> float:
         started = time.perf_counter()
         subprocess.run(command, cwd=REPO, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, check=False, env=env)
-        if index:
-            times.append(time.perf_counter() - started)
-    return statistics.median(times)
+        return time.perf_counter() - started
+
+    for command in commands:
+        run(command)
+    times: list[list[float]] = [[] for _ in commands]
+    for _ in range(repeat):
+        for index, command in enumerate(commands):
+            times[index].append(run(command))
+    return [statistics.median(found) for found in times]
 
 
-def bytecode_env(cache: str) -> dict[str, str]:
-    """The environment with byte-code caching on (in ``cache``, not in the checkout): what an
-    installed wheel has.  With PYTHONDONTWRITEBYTECODE every run recompiles every module."""
+def installed_env(cache: str) -> dict[str, str]:
+    """The environment of an installed user: byte-code caching on.  This environment sets
+    PYTHONDONTWRITEBYTECODE=1, with which every start recompiles every module of ``mse`` (an
+    installed wheel has its .pyc files), so it is removed for the measured subprocesses; the
+    cache goes to ``cache`` (PYTHONPYCACHEPREFIX), not into the shared checkout."""
     env = {k: v for k, v in os.environ.items() if k != "PYTHONDONTWRITEBYTECODE"}
     env["PYTHONPYCACHEPREFIX"] = cache
     return env
+
+
+def bench_cli(repeat: int) -> None:
+    executable = shutil.which("mse", path=str(Path(sys.executable).parent)) or ""
+    cli = [executable] if executable else [sys.executable, "-m", "mse"]
+    command = [*cli, "sample", "--duration", "10", "--seed", "1", "--format", "json"]
+    bare_command = [sys.executable, "-c", "pass"]
+    with tempfile.TemporaryDirectory() as cache:
+        bare, sample = wall_times([bare_command, command], repeat, installed_env(cache))
+    unset = " (PYTHONDONTWRITEBYTECODE unset for these runs)" if os.environ.get("PYTHONDONTWRITEBYTECODE") else ""
+    print(f"CLI start, byte-code cached as when installed, one warm-up run not counted{unset}:")
+    print(f"python -c pass:             {bare * 1000:7.1f} ms (median of {repeat})")
+    print(f"mse sample --duration 10:   {sample * 1000:7.1f} ms (median of {repeat})")
+    print(f"ratio:                      {sample / bare:7.2f}x (target <= 10x)")
+    if os.environ.get("PYTHONDONTWRITEBYTECODE"):
+        bare, sample = wall_times([bare_command, command], repeat, dict(os.environ))
+        print("for comparison, this environment as is (PYTHONDONTWRITEBYTECODE=1: no byte-code cache):")
+        print(f"python -c pass:             {bare * 1000:7.1f} ms")
+        print(f"mse sample --duration 10:   {sample * 1000:7.1f} ms")
+        print(f"ratio:                      {sample / bare:7.2f}x")
 
 
 def main() -> None:
@@ -100,25 +131,9 @@ def main() -> None:
     if total_attempt_rates:
         print(f"mean restart rate over all rows: {statistics.mean(total_attempt_rates):.2%}")
 
-    if args.no_cli:
-        return
-    executable = shutil.which("mse", path=str(Path(sys.executable).parent)) or ""
-    cli = [executable] if executable else [sys.executable, "-m", "mse"]
-    command = [*cli, "sample", "--duration", "10", "--seed", "1", "--format", "json"]
-    bare = wall_time([sys.executable, "-c", "pass"], args.repeat)
-    sample = wall_time(command, args.repeat)
-    print(f"python -c pass:             {bare * 1000:7.1f} ms (median of {args.repeat})")
-    print(f"mse sample --duration 10:   {sample * 1000:7.1f} ms (median of {args.repeat})")
-    print(f"ratio:                      {sample / bare:7.2f}x (target <= 10x)")
-    if os.environ.get("PYTHONDONTWRITEBYTECODE"):
-        with tempfile.TemporaryDirectory() as cache:
-            env = bytecode_env(cache)
-            bare = wall_time([sys.executable, "-c", "pass"], args.repeat, env)
-            sample = wall_time(command, args.repeat, env)
-        print("with byte-code caching (PYTHONDONTWRITEBYTECODE is set here; an installed wheel has .pyc files):")
-        print(f"python -c pass:             {bare * 1000:7.1f} ms")
-        print(f"mse sample --duration 10:   {sample * 1000:7.1f} ms")
-        print(f"ratio:                      {sample / bare:7.2f}x (target <= 10x)")
+    print(f"load average after: {os.getloadavg()[0]:.2f}")
+    if not args.no_cli:
+        bench_cli(args.repeat)
 
 
 if __name__ == "__main__":

@@ -13,8 +13,19 @@ from strategies import models
 
 from mse.ir import model as ir
 from mse.ir.evaluate import evaluate_expr, is_violated
-from mse.solve.greedy_partial import Box, CompiledConstraint, F, N, T, compare_mask, mask_and, mask_not, mask_or
-from mse.solve.greedy_windows import feasible
+from mse.solve.greedy_partial import (
+    Box,
+    CompiledConstraint,
+    F,
+    N,
+    T,
+    compare_mask,
+    mask_and,
+    mask_not,
+    mask_or,
+    relation_mask,
+)
+from mse.solve.greedy_windows import feasible, nearest, nearest_feasible
 
 DURATION = 10_000
 
@@ -91,10 +102,62 @@ def test_interval_comparisons() -> None:
     assert compare_mask("=", 0, 10, 5, 5) == T | F
 
 
+def _le(alo: int, ahi: int, blo: int, bhi: int) -> int:
+    return (T if alo <= bhi else 0) | (F if ahi > blo else 0)
+
+
+def _both(first: int, second: int) -> int:
+    return (T if first & second & T else 0) | ((first | second) & F)
+
+
+def _either(first: int, second: int) -> int:
+    return ((first | second) & T) | (F if first & second & F else 0)
+
+
+_box = st.tuples(st.integers(0, 6), st.integers(0, 3), st.integers(1, 6), st.integers(0, 3)).map(
+    lambda t: (t[0], t[0] + t[1], t[0] + t[2], t[0] + t[2] + t[3])
+)
+
+
+@settings(max_examples=300, deadline=None)
+@given(a=_box, b=_box)
+def test_relation_masks_are_the_conjunctions_of_their_comparisons(a: Box, b: Box) -> None:
+    """The written-out relation masks equal their definition from two interval comparisons."""
+    assert relation_mask("includes", a, b) == _both(_le(a[0], a[1], b[0], b[1]), _le(b[2], b[3], a[2], a[3]))
+    assert relation_mask("excludes", a, b) == _either(_le(a[2], a[3], b[0], b[1]), _le(b[2], b[3], a[0], a[1]))
+    assert relation_mask("rightincludes", a, b) == _both(_le(a[0], a[1], b[2], b[3]), _le(b[2], b[3], a[2], a[3]))
+    assert relation_mask("precedes", a, b) == _le(a[2], a[3], b[0], b[1])
+
+
 def test_feasible_finds_single_ticks() -> None:
     assert feasible(lambda x: x == 437, 0, 999, [436, 437, 438]) == [(437, 437)]
     assert feasible(lambda x: 200 <= x <= 300, 0, 999, [199, 200, 300, 301]) == [(200, 300)]
     assert feasible(lambda x: False, 0, 10, []) == []
+
+
+@settings(max_examples=300, deadline=None)
+@given(
+    low=st.integers(0, 50),
+    width=st.integers(0, 60),
+    cuts=st.lists(st.integers(-10, 120), max_size=8),
+    allowed=st.lists(st.booleans(), min_size=20, max_size=20),
+    target=st.integers(-5, 120),
+)
+def test_nearest_feasible_is_nearest_of_feasible(
+    low: int, width: int, cuts: list[int], allowed: list[bool], target: int
+) -> None:
+    """The lazy search answers exactly what the whole window would (ties to the lower tick),
+    for checks that are constant between critical points, as the sampler's are."""
+    high = low + width
+    edges = sorted(set(cuts))
+
+    def check(x: int) -> bool:  # constant on every point of ``edges`` and between two of them
+        rank = sum(1 for edge in edges if edge < x) * 2 + (x in edges)
+        return allowed[rank % len(allowed)]
+
+    window = feasible(check, low, high, edges)
+    expected = nearest(window, target) if window else None
+    assert nearest_feasible(check, low, high, edges, target) == expected
 
 
 @settings(max_examples=100, deadline=None, suppress_health_check=[HealthCheck.too_slow])

@@ -95,6 +95,8 @@ class GreedySolver:
                 continue
             schedule = Schedule.of(duration, occurrences)
             violations = check_schedule(model, schedule)
+            if not violations and not require and not free:
+                return schedule  # the usual case, decided as below without the bookkeeping
             structural = [v for v in violations if v.kind != "constraint"]
             # The engine builds structure correctly by construction; a structural violation
             # would be a sampler bug, and is never returned either.

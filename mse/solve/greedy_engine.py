@@ -8,12 +8,12 @@ draw its stop (triangular, mode at the middle of [min, max]) and check again.  W
 time fails, the ad-hoc inference computes the exact set of times the instantiated constraints
 allow (critical points, docs/sampler.md) and draws inside it, so equalities and offsets are
 met exactly.  Starts never decrease.  The attempt returns its occurrences; the caller verifies
-them with the full evaluator and restarts when needed.
+them with the full evaluator and restarts when needed.  The walk over the stamps is in
+greedy_walk.py; this module holds the state, the checks, placing and the obligations.
 """
 
 from __future__ import annotations
 
-import bisect
 import math
 import random
 from collections.abc import Iterable
@@ -21,7 +21,19 @@ from collections.abc import Iterable
 from mse.ir.schedule import Occurrence
 from mse.solve.greedy_partial import Box, CompiledConstraint
 from mse.solve.greedy_plan import Plan, SignalPlan
-from mse.solve.greedy_windows import Intervals, feasible, latest_feasible, nearest, pick_uniform, probes
+from mse.solve.greedy_walk import walk
+from mse.solve.greedy_windows import (
+    Intervals,
+    critical_points,
+    feasible,
+    latest_feasible,
+    nearest_feasible,
+    pick_uniform,
+    probes,
+)
+
+# bound once: the walk calls them tens of thousands of times per second
+_sqrt = math.sqrt
 
 
 class Doomed(Exception):
@@ -30,6 +42,11 @@ class Doomed(Exception):
 
 class Attempt:
     """The mutable state of one attempt: placed occurrences, frontier, obligations."""
+
+    __slots__ = (
+        "buckets", "checked", "count", "dead", "env", "forbid", "frontier", "last_stop", "latest",
+        "modality_free", "occurrences", "owing", "plan", "require", "rng", "stamp_low",
+    )
 
     def __init__(self, plan: Plan, rng: random.Random, forbid: frozenset[str], require: frozenset[str]) -> None:
         self.plan = plan
@@ -95,7 +112,7 @@ class Attempt:
             for compiled in constraints:
                 if compiled.acceptable(env):
                     continue
-                owing.append(compiled.constraint.id)
+                owing.append(compiled.id)
                 for name in compiled.mentioned:
                     if name not in optional:
                         future = self.future_box(self.plan.by_id[name], box[0], (signal, box[0]))
@@ -113,35 +130,18 @@ class Attempt:
             boxes.pop()
 
     def _critical(self, signal: SignalPlan, variable: str, start: int | None) -> list[int]:
-        """Values of the drawn edge (``variable``) at which some comparison may flip."""
-        points: list[int] = []
-        for edge in self.plan.edges[signal.id]:
-            if edge.other_signal is None:
-                values = [edge.other_offset]
-            elif edge.other_signal == signal.id:
-                if start is None or edge.other_edge != "start":
-                    continue
-                values = [start + edge.other_offset]
-            else:
-                boxes = self.env.get(edge.other_signal, ())
-                index = 0 if edge.other_edge == "start" else 2
-                values = [box[index] + edge.other_offset for box in boxes]
-            shifts = [0]
-            if variable == "start" and edge.my_edge == "stop":
-                shifts = [signal.shortest, signal.longest]
-            elif variable != edge.my_edge:
-                continue
-            for value in values:
-                pivot = value - edge.my_offset
-                for shift in shifts:
-                    for delta in (-edge.tolerance - 1, -edge.tolerance, edge.tolerance, edge.tolerance + 1):
-                        points.append(pivot - shift + delta)
-        return points
+        return critical_points(self.plan.edges[signal.id], self.env, signal, variable, start)
 
     def start_box(self, signal: SignalPlan, start: int) -> Box:
         return (start, start, start + signal.shortest, min(start + signal.longest, self.plan.duration))
 
     def feasible_starts(self, signal: SignalPlan, low: int, high: int) -> Intervals:
+        # One check of the box holding every start of [low, high] first: the partial check is
+        # monotone (a larger box may only add truth values and optional worlds), so when it
+        # fails no single start can pass, and the probes below are skipped (usually the case).
+        whole = (low, high, low + signal.shortest, min(high + signal.longest, self.plan.duration))
+        if not self.allows(signal, whole):
+            return []
         return feasible(
             lambda x: self.allows(signal, self.start_box(signal, x)), low, high, self._critical(signal, "start", None)
         )
@@ -169,8 +169,16 @@ class Attempt:
             return False
         rng = self.rng
         start = low + int(rng.random() * (high - low + 1))
-        stop = self.draw_stop(signal, start)
-        window = [(stop, stop)]
+        # draw_stop(signal, start), inlined (the same draw): once per candidate
+        first, last = start + signal.shortest, start + signal.longest
+        if last > self.plan.duration:
+            last = self.plan.duration
+        if last <= first:
+            stop = first
+        else:
+            half, u = (last - first) / 2, rng.random()
+            stop = round(last - half * _sqrt(2 * (1 - u))) if u > 0.5 else round(first + half * _sqrt(2 * u))
+        window: Intervals | None = [(stop, stop)]
         # The paper checks (start, open stop) and then (start, stop).  A point that passes the
         # second check always passes the first (the open stop's box contains it), so the
         # first check is only run when the pair fails: same outcomes, one check fewer.
@@ -184,15 +192,21 @@ class Attempt:
                 window = [(stop, stop)]
             if not self.allows(signal, (start, start, stop, stop)):
                 first, last = start + signal.shortest, min(start + signal.longest, self.plan.duration)
-                window = feasible(
-                    lambda y: self.allows(signal, (start, start, y, y)), first, last,
-                    self._critical(signal, "stop", start),
-                )
-                if not window:
+                points = self._critical(signal, "stop", start)
+
+                def stop_allowed(y: int) -> bool:
+                    return self.allows(signal, (start, start, y, y))
+
+                # The allowed stop nearest to the drawn one; the whole allowed window is only
+                # needed (and computed) when that placement is refused below.
+                found = nearest_feasible(stop_allowed, first, last, points, stop)
+                if found is None:
                     return False
-                stop = nearest(window, stop)
+                stop, window = found, None
         if self.commit(signal, start, stop):
             return True
+        if window is None:  # the state is as it was before commit(): the same window
+            window = feasible(stop_allowed, first, last, points)
         # Placing it would leave a debt that nothing can pay any more (one-step lookahead):
         # try a few other stops of the allowed window, nearest to the drawn one first.
         if window == [(stop, stop)]:
@@ -205,21 +219,34 @@ class Attempt:
         of the constraints (``StartBound``) given the placed occurrences."""
         sid = signal.id
         first_start, last_start = self.plan.fixed[sid]
-        first_start = max(first_start, self.frontier, self.last_stop.get(sid, 0))
+        # max(first, frontier, last stop, modality free), written out: a hot path
+        if self.frontier > first_start:
+            first_start = self.frontier
+        last_stop = self.last_stop.get(sid)
+        if last_stop is not None and last_stop > first_start:
+            first_start = last_stop
         if signal.exclusive is not None:
-            first_start = max(first_start, self.modality_free.get(signal.exclusive, 0))
+            free = self.modality_free.get(signal.exclusive)
+            if free is not None and free > first_start:
+                first_start = free
+        bounds = self.plan.partner_bounds[sid]
+        if not bounds or first_start > last_start:
+            # Already empty: the partners could only narrow it more (both callers only ask
+            # whether it is empty then), so they are not looked at.
+            return first_start, last_start
         env = self.env
-        for other, index, delta, upper in self.plan.partner_bounds[sid]:
+        for other, rules in bounds:
             boxes = env.get(other)
             if not boxes:
                 continue
             for box in boxes:
-                value = box[index] + delta
-                if upper:
-                    if value < last_start:
-                        last_start = value
-                elif value > first_start:
-                    first_start = value
+                for index, delta, upper in rules:
+                    value = box[index] + delta
+                    if upper:
+                        if value < last_start:
+                            last_start = value
+                    elif value > first_start:
+                        first_start = value
         return first_start, last_start
 
     def draw_stop(self, signal: SignalPlan, start: int) -> int:
@@ -264,21 +291,42 @@ class Attempt:
         return True
 
     def place(self, signal: SignalPlan, start: int, stop: int) -> None:
-        self.env.setdefault(signal.id, []).append((start, start, stop, stop))
-        self.count[signal.id] = self.count.get(signal.id, 0) + 1
-        if self.count[signal.id] >= signal.limit:
-            self.dead.add(signal.id)
-        self.last_stop[signal.id] = stop
-        if signal.exclusive is not None:
-            self.modality_free[signal.exclusive] = max(stop, self.modality_free.get(signal.exclusive, 0))
+        sid = signal.id
+        box = (start, start, stop, stop)
+        boxes = self.env.get(sid)
+        if boxes is None:
+            self.env[sid] = [box]
+        else:
+            boxes.append(box)
+        count = self.count[sid] = self.count.get(sid, 0) + 1
+        if count >= signal.limit:
+            self.dead.add(sid)
+        self.last_stop[sid] = stop
+        exclusive = signal.exclusive
+        if exclusive is not None:
+            free = self.modality_free.get(exclusive, 0)
+            self.modality_free[exclusive] = stop if stop > free else free
         self.frontier = start
-        self.occurrences.append(Occurrence(start, stop, signal.id))
+        self.occurrences.append(Occurrence(start, stop, sid))
         checked, self.checked = self.checked, None
-        constraints = self.plan.by_signal[signal.id]
-        if checked is not None and checked[0] == signal.id and checked[1] == (start, start, stop, stop):
+        constraints = self.plan.by_signal[sid]
+        if checked is not None and checked[0] == sid and checked[1] == box:
             # allows() just evaluated exactly this state: reuse its verdicts.
             owing = checked[2]
-            changed = bool(owing or self.owing) and self.set_owing((c, c.constraint.id in owing) for c in constraints)
+            changed = False
+            if owing or self.owing:
+                current = self.owing
+                for compiled in constraints:
+                    cid = compiled.id
+                    owes = cid in owing
+                    if owes != (cid in current):
+                        if not changed:
+                            current = self.owing = set(current)  # copy on write (see set_owing)
+                            changed = True
+                        if owes:
+                            current.add(cid)
+                        else:
+                            current.discard(cid)
         else:
             changed = self.set_owing((c, c.violated(self.env)) for c in constraints)
         if changed or (self.latest and self.narrows_debts(signal)):
@@ -297,7 +345,7 @@ class Attempt:
         set changed."""
         changed = False
         for compiled, owes in verdicts:
-            cid = compiled.constraint.id
+            cid = compiled.id
             if owes != (cid in self.owing):
                 if not changed:
                     self.owing = set(self.owing)  # copy on write: commit() keeps the old one
@@ -307,8 +355,11 @@ class Attempt:
 
     def owed_signals(self) -> set[str]:
         owed = {s for s in self.require if not self.env.get(s)}
+        owing = self.owing
+        if not owing:
+            return owed
         for compiled in self.plan.constraints:
-            if compiled.constraint.id in self.owing:
+            if compiled.id in owing:
                 owed.update(name for name in compiled.mentioned if name not in self.forbid)
         return owed
 
@@ -336,70 +387,15 @@ class Attempt:
             if latest is not None:
                 self.latest[name] = latest
                 boxes[name] = (low, latest, low + signal.shortest, self.plan.duration)
-        for compiled in self.plan.constraints:
+        owing = self.owing
+        for compiled in self.plan.constraints if owing else ():
             # Doomed unless the signals that can still start may, together, pay this debt.
-            if compiled.constraint.id in self.owing and not compiled.in_other_world(self.env, boxes):
-                raise Doomed(compiled.constraint.id)
+            if compiled.id in owing and not compiled.in_other_world(self.env, boxes):
+                raise Doomed(compiled.id)
         for name in self.require:
             if not self.env.get(name) and name not in self.latest:
                 raise Doomed(f"require {name}")
 
-    # -- the walk over the time stamps -----------------------------------------------------------
+    # -- the walk over the time stamps (mse/solve/greedy_walk.py) --------------------------------
     def run(self) -> list[Occurrence]:
-        plan, rng = self.plan, self.rng
-        for signal in plan.signals:
-            if signal.id not in self.dead:
-                self.schedule(signal, 0)
-        if self.set_owing((c, c.violated(self.env)) for c in plan.constraints) or self.require:
-            self.refresh_latest()
-        for j in range(len(plan.stamps) - 1):
-            low, high = plan.stamps[j], plan.stamps[j + 1] - 1
-            if high < low:
-                continue
-            self.stamp_low = low
-            if self.latest and any(latest < low for latest in self.latest.values()):
-                self.refresh_latest()
-            row = plan.table[j]
-            queue: list[SignalPlan] = []
-            if self.latest:
-                for name in sorted(self.latest):
-                    remaining = plan.stamp_of(self.latest[name]) - j + 1
-                    if remaining >= 1 and rng.random() < max(row[plan.by_id[name].index], 1 / remaining):
-                        queue.append(plan.by_id[name])
-            dead = self.dead
-            proposals = [s for s in self.buckets[j] if s.id not in dead]
-            if len(proposals) > 1:
-                rng.shuffle(proposals)
-            queue.extend(proposals)
-            # Each signal is tried once per stamp and state: a placement may open the window of
-            # a signal tried before it (an owed partner), which is then tried again at once.
-            tried: dict[str, int] = {}
-            position = 0
-            while position < len(queue):
-                signal = queue[position]
-                position += 1
-                version = len(self.occurrences)
-                if tried.get(signal.id) == version:
-                    continue
-                tried[signal.id] = version
-                if self.try_place(signal, max(low, self.frontier), high) and self.latest:
-                    version += 1
-                    urgent = [
-                        plan.by_id[n] for n, t in sorted(self.latest.items()) if t <= high and tried.get(n) != version
-                    ]
-                    queue[position:position] = urgent
-            for signal in proposals:
-                if signal.id not in dead:
-                    self.schedule(signal, j + 1)
-        return self.occurrences
-
-    def schedule(self, signal: SignalPlan, first: int) -> None:
-        """Put ``signal`` in the bucket of its next candidacy at stamp ``first`` or later."""
-        cumulative = self.plan.cumulative[signal.index]
-        stamps = len(cumulative) - 1
-        if first >= stamps:
-            return
-        target = cumulative[first] - math.log(1.0 - self.rng.random())
-        after = bisect.bisect_right(cumulative, target, first + 1)
-        if after <= stamps:
-            self.buckets[after - 1].append(signal)
+        return walk(self)

@@ -61,6 +61,15 @@ def mask_or(masks: Sequence[int]) -> int:
     return (some & T) | (every & F) | (N if false_or_unknown and some & N else 0)
 
 
+# Masks are 3-bit sets, so the connectives on one or two masks are table lookups (the
+# partial check runs tens of thousands of times per second): NOT_TABLE[m], AND_TABLE[a << 3 | b].
+NOT_TABLE = tuple(mask_not(m) for m in range(8))
+AND_TABLE = tuple(mask_and((a, b)) for a in range(8) for b in range(8))
+OR_TABLE = tuple(mask_or((a, b)) for a in range(8) for b in range(8))
+#: ``a implies b`` is ``not a or b``.
+IMPLIES_TABLE = tuple(mask_or((mask_not(a), b)) for a in range(8) for b in range(8))
+
+
 # -- interval comparisons: the truth values ``a op b`` may take for a in [alo, ahi], b in
 # [blo, bhi] ----------------------------------------------------------------------------------
 def compare_mask(op: str, alo: int, ahi: int, blo: int, bhi: int, tolerance: int = 0) -> int:
@@ -78,32 +87,26 @@ def compare_mask(op: str, alo: int, ahi: int, blo: int, bhi: int, tolerance: int
     return (T if may_true else 0) | (F if may_false else 0)
 
 
-def _both(first: int, second: int) -> int:
-    return (T if first & second & T else 0) | ((first | second) & F)
-
-
-def _either(first: int, second: int) -> int:
-    return ((first | second) & T) | (F if first & second & F else 0)
-
-
-def _le(alo: int, ahi: int, blo: int, bhi: int) -> int:
-    return (T if alo <= bhi else 0) | (F if ahi > blo else 0)
-
-
 def _precedes(a: Box, b: Box) -> int:
     return (T if a[2] <= b[1] else 0) | (F if a[3] > b[0] else 0)
 
 
+# Each relation below is two interval comparisons ``x <= y`` (T if lo(x) <= hi(y), F if
+# hi(x) > lo(y)) joined by "and" (T needs both, F either) or "or" (T needs either, F both),
+# written out because this is the hot path.
 def _includes(a: Box, b: Box) -> int:
-    return _both(_le(a[0], a[1], b[0], b[1]), _le(b[2], b[3], a[2], a[3]))
+    # start(a) <= start(b) and stop(b) <= stop(a)
+    return (T if a[0] <= b[1] and b[2] <= a[3] else 0) | (F if a[1] > b[0] or b[3] > a[2] else 0)
 
 
 def _excludes(a: Box, b: Box) -> int:
-    return _either(_le(a[2], a[3], b[0], b[1]), _le(b[2], b[3], a[0], a[1]))
+    # stop(a) <= start(b) or stop(b) <= start(a)
+    return (T if a[2] <= b[1] or b[2] <= a[1] else 0) | (F if a[3] > b[0] and b[3] > a[0] else 0)
 
 
 def _rightincludes(a: Box, b: Box) -> int:
-    return _both(_le(a[0], a[1], b[2], b[3]), _le(b[2], b[3], a[2], a[3]))
+    # start(a) <= stop(b) and stop(b) <= stop(a)
+    return (T if a[0] <= b[3] and b[2] <= a[3] else 0) | (F if a[1] > b[2] or b[3] > a[2] else 0)
 
 
 RELATION_MASKS: dict[str, Callable[[Box, Box], int]] = {
@@ -146,37 +149,58 @@ def _term_range(term: ir.Term, box: Box | None, duration: int) -> tuple[int, int
     return value, value
 
 
+def _edge_indices(term: ir.Term) -> tuple[int, int, int]:
+    """Box indices of the low and high value of a signal edge, and its offset."""
+    assert isinstance(term, ir.SignalTime)
+    return (0, 1, term.offset) if term.edge == "start" else (2, 3, term.offset)
+
+
 def _compile_compare(atom: ir.Compare, duration: int) -> Node:
     left_signal = atom.left.signal if isinstance(atom.left, ir.SignalTime) else None
     right_signal = atom.right.signal if isinstance(atom.right, ir.SignalTime) else None
     op, tolerance, left, right = atom.op, atom.tolerance, atom.left, atom.right
 
-    def pair(a: Box | None, b: Box | None) -> int:
-        alo, ahi = _term_range(left, a, duration)
-        blo, bhi = _term_range(right, b, duration)
-        return compare_mask(op, alo, ahi, blo, bhi, tolerance)
-
     if left_signal is None and right_signal is None:
-        constant = pair(None, None)
+        alo, ahi = _term_range(left, None, duration)
+        blo, bhi = _term_range(right, None, duration)
+        constant = compare_mask(op, alo, ahi, blo, bhi, tolerance)
         return lambda env: constant
     if left_signal is None or right_signal is None:
         name = left_signal or right_signal
         assert name is not None
         on_left = left_signal is not None
+        low, high, offset = _edge_indices(left if on_left else right)
+        value, _ = _term_range(right if on_left else left, None, duration)
+
+        def one_box(a: Box) -> int:
+            if on_left:
+                return compare_mask(op, a[low] + offset, a[high] + offset, value, value, tolerance)
+            return compare_mask(op, value, value, a[low] + offset, a[high] + offset, tolerance)
 
         def one(env: Env) -> int:
             boxes = env.get(name)
             if not boxes:
                 return N
-            return _for_all(lambda a, _b: pair(a, None) if on_left else pair(None, a), boxes, boxes, True)
+            if len(boxes) == 1:
+                return one_box(boxes[0])
+            return _for_all(lambda a, _b: one_box(a), boxes, boxes, True)
 
         return one
     same = left_signal == right_signal
+    a_low, a_high, a_offset = _edge_indices(left)
+    b_low, b_high, b_offset = _edge_indices(right)
+
+    def pair(a: Box, b: Box) -> int:
+        return compare_mask(
+            op, a[a_low] + a_offset, a[a_high] + a_offset, b[b_low] + b_offset, b[b_high] + b_offset, tolerance
+        )
 
     def two(env: Env) -> int:
         lefts, rights = env.get(left_signal), env.get(right_signal)
         if not lefts or not rights:
             return N
+        if len(lefts) == 1 and len(rights) == 1:
+            return pair(lefts[0], lefts[0] if same else rights[0])
         return _for_all(pair, lefts, rights, same)
 
     return two
@@ -189,6 +213,8 @@ def _compile_relation(atom: ir.Relation) -> Node:
         lefts, rights = env.get(left), env.get(right)
         if not lefts or not rights:
             return N
+        if len(lefts) == 1 and len(rights) == 1:  # the usual case: one occurrence each
+            return holds(lefts[0], lefts[0] if same else rights[0])
         return _for_all(holds, lefts, rights, same)
 
     return node
@@ -204,39 +230,58 @@ def compile_expr(expr: ir.Expr, duration: int) -> Node:
     if isinstance(expr, ir.Compare):
         return _compile_compare(expr, duration)
     if isinstance(expr, ir.Not):
-        inner = compile_expr(expr.operand, duration)
-        return lambda env: mask_not(inner(env))
+        inner, negation = compile_expr(expr.operand, duration), NOT_TABLE
+        return lambda env: negation[inner(env)]
     if isinstance(expr, ir.Implies):
         premise, conclusion = compile_expr(expr.left, duration), compile_expr(expr.right, duration)
-        return lambda env: mask_or((mask_not(premise(env)), conclusion(env)))
+        implies = IMPLIES_TABLE
+        return lambda env: implies[premise(env) << 3 | conclusion(env)]
     parts = [compile_expr(e, duration) for e in ir.children(expr)]
-    combine = mask_and if isinstance(expr, ir.And) else mask_or
     if len(parts) == 2:
         first, second = parts
-        return lambda env: combine((first(env), second(env)))
+        table = AND_TABLE if isinstance(expr, ir.And) else OR_TABLE
+        return lambda env: table[first(env) << 3 | second(env)]
+    combine = mask_and if isinstance(expr, ir.And) else mask_or
     return lambda env: combine([part(env) for part in parts])
+
+
+def _acceptance(triggers: tuple[str, ...], node: Node) -> Callable[[Env], bool | int]:
+    """``acceptable`` of :class:`CompiledConstraint`, specialised on the number of triggers.
+    Its value is only used for its truth (a non-zero mask is true: no ``bool()`` call)."""
+    maybe = T | N
+    if not triggers:
+        return lambda env: node(env) & maybe
+    if len(triggers) == 1:
+        (only,) = triggers
+        return lambda env: not env.get(only) or node(env) & maybe
+    first, second, *rest = triggers
+    if not rest:
+        return lambda env: not (env.get(first) or env.get(second)) or node(env) & maybe
+
+    def acceptable(env: Env) -> bool | int:
+        for name in triggers:
+            if env.get(name):
+                return node(env) & maybe
+        return True
+
+    return acceptable
 
 
 class CompiledConstraint:
     """One constraint, compiled for a timeline of ``duration`` ms."""
 
-    __slots__ = ("constraint", "mentioned", "node", "triggers")
+    __slots__ = ("acceptable", "constraint", "id", "mentioned", "node", "triggers")
 
     def __init__(self, constraint: ir.Constraint, duration: int) -> None:
         self.constraint = constraint
+        self.id = constraint.id
         self.node = compile_expr(constraint.expr, duration)
         self.triggers = tuple(sorted(constraint.triggers))
         self.mentioned = tuple(sorted(ir.mentioned_signals(constraint.expr)))
-
-    def acceptable(self, env: Env) -> bool:
-        """In this one world: ignored, or may end up true or unknown (not surely false)."""
-        if self.triggers:
-            for name in self.triggers:
-                if env.get(name):
-                    break
-            else:
-                return True
-        return bool(self.node(env) & (T | N))
+        #: In this one world: ignored (no trigger occurs), or may end up true or unknown
+        #: (not surely false); true or false in the sense of ``if``.  A closure rather than
+        #: a method: it is the hottest call.
+        self.acceptable = _acceptance(self.triggers, self.node)
 
     def violated(self, env: Env) -> bool:
         """On a complete timeline (points only): exactly :func:`mse.ir.evaluate.is_violated`."""
@@ -245,18 +290,26 @@ class CompiledConstraint:
     def may_hold(self, env: Env, optional: Mapping[str, Box]) -> bool:
         """Some world (each optional signal absent, or present once more in its box) is
         acceptable.  The world where nothing more occurs is tried first (the usual answer)."""
-        return self.acceptable(env) or self.in_other_world(env, optional)
+        return bool(self.acceptable(env)) or self.in_other_world(env, optional)
 
     def in_other_world(self, env: Env, optional: Mapping[str, Box]) -> bool:
         """:meth:`may_hold` without the world where nothing more occurs."""
         names = [s for s in self.mentioned if s in optional]
+        if not names:
+            return False
         if len(names) > MAX_WORLD_SIGNALS:
             return True
+        # One copy of the environment, each world setting the named signals' entries in it.
+        world = dict(env)
+        extended = [[*env.get(name, ()), optional[name]] for name in names]
         for bits in range(1, 1 << len(names)):
-            world = dict(env)
             for index, name in enumerate(names):
                 if bits >> index & 1:
-                    world[name] = [*env.get(name, ()), optional[name]]
+                    world[name] = extended[index]
+                elif name in env:
+                    world[name] = env[name]
+                else:
+                    world.pop(name, None)
             if self.acceptable(world):
                 return True
         return False

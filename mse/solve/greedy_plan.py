@@ -80,7 +80,7 @@ class Plan:
 
     __slots__ = (
         "bounds", "by_id", "by_signal", "constraints", "cumulative", "duration", "edges", "fixed",
-        "partner_bounds", "related", "signals", "stamps", "table",
+        "initial_owing", "partner_bounds", "related", "signals", "stamps", "table",
     )
 
     def __init__(
@@ -105,6 +105,8 @@ class Plan:
         self.signals = signals
         self.by_id = {s.id: s for s in signals}
         self.constraints = constraints
+        # Constraints violated while nothing is placed (every attempt starts owing them).
+        self.initial_owing = frozenset(c.id for c in constraints if c.violated({}))
         # Lists, reordered by the sampler (most recently failing first: order never changes results)
         self.by_signal = by_signal
         self.related = related  # signals sharing a constraint with it (itself too)
@@ -112,11 +114,9 @@ class Plan:
         self.bounds = bounds
         # earliest/latest start from the constant bounds alone
         self.fixed = {s.id: _fixed_window(s, bounds[s.id], duration) for s in signals}
-        # the bounds that name another signal, as (other, box index, delta, upper) for speed
-        self.partner_bounds = {
-            s.id: tuple((b.other, b.box_index, b.delta, b.upper) for b in bounds[s.id] if b.other is not None)
-            for s in signals
-        }
+        # the bounds that name another signal, grouped by it, as (other, ((box index, delta,
+        # upper), ...)) for speed: one lookup of the other's occurrences per partner
+        self.partner_bounds = {s.id: _by_partner(bounds[s.id]) for s in signals}
 
     def stamp_of(self, tick: int) -> int:
         """Index j of the stamp [t_j, t_{j+1}) holding ``tick``."""
@@ -243,6 +243,14 @@ def _cumulative(hazards: Sequence[float]) -> tuple[float, ...]:
         total -= math.log1p(-min(hazard, 1.0 - 1e-12))  # a certain candidacy: 1 - 1e-12
         found.append(total)
     return tuple(found)
+
+
+def _by_partner(bounds: Sequence[StartBound]) -> tuple[tuple[str, tuple[tuple[int, int, bool], ...]], ...]:
+    grouped: dict[str, list[tuple[int, int, bool]]] = {}
+    for bound in bounds:
+        if bound.other is not None:
+            grouped.setdefault(bound.other, []).append((bound.box_index, bound.delta, bound.upper))
+    return tuple((other, tuple(rules)) for other, rules in grouped.items())
 
 
 def _fixed_window(signal: SignalPlan, bounds: Sequence[StartBound], duration: int) -> tuple[int, int]:

@@ -9,9 +9,46 @@ for the exact comparisons (docs/sampler.md, "Placing one candidate").
 from __future__ import annotations
 
 import random
-from collections.abc import Callable, Iterable
+from collections.abc import Callable, Iterable, Mapping, Sequence
+
+from mse.solve.greedy_plan import Edge, SignalPlan
 
 Intervals = list[tuple[int, int]]
+
+
+def critical_points(
+    edges: Iterable[Edge],
+    env: Mapping[str, Sequence[tuple[int, int, int, int]]],
+    signal: SignalPlan,
+    variable: str,
+    start: int | None,
+) -> list[int]:
+    """Values of the drawn edge of ``signal`` (``variable``: "start" or "stop", the start
+    being ``start`` when the stop is drawn) at which some comparison of ``edges`` with the
+    placed boxes of ``env`` may flip."""
+    points: list[int] = []
+    for edge in edges:
+        if edge.other_signal is None:
+            values = [edge.other_offset]
+        elif edge.other_signal == signal.id:
+            if start is None or edge.other_edge != "start":
+                continue
+            values = [start + edge.other_offset]
+        else:
+            boxes = env.get(edge.other_signal, ())
+            index = 0 if edge.other_edge == "start" else 2
+            values = [box[index] + edge.other_offset for box in boxes]
+        shifts = [0]
+        if variable == "start" and edge.my_edge == "stop":
+            shifts = [signal.shortest, signal.longest]
+        elif variable != edge.my_edge:
+            continue
+        for value in values:
+            pivot = value - edge.my_offset
+            for shift in shifts:
+                for delta in (-edge.tolerance - 1, -edge.tolerance, edge.tolerance, edge.tolerance + 1):
+                    points.append(pivot - shift + delta)
+    return points
 
 
 def feasible(check: Callable[[int], bool], low: int, high: int, points: Iterable[int]) -> Intervals:
@@ -53,6 +90,27 @@ def latest_feasible(
         if point != high and check(point):
             return point
         previous = point
+    return None
+
+
+def nearest_feasible(
+    check: Callable[[int], bool], low: int, high: int, points: Iterable[int], target: int
+) -> int | None:
+    """``nearest(feasible(check, low, high, points), target)`` without probing more than
+    needed: the cells of :func:`feasible` (each critical point, and each open segment between
+    two, probed at its middle) are probed in order of their distance to ``target``, ties to
+    the lower value, and the first that passes gives the answer.  None if none passes."""
+    ordered = sorted({p for p in points if low < p < high} | {low, high})
+    cells: list[tuple[int, int, int]] = []  # (distance to target, nearest value, probe)
+    for point, following in zip(ordered, [*ordered[1:], None], strict=True):
+        cells.append((abs(point - target), point, point))
+        if following is not None and following - point > 1:
+            value = min(max(target, point + 1), following - 1)
+            cells.append((abs(value - target), value, (point + following) // 2))
+    cells.sort()
+    for _, value, probe in cells:
+        if check(probe):
+            return value
     return None
 
 
