@@ -4,16 +4,21 @@ CMLLR (Gales 1998) estimates one affine transform per style, shared by the means
 variances.  It is estimated in feature space, ``x̂ = A x + b``, row by row (closed form up to
 a quadratic in the cofactor scale), and applied to the model as ``μ̂ = A⁻¹(μ - b)``,
 ``Σ̂ = A⁻¹ Σ A⁻ᵀ``; only the diagonal of ``Σ̂`` is kept so that generation stays banded.
-``A`` is block diagonal ("regression blocks"): by default one block per stream (static, Δ,
-Δ², HTS's usual choice), which recognised best on the bench; ``joint`` (3×3 per joint and
-stream, the most robust to tiny data) and ``full`` are available.  A Gaussian prior
-centred on the identity (weight ``prior``, the structural-MAP idea of CSMAPLR) keeps rows
-with little data near identity.  The same estimator adapts the duration Gaussians (one
-S×S transform).
+``A`` is block diagonal ("regression blocks"): one block per stream (static, Δ, Δ², HTS's
+usual choice), ``joint`` (3×3 per joint and stream, the most robust to tiny data) or
+``full``; adaptation picks stream or joint blocks by the amount of data (:func:`auto_blocks`).
+A Gaussian prior centred on the identity (weight ``prior``) keeps rows with little data near
+identity; per-leg regression classes then get their own transforms with the global one as
+prior centre (the structural-MAP idea of CSMAPLR).  The same estimator adapts the duration
+Gaussians (one S×S transform).
 
-MAP then moves every Gaussian that has data towards it (``τ`` = prior weight in frames).
-Adaptive training (SAT, the paper's walker-adaptive training) alternates per-style
-transforms with re-estimation of the average model on the transformed data.
+Statistics are occupancy-weighted (forward-backward over each unit's state runs,
+:mod:`mse.motion.hsmm.occupancy`) as in HTS; ``soft=False`` uses one Viterbi alignment.
+MAP then moves every Gaussian that has data towards it (``τ`` = prior weight in frames; by
+default one visit of the state, i.e. its mean duration, so a state seen once in the
+adaptation data ends half-way between prior and data).  Adaptive training (SAT, the
+paper's walker-adaptive training) alternates per-style transforms with re-estimation of
+the average model on the transformed data.
 """
 
 from __future__ import annotations
@@ -32,6 +37,7 @@ from mse.motion.hsmm.model import (
     realign,
     train_units,
 )
+from mse.motion.hsmm.stats import GaussianStats, collect_stats, duration_stats, output_stats
 
 
 @dataclass(frozen=True, eq=False)
@@ -59,6 +65,16 @@ class AffineTransform:
         return adapted_means, adapted_variances
 
 
+def auto_blocks(static_dims: int, frames: int) -> str:
+    """The largest regression blocks the adaptation data supports (a documented rule).
+
+    A block of size ``k`` has ``k + 1`` parameters per row, each row estimated from every
+    frame: use ``stream`` blocks (``k`` = D) when there are at least two frames per row
+    parameter, else per-joint 3×3 blocks, which need only 8 frames.
+    """
+    return "stream" if frames >= 2 * (static_dims + 1) else "joint"
+
+
 def blocks_for(static_dims: int, kind: str) -> list[np.ndarray]:
     """Index blocks of the (3D,) observation for a block-diagonal transform."""
     width = 3 * static_dims
@@ -75,30 +91,22 @@ def blocks_for(static_dims: int, kind: str) -> list[np.ndarray]:
     raise ValueError(f"unknown regression blocks {kind!r} (full, stream, joint)")
 
 
-@dataclass(frozen=True, eq=False)
-class GaussianStats:
-    """Sufficient statistics of the data one Gaussian holds, with its parameters."""
-
-    count: float
-    total: FloatArray  # (n,)
-    scatter: FloatArray  # (n, n)
-    mean: FloatArray  # (n,)
-    variance: FloatArray  # (n,)
-
-
 def estimate_cmllr(
     stats: Sequence[GaussianStats],
     blocks: Sequence[np.ndarray],
     prior: float = 1.0,
     iterations: int = 4,
+    centre: AffineTransform | None = None,
 ) -> AffineTransform:
-    """Row-by-row CMLLR with an identity-centred Gaussian prior of weight ``prior``.
+    """Row-by-row CMLLR with a Gaussian prior of weight ``prior`` on every row, centred on
+    the identity or on ``centre`` (a parent regression class's transform, as in CSMAPLR).
 
     All blocks have the same size, so the row updates run for every block at once.
     """
     size = stats[0].mean.shape[0]
-    matrix = np.eye(size)
-    bias = np.zeros(size)
+    centre = centre if centre is not None else AffineTransform.identity(size)
+    matrix = centre.matrix.copy()
+    bias = centre.bias.copy()
     beta = float(sum(s.count for s in stats))
     if beta <= 0:
         return AffineTransform(matrix, bias)
@@ -120,9 +128,13 @@ def estimate_cmllr(
     g = np.matmul(precision.transpose(1, 2, 0), flat).reshape(count, k, k + 1, k + 1)
     g += prior * np.eye(k + 1)
     kvec = np.einsum("mbi,mbx->bix", scaled, first)
-    kvec[:, :, 1:] += prior * np.eye(k)
+    # Rows [b, A] of the prior's centre, block by block; the iterations start from them.
+    rows = np.concatenate(
+        [centre.bias[index][:, :, None], centre.matrix[index[:, :, None], index[:, None, :]]],
+        axis=2,
+    )
+    kvec += prior * rows
     g_inv = np.linalg.inv(g)  # (B, k, k+1, k+1)
-    rows = np.broadcast_to(np.hstack([np.zeros((k, 1)), np.eye(k)]), (count, k, k + 1)).copy()
     gk = np.matmul(g_inv, kvec[:, :, :, None])[:, :, :, 0]  # (B, k, k+1): G⁻¹k per row
     inverse = np.linalg.inv(rows[:, :, 1:])  # (B, k, k), kept current by rank-one updates
     for _ in range(iterations):
@@ -163,59 +175,28 @@ def estimate_cmllr(
     return AffineTransform(matrix, bias)
 
 
-# -- statistics from aligned instances ----------------------------------------------------
-def output_stats(
-    instances: Sequence[Instance], units: Mapping[str, UnitModel]
-) -> dict[tuple[str, int], GaussianStats]:
-    """Per (unit, state) statistics of the aligned frames."""
-    acc: dict[tuple[str, int], list[FloatArray]] = {}
-    for instance in instances:
-        for s in range(len(instance.bounds) - 1):
-            chunk = instance.observations[instance.bounds[s] : instance.bounds[s + 1]]
-            if chunk.shape[0]:
-                acc.setdefault((instance.unit, s), []).append(chunk)
-    out = {}
-    for (unit, s), chunks in sorted(acc.items()):
-        frames = np.concatenate(chunks)
-        model = units[unit]
-        out[unit, s] = GaussianStats(
-            float(frames.shape[0]),
-            frames.sum(axis=0),
-            frames.T @ frames,
-            model.means[s],
-            model.variances[s],
-        )
-    return out
+def regression_class(unit: str) -> str:
+    """The regression class of a unit: its swing leg (``a``/``b``) for steps, else itself.
 
-
-def duration_stats(
-    instances: Sequence[Instance], units: Mapping[str, UnitModel]
-) -> dict[str, GaussianStats]:
-    """Per unit statistics of the state-duration vectors."""
-    acc: dict[str, list[FloatArray]] = {}
-    for instance in instances:
-        acc.setdefault(instance.unit, []).append(instance.durations())
-    out = {}
-    for unit, rows in sorted(acc.items()):
-        d = np.asarray(rows)
-        model = units[unit]
-        out[unit] = GaussianStats(
-            float(d.shape[0]),
-            d.sum(axis=0),
-            d.T @ d,
-            model.duration_means,
-            model.duration_variances,
-        )
-    return out
+    Steps of the same leg (first/inner/last) share most of their poses, so a transform
+    estimated on the steps seen in the adaptation data carries over to unseen contexts.
+    """
+    context, _, leg = unit.partition("-")
+    return leg if leg else context
 
 
 def transform_units(
-    units: Mapping[str, UnitModel], output: AffineTransform, duration: AffineTransform
+    units: Mapping[str, UnitModel],
+    output: AffineTransform,
+    duration: AffineTransform,
+    classes: Mapping[str, AffineTransform] | None = None,
 ) -> dict[str, UnitModel]:
-    """The model seen through feature-space transforms (eq. 5–6, diagonal variances)."""
+    """The model seen through feature-space transforms (eq. 5–6, diagonal variances);
+    ``classes`` overrides ``output`` for the units of a regression class."""
     out = {}
     for name, unit in units.items():
-        means, variances = output.model_space(unit.means, unit.variances)
+        transform = (classes or {}).get(regression_class(name), output)
+        means, variances = transform.model_space(unit.means, unit.variances)
         d_means, d_vars = duration.model_space(
             unit.duration_means[None, :], unit.duration_variances[None, :]
         )
@@ -232,22 +213,29 @@ def map_update(
     units: Mapping[str, UnitModel],
     instances: Sequence[Instance],
     floor: FloatArray,
-    tau: float = 3.0,
-    tau_duration: float = 0.5,
+    tau: float | None = None,
+    tau_duration: float = 1.0,
+    soft: bool = True,
 ) -> dict[str, UnitModel]:
-    """MAP re-estimation with the given units as priors (no data: unchanged)."""
+    """MAP re-estimation with the given units as priors (no data: unchanged).
+
+    ``tau`` (frames) None: each state's prior is worth one visit, its mean duration.
+    ``tau_duration`` is in unit instances.
+    """
     out = dict(units)
-    stats = output_stats(instances, units)
-    dstats = duration_stats(instances, units)
+    stats, dstats = collect_stats(instances, units, units, soft)
     for name, unit in units.items():
         means, variances = unit.means.copy(), unit.variances.copy()
         for s in range(unit.states):
             st = stats.get((name, s))
             if st is None:
                 continue
+            weight = float(unit.duration_means[s]) if tau is None else tau
             squares = np.diag(st.scatter)
-            means[s] = (tau * unit.means[s] + st.total) / (tau + st.count)
-            second = (tau * (unit.variances[s] + unit.means[s] ** 2) + squares) / (tau + st.count)
+            means[s] = (weight * unit.means[s] + st.total) / (weight + st.count)
+            second = (weight * (unit.variances[s] + unit.means[s] ** 2) + squares) / (
+                weight + st.count
+            )
             variances[s] = np.maximum(second - means[s] ** 2, floor)
         d_means, d_vars = unit.duration_means.copy(), unit.duration_variances.copy()
         ds = dstats.get(name)
@@ -269,27 +257,40 @@ def adapt_units(
     blocks: Sequence[np.ndarray],
     prior: float = 1.0,
     passes: int = 2,
-    tau: float = 3.0,
-    tau_duration: float = 0.5,
+    tau: float | None = None,
+    tau_duration: float = 1.0,
     use_map: bool = True,
+    soft: bool = True,
+    regression_classes: bool = True,
 ) -> tuple[dict[str, UnitModel], AffineTransform, AffineTransform]:
-    """CMLLR (output and duration) then MAP on the target instances."""
+    """CMLLR (output and duration) then MAP on the target instances.
+
+    With ``regression_classes``, a two-level tree: the global transform, then one per
+    regression class (:func:`regression_class`) that holds at least two frames per row
+    parameter, estimated with the global transform as its prior centre (weight: that
+    same number of frames, so a class at the threshold lands half-way).
+    """
     states = next(iter(units.values())).states
     output = AffineTransform.identity(floor.shape[0])
     duration = AffineTransform.identity(states)
     adapted = dict(units)
-    aligned = list(instances)
     for _ in range(passes):
-        aligned = realign(aligned, adapted)
-        # Transform statistics are gathered against the *source* model's Gaussians.
-        output = estimate_cmllr(list(output_stats(aligned, units).values()), blocks, prior)
-        duration = estimate_cmllr(
-            list(duration_stats(aligned, units).values()), [np.arange(states)], prior
-        )
-        adapted = transform_units(units, output, duration)
+        # Posteriors under the current adapted model; statistics against the *source*
+        # model's Gaussians, which the transforms map onto the data.
+        stats, dstats = collect_stats(instances, units, adapted, soft)
+        output = estimate_cmllr(list(stats.values()), blocks, prior)
+        duration = estimate_cmllr(list(dstats.values()), [np.arange(states)], prior)
+        classes: dict[str, AffineTransform] = {}
+        groups: dict[str, list[GaussianStats]] = {}
+        for (name, _state), st in stats.items():
+            groups.setdefault(regression_class(name), []).append(st)
+        needed = 2.0 * (len(blocks[0]) + 1)
+        for label, members in groups.items() if regression_classes and len(groups) > 1 else ():
+            if sum(m.count for m in members) >= needed:
+                classes[label] = estimate_cmllr(members, blocks, needed, centre=output)
+        adapted = transform_units(units, output, duration, classes)
     if use_map:
-        aligned = realign(aligned, adapted)
-        adapted = map_update(adapted, aligned, floor, tau, tau_duration)
+        adapted = map_update(adapted, instances, floor, tau, tau_duration, soft)
     return adapted, output, duration
 
 

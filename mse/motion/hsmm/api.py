@@ -22,7 +22,7 @@ import numpy as np
 
 from mse.diagnostics import Diagnostic, MseError, Span
 from mse.motion.bvh import Motion
-from mse.motion.hsmm.adapt import adapt_units, adaptive_training, blocks_for
+from mse.motion.hsmm.adapt import adapt_units, adaptive_training, auto_blocks, blocks_for
 from mse.motion.hsmm.features import FloatArray, observations
 from mse.motion.hsmm.io import load_model, save_model
 from mse.motion.hsmm.mlpg import global_variance
@@ -57,11 +57,14 @@ class Options:
     states: int = 5
     iterations: int = 4
     sat_rounds: int = 2
-    blocks: str = "stream"  # CMLLR regression blocks: stream (static/Δ/Δ²), joint (3×3), full
+    blocks: str = "stream"  # SAT's CMLLR regression blocks: stream (static/Δ/Δ²), joint, full
+    adapt_blocks: str = "auto"  # adaptation's blocks; auto: by the amount of data (auto_blocks)
     prior: float = 1.0  # weight of the identity prior of CMLLR rows
-    tau: float = 3.0  # MAP prior weight of output Gaussians (frames)
-    tau_duration: float = 0.5  # MAP prior weight of duration Gaussians (unit instances)
+    tau: float | None = None  # MAP prior weight of output Gaussians (frames); None: one visit
+    tau_duration: float = 1.0  # MAP prior weight of duration Gaussians (unit instances)
     use_map: bool = True
+    soft: bool = True  # occupancy-weighted (forward-backward) adaptation statistics
+    regression_classes: bool = True  # per-leg CMLLR transforms when the data allows
     gv_tau: float = 0.05  # weight of the average model's global variance when adapting
 
 
@@ -198,7 +201,11 @@ def adapt_model(
         [(m, style) for m in motions], template, average.cyclic, average.states
     )
     instances = [replace(i, unit=average.resolve(i.unit)) for i in instances]
-    blocks = blocks_for(template.feature_count, options.blocks)
+    kind = options.adapt_blocks
+    if kind == "auto":
+        frames = sum(i.observations.shape[0] for i in instances)
+        kind = auto_blocks(template.feature_count, frames)
+    blocks = blocks_for(template.feature_count, kind)
     units, _output, _ = adapt_units(
         average.units,
         instances,
@@ -208,6 +215,8 @@ def adapt_model(
         tau=options.tau,
         tau_duration=options.tau_duration,
         use_map=options.use_map,
+        soft=options.soft,
+        regression_classes=options.regression_classes,
     )
     target = np.array([global_variance(s) for s in statics])
     gv_mean = (options.gv_tau * average.gv_mean + target.sum(axis=0)) / (
@@ -220,7 +229,12 @@ def adapt_model(
         units=units,
         gv_mean=gv_mean,
         gv_var=gv_var,
-        info={**dict(average.info), "adapted_from": average.style, "takes": len(motions)},
+        info={
+            **dict(average.info),
+            "adapted_from": average.style,
+            "takes": len(motions),
+            "adapt_blocks": kind,
+        },
     )
 
 
@@ -307,6 +321,9 @@ def synthesize_leaf(
 ) -> Motion:
     """A clip of ``action`` in ``style`` lasting exactly ``duration_s`` seconds.
 
+    It has ``round(duration_s / frame_time)`` frames; the frame time is adjusted (by under
+    half a frame over the clip) so that the total is exact, as lma-hmm's time warp does.
+
     The average model of the action and its adaptation to the style are cached (memory and
     ``cache_dir``; ``None`` disables the disk cache).  A style without clips of the action
     uses the average model.
@@ -328,7 +345,12 @@ def synthesize_leaf(
                 folder,
                 lambda: adapt_from_library(average, library, style, takes, options),
             )
-        return _synthesize(model, duration_s=duration_s, seed=seed)
+        motion = _synthesize(model, duration_s=duration_s, seed=seed)
     except ValueError as error:  # e.g. a skeleton without two legs under its root
         message = f"HSMM {action!r} failed: {error}"
         raise MseError([Diagnostic("E213", message, where)]) from None
+    if motion.frame_count and duration_s > 0:
+        # Like lma-hmm's time warp: the frame time absorbs the rounding to whole frames, so
+        # the clip lasts exactly the scheduled duration (the change is under half a frame).
+        motion = replace(motion, frame_time=duration_s / motion.frame_count)
+    return motion

@@ -1,8 +1,8 @@
 """From BVH clips to aligned static feature sequences, and back (paper §4).
 
-* The *root joint* is the joint whose position channels move most (Bandai: ``Hips``; CMU:
-  the BVH root).  Its position is dropped and recomputed at synthesis time; its ancestors are
-  assumed static (Bandai's ``joint_Root`` is all zeros).
+* The *root joint* is the branching joint whose position channels move most (Bandai:
+  ``Hips``; CMU: the BVH root).  Its position is dropped and recomputed at synthesis time; its ancestors are
+  assumed static (Bandai's ``joint_Root`` is, but for a few seconds of one take).
 * Directions are aligned: each clip is turned about the vertical (Y) axis so that its mean
   heading (forward = up × the vector between the two leg roots) points along +Z.
 * Every joint with rotation channels is a feature: the exponential map of its local
@@ -64,15 +64,21 @@ def _chain_end(skeleton: Skeleton, joint: int) -> list[int]:
 
 
 def find_root_joint(motion: Motion) -> int:
-    """The joint with position channels that moves most (the one carrying the translation)."""
+    """The joint carrying the translation: among the joints with position channels that
+    branch (the legs hang from it), the one that moves most.
+
+    Branching matters on short windows: Bandai's ``joint_Root`` (one child) sometimes moves
+    more than ``Hips`` for a second, but the legs are children of ``Hips``.
+    """
     skeleton = motion.skeleton
     movable = [j for j in range(skeleton.joint_count) if skeleton.position_columns(j)]
     if not movable:
         return 0
-    spread = np.sum(np.var(motion.translations()[:, movable], axis=0), axis=1)
-    if float(np.max(spread)) <= 1e-9:  # nothing moves: the first joint with positions
-        return movable[0]
-    return movable[int(np.argmax(spread))]
+    candidates = [j for j in movable if len(skeleton.children(j)) >= 2] or movable
+    spread = np.sum(np.var(motion.translations()[:, candidates], axis=0), axis=1)
+    if float(np.max(spread)) <= 1e-9:  # nothing moves: the first candidate
+        return candidates[0]
+    return candidates[int(np.argmax(spread))]
 
 
 def find_legs(

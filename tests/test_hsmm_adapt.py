@@ -1,0 +1,125 @@
+"""HSMM adaptation internals: forward-backward occupancies against brute force, soft vs
+hard statistics, CMLLR priors centred on a parent transform, regression classes."""
+
+from __future__ import annotations
+
+import itertools
+
+import numpy as np
+
+from mse.motion.hsmm.adapt import (
+    AffineTransform,
+    GaussianStats,
+    adapt_units,
+    auto_blocks,
+    estimate_cmllr,
+    regression_class,
+)
+from mse.motion.hsmm.model import Instance, UnitModel, duration_logpdf, frame_loglik
+from mse.motion.hsmm.occupancy import occupancy
+from mse.motion.hsmm.stats import output_stats, soft_stats
+
+
+def _unit(rng: np.random.Generator, states: int = 3, width: int = 2) -> UnitModel:
+    return UnitModel(
+        rng.normal(size=(states, width)) * 2,
+        rng.uniform(0.5, 2.0, size=(states, width)),
+        rng.uniform(2.0, 4.0, size=states),
+        rng.uniform(1.0, 3.0, size=states),
+    )
+
+
+def test_occupancy_matches_enumeration_of_every_state_split() -> None:
+    rng = np.random.default_rng(11)
+    unit = _unit(rng)
+    frames = rng.normal(size=(9, 2))
+    loglik = frame_loglik(frames, unit.means, unit.variances)
+    scores, splits = [], []
+    for cuts in itertools.combinations(range(1, 9), 2):
+        bounds = (0, *cuts, 9)
+        score = sum(
+            loglik[bounds[s] : bounds[s + 1], s].sum()
+            + duration_logpdf(
+                np.array(float(bounds[s + 1] - bounds[s])),
+                float(unit.duration_means[s]),
+                float(unit.duration_variances[s]),
+            )
+            for s in range(3)
+        )
+        scores.append(float(score))
+        splits.append(bounds)
+    total = float(np.logaddexp.reduce(scores))
+    gamma = np.zeros((9, 3))
+    mean = np.zeros(3)
+    for score, bounds in zip(scores, splits, strict=True):
+        weight = np.exp(score - total)
+        for s in range(3):
+            gamma[bounds[s] : bounds[s + 1], s] += weight
+            mean[s] += weight * (bounds[s + 1] - bounds[s])
+    found = occupancy(frames, unit)
+    assert found is not None
+    assert abs(found.loglik - total) < 1e-9
+    assert np.allclose(found.gamma, gamma, atol=1e-12)
+    assert np.allclose(found.gamma.sum(axis=1), 1.0)
+    assert np.allclose(found.duration_mean, mean, atol=1e-12)
+    assert occupancy(frames[:2], unit) is None  # fewer frames than states
+
+
+def test_soft_statistics_equal_hard_ones_when_states_are_unambiguous() -> None:
+    unit = UnitModel(
+        np.array([[0.0], [5.0], [10.0]]),
+        np.full((3, 1), 0.05),
+        np.array([4.0, 6.0, 3.0]),
+        np.array([2.0, 2.0, 2.0]),
+    )
+    frames = np.concatenate([np.full(4, 0.0), np.full(6, 5.0), np.full(3, 10.0)])[:, None]
+    instance = Instance("inner-a", "x", frames, (0, 4, 10, 13))
+    units = {"inner-a": unit}
+    hard = output_stats([instance], units)
+    soft, durations = soft_stats([instance], units, units)
+    for key, stats in hard.items():
+        assert abs(soft[key].count - stats.count) < 1e-6
+        assert np.allclose(soft[key].total, stats.total, atol=1e-5)
+    assert np.allclose(durations["inner-a"].total, [4.0, 6.0, 3.0], atol=1e-6)
+
+
+def test_cmllr_prior_pulls_towards_its_centre() -> None:
+    rng = np.random.default_rng(12)
+    centre = AffineTransform(np.eye(4) + 0.1 * rng.normal(size=(4, 4)), rng.normal(size=4))
+    stats = []
+    for _ in range(3):
+        frames = rng.normal(size=(5, 4))
+        stats.append(GaussianStats(5.0, frames.sum(0), frames.T @ frames, np.zeros(4), np.ones(4)))
+    pinned = estimate_cmllr(stats, [np.arange(4)], prior=1e9, centre=centre)
+    assert np.allclose(pinned.matrix, centre.matrix, atol=1e-5)
+    assert np.allclose(pinned.bias, centre.bias, atol=1e-5)
+
+
+def test_regression_classes_and_block_rule() -> None:
+    assert [regression_class(u) for u in ("first-a", "inner-b", "last-a", "whole")] == [
+        "a",
+        "b",
+        "a",
+        "whole",
+    ]
+    assert auto_blocks(66, 60) == "joint" and auto_blocks(66, 134) == "stream"
+    # Data drawn from the model shifted by +1: every unit moves by +1, seen (first-a,
+    # inner-b) or not (inner-a, through the transform of its leg's class).
+    rng = np.random.default_rng(13)
+    units = {}
+    for name in ("first-a", "inner-a", "inner-b"):
+        unit = _unit(rng, 3, 3)
+        units[name] = UnitModel(unit.means, unit.variances, np.full(3, 100.0), np.full(3, 9.0))
+    instances = []
+    for name in ("first-a", "inner-b"):
+        unit = units[name]
+        noise = rng.normal(size=(300, 3)) * np.sqrt(np.repeat(unit.variances, 100, axis=0))
+        frames = np.repeat(unit.means, 100, axis=0) + 1.0 + noise
+        instances.append(Instance(name, "x", frames, (0, 100, 200, 300)))
+    adapted, output, _ = adapt_units(
+        units, instances, np.full(3, 1e-4), [np.array([i]) for i in range(3)], use_map=False
+    )
+    for name in units:
+        shift = adapted[name].means - units[name].means
+        assert np.allclose(shift, 1.0, atol=0.2), (name, shift)
+    assert np.all(np.isfinite(output.matrix))
