@@ -16,6 +16,9 @@ from __future__ import annotations
 import numpy as np
 import numpy.typing as npt
 
+from mse.motion.kinematics import mean_rotation as mean_rotation  # re-exported for the HSMM modules
+from mse.motion.kinematics import rotation_exp
+
 FloatArray = npt.NDArray[np.float64]
 
 #: Window offsets and coefficients of the static, Δ and Δ² streams (paper eq. 2–3).
@@ -110,23 +113,7 @@ def expmap_from_matrix(matrices: FloatArray) -> FloatArray:
 
 def matrix_from_expmap(expmaps: FloatArray) -> FloatArray:
     """(..., 3) exponential maps to (..., 3, 3) rotation matrices (Rodrigues' formula)."""
-    r = np.asarray(expmaps, dtype=np.float64)
-    angle = np.linalg.norm(r, axis=-1)
-    small = angle < 1e-8
-    safe = np.where(small, 1.0, angle)
-    # sin θ/θ and (1 - cos θ)/θ² with their Taylor limits near zero.
-    a = np.where(small, 1.0 - angle**2 / 6.0, np.sin(safe) / safe)
-    b = np.where(small, 0.5 - angle**2 / 24.0, (1.0 - np.cos(safe)) / safe**2)
-    skew = np.zeros((*r.shape[:-1], 3, 3), dtype=np.float64)
-    skew[..., 0, 1] = -r[..., 2]
-    skew[..., 0, 2] = r[..., 1]
-    skew[..., 1, 0] = r[..., 2]
-    skew[..., 1, 2] = -r[..., 0]
-    skew[..., 2, 0] = -r[..., 1]
-    skew[..., 2, 1] = r[..., 0]
-    eye = np.broadcast_to(np.eye(3), skew.shape)
-    result: FloatArray = eye + a[..., None, None] * skew + b[..., None, None] * (skew @ skew)
-    return result
+    return rotation_exp(expmaps)
 
 
 def continuous_expmaps(matrices: FloatArray) -> FloatArray:
@@ -141,15 +128,6 @@ def continuous_expmaps(matrices: FloatArray) -> FloatArray:
         flips = np.cumprod(np.where(dots < 0.0, -1.0, 1.0), axis=0)
         quats[1:] *= flips[..., None]
     return expmap_from_quaternion(quats)
-
-
-def mean_rotation(matrices: FloatArray) -> FloatArray:
-    """Chordal L2 mean of (N, 3, 3) rotations: the rotation closest to their average."""
-    average = np.mean(np.asarray(matrices, dtype=np.float64), axis=0)
-    u, _, vt = np.linalg.svd(average)
-    fix = np.diag([1.0, 1.0, np.sign(np.linalg.det(u @ vt))])
-    result: FloatArray = u @ fix @ vt
-    return result
 
 
 def yaw_matrix(angles: FloatArray) -> FloatArray:
