@@ -109,3 +109,24 @@ def test_time_warp_exact_duration() -> None:
     warped, frame_time = time_warp(values, 1 / 30, 1.0)
     assert len(warped) * frame_time == pytest.approx(1.0)
     assert warped[0, 0] == 0 and warped[-1, 0] == 19
+
+
+def test_frames_regeneration_keeps_length_bones_and_movement() -> None:
+    params = GenerationParams(regenerate="frames", cutoff_hz=2.0)
+    result = generate_motion(starter_library(), "arms_raised", "angry", duration=1.7, params=params)
+    _check_clip(result.motion, 1.7)
+    hand = result.motion.skeleton.index("Hand_L")
+    assert np.ptp(result.motion.positions()[:, hand, 1]) > 20.0
+
+
+def test_state_aligned_frames_follow_the_desired_state_order() -> None:
+    from mse.motion.hmm import state_aligned_frames
+
+    means = np.array([[0.0], [10.0]])
+    neighbour = np.arange(6, dtype=np.float64)[:, None]  # state 0 on 0..2, state 1 on 3..5
+    labels = np.array([0, 0, 0, 1, 1, 1])
+    out = state_aligned_frames(np.array([1, 1, 0, 0]), means, [neighbour], [labels])
+    assert out[:2, 0].tolist() == [3.0, 5.0] and out[2:, 0].tolist() == [0.0, 2.0]
+    # a state no neighbour visits gives its mean
+    unseen = state_aligned_frames(np.array([1, 1]), means, [neighbour[:3]], [labels[:3]])
+    assert unseen[:, 0].tolist() == [10.0, 10.0]

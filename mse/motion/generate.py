@@ -10,7 +10,9 @@
 4. HMM_NN trained on the neighbours plus ``nd`` copies of X_d (:mod:`mse.motion.hmm`);
 5. Viterbi state sequence of X_d (moved onto the neighbours' mean posture and spread first),
    sequence of state means (ramps between the midpoints of state runs), zero-phase low-pass
-   filter (Butterworth, 3 Hz);
+   filter (Butterworth, 3 Hz); ``GenerationParams(regenerate="frames")`` instead plays the
+   neighbours' own frames of each state in X_d's state order and timing
+   (:func:`mse.motion.hmm.state_aligned_frames`);
 6. time-warp (linear resampling) to the requested duration: the frame count is
    ``round(duration / frame_time)`` and the frame time is adjusted so that the clip lasts
    exactly ``duration``.
@@ -36,6 +38,7 @@ from mse.motion.hmm import (
     encode,
     encoding_for,
     smooth,
+    state_aligned_frames,
     state_path,
     train_hmm,
 )
@@ -62,6 +65,13 @@ class GenerationParams:
     epsilon_fraction: float = EPSILON_FRACTION
     cutoff_hz: float = 3.0
     n_iter: int = 8
+    #: "means": the paper's sequence of state means; "frames": the neighbours' own frames of
+    #: each state in the desired path's state order and timing (keeps within-state motion)
+    regenerate: str = "means"
+
+    def __post_init__(self) -> None:
+        if self.regenerate not in ("means", "frames"):
+            raise ValueError(f"regenerate must be 'means' or 'frames', not {self.regenerate!r}")
 
 
 @dataclass(frozen=True, eq=False)
@@ -192,8 +202,15 @@ def _hmm_path(
     aligned = (desired_obs - desired_obs.mean(axis=0)) / np.where(spread > 1e-9, spread, 1.0)
     aligned = aligned * pooled.std(axis=0) + pooled.mean(axis=0)
     states = trained.viterbi(aligned).astype(int)
+    if params.regenerate == "frames":
+        training = sequences[: len(neighbours)]
+        labels = [trained.viterbi(sequence).astype(int) for sequence in training]
+        frames = state_aligned_frames(states, trained.means, training, labels)
     timings["viterbi"] = time.perf_counter() - clock
-    path = smooth(state_path(trained.means, states), desired.frame_time, params.cutoff_hz)
+    if params.regenerate == "frames":
+        path = smooth(frames, desired.frame_time, params.cutoff_hz)
+    else:
+        path = smooth(state_path(trained.means, states), desired.frame_time, params.cutoff_hz)
     return decode(encoding, path, desired.values[0])
 
 

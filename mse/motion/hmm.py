@@ -12,6 +12,10 @@ segments of the training sequences; start and transition probabilities set unifo
 (``init_params=""``: hmmlearn's random start can draw zeros that never recover); an identity
 covariance prior with weight dimension + 2 on z-scored observations, so that one neighbour
 does not make covariances singular; BLAS limited to one thread while fitting.
+
+Regeneration: :func:`state_path` (the paper's sequence of state means, with ramps) or
+:func:`state_aligned_frames` (the neighbours' own frames of each state, in the desired path's
+state order and timing).
 """
 
 from __future__ import annotations
@@ -267,3 +271,54 @@ def state_path(means: FloatArray, states: npt.NDArray[np.int_]) -> FloatArray:
     for dim in range(means.shape[1]):
         path[:, dim] = np.interp(times, anchors_t, anchors[:, dim])
     return path
+
+
+def _runs(states: npt.NDArray[np.int_]) -> list[tuple[int, int, int]]:
+    """``(start, stop, state)`` of each run of equal states."""
+    if len(states) == 0:
+        return []
+    changes = np.flatnonzero(np.diff(states)) + 1
+    starts = np.concatenate([[0], changes]).astype(int)
+    stops = np.concatenate([changes, [len(states)]]).astype(int)
+    return [(int(a), int(b), int(states[a])) for a, b in zip(starts, stops, strict=True)]
+
+
+def _resample(segment: FloatArray, frames: int) -> FloatArray:
+    if len(segment) == 1 or frames == 1:
+        return np.repeat(segment[len(segment) // 2 : len(segment) // 2 + 1], frames, axis=0)
+    source = np.linspace(0.0, 1.0, len(segment))
+    target = np.linspace(0.0, 1.0, frames)
+    out = np.empty((frames, segment.shape[1]))
+    for dim in range(segment.shape[1]):
+        out[:, dim] = np.interp(target, source, segment[:, dim])
+    return out
+
+
+def state_aligned_frames(
+    states: npt.NDArray[np.int_],
+    means: FloatArray,
+    sequences: Sequence[FloatArray],
+    sequence_states: Sequence[npt.NDArray[np.int_]],
+) -> FloatArray:
+    """The training frames themselves in the desired path's state order and timing.
+
+    Each run of state s in ``states`` (the desired path's Viterbi sequence) is replaced by
+    the run of s in the training sequences (the neighbours, by their own Viterbi sequences)
+    that sits at the closest relative time, linearly resampled to the run's length; a state
+    no training sequence visits gives its mean. Unlike the state means this keeps the target
+    style's movement *within* a state (speed, curvature), which the means average away."""
+    pool: dict[int, list[tuple[float, FloatArray]]] = {}
+    for sequence, labels in zip(sequences, sequence_states, strict=True):
+        for start, stop, state in _runs(labels):
+            centre = 0.5 * (start + stop) / len(labels)
+            pool.setdefault(state, []).append((centre, sequence[start:stop]))
+    out = np.empty((len(states), means.shape[1]))
+    for start, stop, state in _runs(states):
+        centre = 0.5 * (start + stop) / len(states)
+        candidates = pool.get(state)
+        if not candidates:
+            out[start:stop] = means[state]
+            continue
+        _, segment = min(candidates, key=lambda item: abs(item[0] - centre))
+        out[start:stop] = _resample(segment, stop - start)
+    return out
