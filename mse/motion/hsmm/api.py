@@ -147,15 +147,23 @@ def _gv_stats(statics: Sequence[FloatArray]) -> tuple[FloatArray, FloatArray]:
     return mean, var
 
 
+def _prepare(
+    clips: Sequence[tuple[Motion, str]], action: str, options: Options
+) -> tuple[bool, Template, list[Instance], list[FloatArray], FloatArray]:
+    """What both trainings start from: cyclic?, skeleton template, unit instances, static
+    features and the variance floor."""
+    cyclic = is_cyclic(action)
+    template = build_template([m for m, _ in clips])
+    instances, statics = _gather(clips, template, cyclic, options.states)
+    return cyclic, template, instances, statics, variance_floor(instances)
+
+
 @one_blas_thread
 def train_average(
     clips: Sequence[tuple[Motion, str]], action: str, options: Options = Options()
 ) -> HsmmModel:
     """Average model over (motion, style) clips with style-adaptive training."""
-    cyclic = is_cyclic(action)
-    template = build_template([m for m, _ in clips])
-    instances, statics = _gather(clips, template, cyclic, options.states)
-    floor = variance_floor(instances)
+    cyclic, template, instances, statics, floor = _prepare(clips, action, options)
     blocks = blocks_for(template.feature_count, options.blocks)
     units, _ = adaptive_training(
         instances, options.states, floor, blocks, rounds=options.sat_rounds, prior=options.prior
@@ -180,10 +188,7 @@ def train_scratch(
     clips: Sequence[tuple[Motion, str]], action: str, options: Options = Options()
 ) -> HsmmModel:
     """A style model trained from its own (little) data only: the bench's baseline."""
-    cyclic = is_cyclic(action)
-    template = build_template([m for m, _ in clips])
-    instances, statics = _gather(clips, template, cyclic, options.states)
-    floor = variance_floor(instances)
+    cyclic, template, instances, statics, floor = _prepare(clips, action, options)
     units, _ = train_units(instances, options.states, options.iterations, floor)
     gv_mean, gv_var = _gv_stats(statics)
     return HsmmModel(
