@@ -1,7 +1,8 @@
 """Evaluation of the HSMM stylistic synthesis (issue 7) on Bandai dataset 1 walks and bows.
 
     python bench/style_eval.py [--library ../shared/motion/bandai-ds1] [--actions walk bow]
-                               [--budget 2 1 0] [--windows 3] [--one-fold] [--shared-average]
+                               [--steps 2 4 0] [--runs 0] [--one-fold] [--split-take]
+                               [--shared-average]
 
 Question: does adapting the average model to a style from LITTLE data give clips whose style
 is recognised better than a model trained from scratch on the SAME little data?  Reported
@@ -11,13 +12,14 @@ holds; then the over-smoothing ratio (GV on/off) and times.
 
 Protocol (documented in docs/hsmm.md):
 
-* Little data.  The adaptation data of a style is a window of ``--budget`` seconds (2 s is
-  2.5-4 steps of a walk; the paper adapts from "about a dozen steps") cut from one take.
-  Up to ``--windows`` disjoint windows per style and take (offsets 0, budget, 2·budget)
-  are independent trials.  Budget 0, or a take shorter than two budgets, uses the whole
-  take.  The scratch model is trained on exactly the same window with exactly the same
-  training code (``api.train_scratch``: segmental k-means, same states, floor, iterations,
-  GV) minus the average-model prior.
+* Little data = a few steps.  The whole take is segmented into steps (units in context:
+  first / inner / last, swing leg); the adaptation data of a style is a run of ``--steps``
+  consecutive steps, LABELLED AS IN THE TAKE (a run from the middle of a walk holds inner
+  steps only; the paper labels steps by hand the same way).  Every disjoint run of a take
+  is a trial (``--runs`` caps them).  0, or a take with fewer than two runs' worth of
+  steps, uses the whole take.  The scratch model is trained on exactly the same labelled
+  frames with exactly the same code (``api.train_scratch``) minus the average-model prior.
+  One-shot actions (bow) have one unit per take: whole takes only.
 * Average model.  Trained on take 001 of the OTHER 14 styles (leave one style out), so it
   never saw the target style.  ``--shared-average`` trains one model over all 15 styles
   (faster, but it saw the style: a quick check only, never the verdict).
@@ -27,14 +29,16 @@ Protocol (documented in docs/hsmm.md):
   (hop 0.5 s) of the aligned exponential-map features summarised by mean, standard
   deviation and mean absolute velocity per dimension, standardised, multinomial logistic
   regression; a clip gets the style with the best mean window log-probability.  Originals
-  evaluated = the data takes; synthesized clips have the data take's length.  Bows have ONE
-  take per style: there is no held-out real clip, so the bow recognizer is trained on the
-  takes it evaluates; bow rates are printed for information, marked "NOT measurable
-  held-out", and excluded from the verdict.
-* Chance = 1 / number of styles.  Verdict: adapted vs scratch over all trials, per clip,
-  with the paired count (trials only adaptation got right / only scratch got right) and a
-  two-sided sign-test p-value; "HOLDS" needs a higher rate AND p < 0.05, a higher rate
-  without significance is printed as "holds numerically only".
+  evaluated = the data takes; synthesized clips have the data take's length.  Other
+  actions have ONE take per style: without ``--split-take`` the recognizer is trained on
+  the takes it evaluates (rates marked "NOT measurable held-out", no verdict); with it,
+  a cyclic action's two halves play the two takes (held out in time, same session).
+* Chance = 1 / number of styles.  Verdict: adapted vs scratch per trial, with the paired
+  count (trials only adaptation got right / only scratch got right) and a two-sided sign
+  test, AND per (style, take) -- trials of one style are not independent -- with a sign
+  test over the rate differences.  "HOLDS" needs a higher rate and p < 0.05 in both.  A
+  graded score, the mean log-probability the recognizer gives the true style, is reported
+  with the same two tests.
 """
 
 from __future__ import annotations
@@ -56,6 +60,7 @@ from mse.motion.hsmm import api
 from mse.motion.hsmm.features import FloatArray
 from mse.motion.hsmm.model import HsmmModel
 from mse.motion.hsmm.prep import Template, build_template, static_features
+from mse.motion.hsmm.segment import Segment
 from mse.motion.library import MotionLibrary, load_library
 
 WINDOW, HOP = 60, 15
@@ -94,6 +99,11 @@ class Recognizer:
         rows = window_descriptors(static_features(motion, self.template))
         return float(np.mean(self.model.predict(rows) == style))
 
+    def true_style_score(self, motion: Motion, style: str) -> float:
+        """Mean window log-probability of the true style (graded recognition)."""
+        rows = window_descriptors(static_features(motion, self.template))
+        return float(self.model.predict_log_proba(rows)[:, self.classes.index(style)].mean())
+
     def predict(self, motion: Motion) -> str:
         rows = window_descriptors(static_features(motion, self.template))
         scores = self.model.predict_log_proba(rows).mean(axis=0)
@@ -115,18 +125,31 @@ def sign_test(wins: int, losses: int) -> float:
     return float(min(1.0, 2.0 * tail))
 
 
+def wilcoxon(differences: list[float] | FloatArray) -> float:
+    """Two-sided Wilcoxon signed-rank p-value of paired differences (zeros dropped)."""
+    from scipy.stats import wilcoxon as scipy_wilcoxon
+
+    values = np.asarray(differences, dtype=np.float64)
+    values = values[np.abs(values) > 1e-12]
+    if values.size == 0:
+        return 1.0
+    return float(scipy_wilcoxon(values).pvalue)
+
+
 @dataclass
 class Tally:
     """Recognition results of one kind of clip."""
 
     hits: list[bool] = field(default_factory=list)
     windows: list[float] = field(default_factory=list)
+    scores: list[float] = field(default_factory=list)
     frames: list[int] = field(default_factory=list)
 
     def add(self, recognizer: Recognizer, clip: Motion, style: str) -> None:
         self.frames.append(clip.frame_count)
         self.hits.append(recognizer.predict(clip) == style)
         self.windows.append(recognizer.window_accuracy(clip, style))
+        self.scores.append(recognizer.true_style_score(clip, style))
 
     def rate(self) -> str:
         return (
@@ -135,43 +158,67 @@ class Tally:
         )
 
 
-def adaptation_windows(take: Motion, budget: float, count: int) -> list[Motion]:
-    """Disjoint ``budget``-second windows of the take, or the whole take if it is too short."""
-    frames = round(budget / take.frame_time)
-    if budget <= 0 or take.frame_count < 2 * frames:
-        return [take]
-    starts = range(0, take.frame_count - frames + 1, frames)
-    return [take.slice(start, start + frames) for start in list(starts)[:count]]
+@dataclass(frozen=True)
+class Source:
+    """The data of one style in one fold: labelled steps of a take, and that part as a clip."""
+
+    take: Motion  # the whole take (features are computed on it, so edges keep their context)
+    segments: list[Segment]  # the units of the part used, labelled as in the whole take
+    clip: Motion  # that part of the take: the evaluated original, and the synthesis length
+
+
+def source(take: Motion, template: Template, cyclic: bool, start: int = 0, stop: int | None = None) -> Source:
+    """The steps of ``take`` that lie inside frames ``[start, stop)``."""
+    stop = take.frame_count if stop is None else stop
+    inside = [s for s in api.segment_motion(take, template, cyclic) if s.start >= start and s.stop <= stop]
+    return Source(take, inside, take.slice(start, stop))
+
+
+def step_runs(segments: list[Segment], steps: int, count: int) -> list[list[Segment]]:
+    """Disjoint runs of ``steps`` consecutive units, or all of them (``steps`` 0, or fewer
+    than two runs' worth)."""
+    if steps <= 0 or len(segments) < 2 * steps:
+        return [segments]
+    runs = [segments[i : i + steps] for i in range(0, len(segments) - steps + 1, steps)]
+    return runs[: count or None]
 
 
 @dataclass
 class Condition:
     """Results for one amount of adaptation data."""
 
-    budget: float
-    trials: dict[tuple[str, str], list[Motion]]  # (style, fold) -> adaptation windows
+    steps: int
+    trials: dict[tuple[str, str], list[list[Segment]]]  # (style, fold) -> runs of steps
     adapted: Tally = field(default_factory=Tally)
     scratch: Tally = field(default_factory=Tally)
     gv_on: list[float] = field(default_factory=list)
     gv_off: list[float] = field(default_factory=list)
+    clusters: list[tuple[str, str]] = field(default_factory=list)  # (style, fold) of each trial
+
+
+def cluster_differences(condition: Condition, what: str) -> FloatArray:
+    """Per (style, fold): mean adapted minus mean scratch of ``hits`` or ``scores``."""
+    adapted = np.asarray(getattr(condition.adapted, what), dtype=np.float64)
+    scratch = np.asarray(getattr(condition.scratch, what), dtype=np.float64)
+    keys = sorted(set(condition.clusters))
+    index = np.array([keys.index(k) for k in condition.clusters])
+    return np.array([adapted[index == i].mean() - scratch[index == i].mean() for i in range(len(keys))])
 
 
 def report(action: str, condition: Condition, original: Tally, chance: float, held_out: bool) -> None:
     trials = condition.trials
-    whole = all(
-        len(t) == 1 and t[0].frame_count == frames
-        for t, frames in zip(trials.values(), original.frames, strict=True)
-    )
+    whole = all(len(runs) == 1 for runs in trials.values())
     amount = (
-        f"{condition.budget:g} s windows of the take"
+        "whole take"
+        if condition.steps <= 0
+        else f"runs of {condition.steps} steps"
         if not whole
-        else "whole take"
-        if condition.budget <= 0
-        else f"whole take (shorter than two {condition.budget:g} s windows)"
+        else f"whole take (fewer than {2 * condition.steps} steps)"
     )
     amount += f", {sum(map(len, trials.values()))} trials"
+    halves = "half" in condition.clusters[0][1]
     kind = (
-        "held out: recognizer trained on the other take"
+        f"held out: recognizer trained on the other {'half of the take' if halves else 'take'}"
         if held_out
         else "NOT measurable held-out: one take per style, the recognizer saw it"
     )
@@ -184,19 +231,38 @@ def report(action: str, condition: Condition, original: Tally, chance: float, he
     losses = sum(b and not a for a, b in pairs)
     rate_a, rate_s = 100 * np.mean(condition.adapted.hits), 100 * np.mean(condition.scratch.hits)
     p_value = sign_test(wins, losses)
+    # Trials of one style share the style's difficulty, so they are not independent: the
+    # same comparison with each (style, fold) as ONE unit (its rate difference) is the
+    # conservative test.  The verdict needs both.
+    by_cluster = cluster_differences(condition, "hits")
+    c_wins, c_losses = int(np.sum(by_cluster > 0)), int(np.sum(by_cluster < 0))
+    c_p = sign_test(c_wins, c_losses)
+    score_a, score_s = np.mean(condition.adapted.scores), np.mean(condition.scratch.scores)
+    score_p = wilcoxon(np.subtract(condition.adapted.scores, condition.scratch.scores))
+    score_c = cluster_differences(condition, "scores")
+    score_cp = sign_test(int(np.sum(score_c > 0)), int(np.sum(score_c < 0)))
     if not held_out:
         verdict = "excluded (not held-out)"
     elif rate_a <= rate_s:
         verdict = "does NOT hold"
-    elif p_value < 0.05:
+    elif p_value < 0.05 and c_p < 0.05:
         verdict = "HOLDS"
+    elif p_value < 0.05:
+        verdict = f"holds per trial only (+{rate_a - rate_s:.1f} points; per style p = {c_p:.2f})"
     else:
         verdict = f"holds numerically only (+{rate_a - rate_s:.1f} points, not significant)"
     print(
         f"  {action} [{amount}]: original {100 * np.mean(original.hits):.1f} % / adapted {rate_a:.1f} % / "
         f"scratch {rate_s:.1f} % / chance {chance:.1f} %; adaptation beats scratch: {verdict} "
         f"(paired: only adapted right {wins}, only scratch right {losses}, "
-        f"sign test p = {p_value:.2f})"
+        f"sign test p = {p_value:.3f}; per (style, take): adapted better {c_wins}, scratch better "
+        f"{c_losses}, sign test p = {c_p:.3f})"
+    )
+    print(
+        f"     graded: mean log P(true style) adapted {score_a:.2f} / scratch {score_s:.2f} / "
+        f"original {np.mean(original.scores):.2f} (chance {math.log(chance / 100):.2f}); "
+        f"Wilcoxon per trial p = {score_p:.3f}; per (style, take) adapted higher "
+        f"{int(np.sum(score_c > 0))} of {len(score_c)}, sign test p = {score_cp:.3f}"
     )
     print(
         f"     GV ratio synth/original (median over joints, mean over trials): "
@@ -209,9 +275,10 @@ def evaluate(
     library: MotionLibrary,
     action: str,
     shared_average: bool,
-    budgets: list[float],
+    budgets: list[int],
     count: int,
     cross: bool = True,
+    split: bool = False,
 ) -> None:
     clips = sorted(library.select(action=action), key=lambda c: c.id)
     styles = sorted({c.style for c in clips})
@@ -219,26 +286,31 @@ def evaluate(
     first = {s: library.motion(takes[s][0]) for s in styles}
     second = {s: library.motion(takes[s][-1]) for s in styles}  # take 001 again if alone
     template = build_template([library.motion(c) for c in clips])
+    cyclic = api.is_cyclic(action)
     held_out = all(len(takes[s]) > 1 for s in styles)
-    # Folds: (take the data comes from, take the recognizer learns).  With two takes per
+    # Folds: (where the data comes from, what the recognizer learns).  With two takes per
     # style both directions are run (2-fold cross-validation), else the single take plays
-    # both roles (not held-out).
-    folds = {"take 001": (first, second)}
+    # both roles (not held-out) or, with --split-take, its halves play two takes.
+    data_one = {s: source(first[s], template, cyclic) for s in styles}
+    data_two = {s: source(second[s], template, cyclic) for s in styles}
+    names = ("take 001", "take 002")
+    if not held_out and split and cyclic:
+        # Held out in time only: same performer and session, weaker than a second take.
+        half = {s: first[s].frame_count // 2 for s in styles}
+        data_one = {s: source(first[s], template, cyclic, 0, half[s]) for s in styles}
+        data_two = {s: source(first[s], template, cyclic, half[s]) for s in styles}
+        held_out, names = True, ("first half", "second half")
+    folds = {names[0]: (data_one, data_two)}
     if held_out and cross:
-        folds["take 002"] = (second, first)
+        folds[names[1]] = (data_two, data_one)
     recognizers = {
-        name: Recognizer(template, [(known[s], s) for s in styles])
-        for name, (_, known) in folds.items()
+        name: Recognizer(template, [(known[s].clip, s) for s in styles]) for name, (_, known) in folds.items()
     }
     chance = 100 / len(styles)
     conditions = [
         Condition(
             b,
-            {
-                (s, name): adaptation_windows(data[s], b, count)
-                for s in styles
-                for name, (data, _) in folds.items()
-            },
+            {(s, name): step_runs(data[s].segments, b, count) for s in styles for name, (data, _) in folds.items()},
         )
         for b in budgets
     ]
@@ -249,6 +321,7 @@ def evaluate(
     )
     timings: dict[str, list[float]] = {"train": [], "adapt": [], "scratch": [], "synth_per_s": []}
     shared: HsmmModel | None = None
+    # The average model learns from whole takes 001 of the (other) styles.
     if shared_average:
         started = time.perf_counter()
         shared = api.train_average([(first[s], s) for s in styles], action)
@@ -261,25 +334,26 @@ def evaluate(
             average = api.train_average([(first[s], s) for s in styles if s != style], action)
             timings["train"].append(time.perf_counter() - started)
         assert average is not None
-        for name, (data_take, _) in folds.items():
+        for name, (data_sources, _) in folds.items():
             recognizer = recognizers[name]
-            take: Motion = data_take[style]
-            original.add(recognizer, take, style)
-            real = joint_gv(take, template)
+            data = data_sources[style]
+            original.add(recognizer, data.clip, style)
+            real = joint_gv(data.clip, template)
             moving = real > 1e-4  # joints that actually move (Bandai's joint_Root never does)
-            seconds = take.duration
+            seconds = data.clip.duration
             for condition in conditions:
-                for data in condition.trials[style, name]:
+                for run in condition.trials[style, name]:
                     started = time.perf_counter()
-                    adapted = api.adapt_model(average, [data], style)
+                    adapted = api.adapt_model(average, [data.take], style, segmentation=[run])
                     timings["adapt"].append(time.perf_counter() - started)
                     started = time.perf_counter()
-                    scratch = api.train_scratch([(data, style)], action)
+                    scratch = api.train_scratch([(data.take, style)], action, segmentation=[run])
                     timings["scratch"].append(time.perf_counter() - started)
                     started = time.perf_counter()
                     synth_on = api.synthesize(adapted, duration_s=seconds, seed=0)
                     timings["synth_per_s"].append((time.perf_counter() - started) / seconds)
                     synth_off = api.synthesize(adapted, duration_s=seconds, gv=False, seed=0)
+                    condition.clusters.append((style, name))
                     condition.adapted.add(recognizer, synth_on, style)
                     scratch_clip = api.synthesize(scratch, duration_s=seconds, seed=0)
                     condition.scratch.add(recognizer, scratch_clip, style)
@@ -308,13 +382,20 @@ def main() -> int:
     parser.add_argument("--actions", nargs="+", default=["walk", "bow"])
     parser.add_argument("--shared-average", action="store_true")
     parser.add_argument(
-        "--budget",
-        type=float,
+        "--steps",
+        type=int,
         nargs="+",
-        default=[2.0, 1.0, 0.0],
-        help="seconds of adaptation data; several: one report each (0: the whole take)",
+        default=[2, 4, 0],
+        help="adaptation data in steps (units) of a take; several: one report each (0: the whole take)",
     )
-    parser.add_argument("--windows", type=int, default=3, help="adaptation windows per style")
+    parser.add_argument(
+        "--runs", type=int, default=0, help="runs of steps per style and take (0: every disjoint one)"
+    )
+    parser.add_argument(
+        "--split-take",
+        action="store_true",
+        help="cyclic actions with one take per style: its halves play two takes (held out in time)",
+    )
     parser.add_argument(
         "--one-fold", action="store_true", help="adapt from take 001 only (no 2-fold swap)"
     )
@@ -323,7 +404,7 @@ def main() -> int:
     with api.single_threaded_blas():
         for action in args.actions:
             evaluate(
-                library, action, args.shared_average, args.budget, args.windows, not args.one_fold
+                library, action, args.shared_average, args.steps, args.runs, not args.one_fold, args.split_take
             )
     return 0
 

@@ -175,3 +175,31 @@ def test_cli_train_adapt_synth(
     )
     err = capsys.readouterr().err
     assert "E100" in err and "E213" in err and "Traceback" not in err
+
+
+def test_adaptation_from_labelled_steps_of_a_take(walk_average: HsmmModel, small_library: MotionLibrary) -> None:
+    """A run of steps from the middle of a take keeps the labels it has in the take (inner
+    steps, not a mislabelled 'first'), and only those frames are used."""
+    take = small_library.motion(next(c for c in small_library.select(action="walk") if c.style == "sad"))
+    segments = api.segment_motion(take, walk_average.template, cyclic=True)
+    assert segments[0].unit.startswith("first-") and segments[-1].unit.startswith("last-")
+    run = segments[2:4]
+    assert all(s.unit.startswith("inner-") for s in run)
+    instances, statics = api.clip_instances(take, "sad", walk_average.template, True, 5, run)
+    assert [i.unit for i in instances] == [s.unit for s in run]
+    assert statics.shape[0] == run[-1].stop - run[0].start
+    adapted = api.adapt_model(walk_average, [take], "sad", segmentation=[run])
+    scratch = api.train_scratch([(take, "sad")], "walk", segmentation=[run])
+    assert set(scratch.units) == {s.unit for s in run}
+    assert set(adapted.units) == set(walk_average.units)  # unseen units come from the average
+    for model in (adapted, scratch):
+        clip = api.synthesize(model, duration_s=3.0, seed=0)
+        assert clip.frame_count == round(3.0 / take.frame_time) and np.all(np.isfinite(clip.values))
+
+
+def test_adapted_gv_spread_is_the_styles_not_the_averages(walk_sad: HsmmModel, walk_average: HsmmModel) -> None:
+    """The average model's GV variance spans several styles; one style's (a single take
+    here) gets the same rule as a model trained on it alone: 10 % of its GV."""
+    assert np.allclose(walk_sad.gv_var, (0.1 * walk_sad.gv_mean) ** 2 + 1e-12)
+    moving = walk_average.gv_mean > 1e-8
+    assert np.median(walk_average.gv_var[moving] / walk_average.gv_mean[moving] ** 2) > 0.01

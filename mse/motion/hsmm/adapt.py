@@ -195,7 +195,9 @@ def transform_units(
     ``classes`` overrides ``output`` for the units of a regression class."""
     out = {}
     for name, unit in units.items():
-        transform = (classes or {}).get(regression_class(name), output)
+        # The most specific class that has a transform: the unit's own, then its leg's.
+        found = classes or {}
+        transform = found.get(f"unit:{name}", found.get(regression_class(name), output))
         means, variances = transform.model_space(unit.means, unit.variances)
         d_means, d_vars = duration.model_space(
             unit.duration_means[None, :], unit.duration_variances[None, :]
@@ -262,6 +264,7 @@ def adapt_units(
     use_map: bool = True,
     soft: bool = True,
     regression_classes: bool = True,
+    unit_classes: bool = False,
 ) -> tuple[dict[str, UnitModel], AffineTransform, AffineTransform]:
     """CMLLR (output and duration) then MAP on the target instances.
 
@@ -288,6 +291,16 @@ def adapt_units(
         for label, members in groups.items() if regression_classes and len(groups) > 1 else ():
             if sum(m.count for m in members) >= needed:
                 classes[label] = estimate_cmllr(members, blocks, needed, centre=output)
+        if unit_classes:
+            # Third level of the tree: a unit with enough frames gets its own transform,
+            # centred on its leg's (or the global) transform.
+            by_unit: dict[str, list[GaussianStats]] = {}
+            for (name, _state), st in stats.items():
+                by_unit.setdefault(name, []).append(st)
+            for name, members in by_unit.items():
+                parent = classes.get(regression_class(name), output)
+                if sum(m.count for m in members) >= needed and len(by_unit) > 1:
+                    classes[f"unit:{name}"] = estimate_cmllr(members, blocks, needed, centre=parent)
         adapted = transform_units(units, output, duration, classes)
     if use_map:
         adapted = map_update(adapted, instances, floor, tau, tau_duration, soft)
@@ -301,11 +314,35 @@ def adaptive_training(
     blocks: Sequence[np.ndarray],
     rounds: int = 2,
     prior: float = 1.0,
+    soft: bool = False,
 ) -> tuple[dict[str, UnitModel], dict[str, tuple[AffineTransform, AffineTransform]]]:
-    """Average model by style-adaptive training: per-style transforms + re-estimation."""
+    """Average model by style-adaptive training: per-style transforms + re-estimation.
+
+    ``soft``: transforms and re-estimation from occupancy-weighted statistics (HTS), after
+    the segmental-k-means start; else from Viterbi alignments.
+    """
     units, aligned = train_units(instances, states, floor=floor)
     transforms: dict[str, tuple[AffineTransform, AffineTransform]] = {}
     styles = sorted({i.style for i in instances})
+    if soft:
+        from mse.motion.hsmm.soft_training import estimate_units_soft
+
+        units = estimate_units_soft(aligned, units, floor)
+        for _ in range(rounds):
+            for style in styles:
+                stats, dstats = collect_stats([i for i in aligned if i.style == style], units, units, True)
+                transforms[style] = (
+                    estimate_cmllr(list(stats.values()), blocks, prior),
+                    estimate_cmllr(list(dstats.values()), [np.arange(states)], prior),
+                )
+            units = estimate_units_soft(
+                aligned,
+                units,
+                floor,
+                transform=lambda style, o: transforms[style][0].apply(o),
+                duration_transform=lambda style, d: transforms[style][1].apply(d),
+            )
+        return units, transforms
     for _ in range(rounds):
         for style in styles:
             mine = [i for i in aligned if i.style == style]

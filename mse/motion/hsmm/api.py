@@ -34,7 +34,13 @@ from mse.motion.hsmm.model import (
     variance_floor,
 )
 from mse.motion.hsmm.prep import Template, build_template, pose_positions, static_features
-from mse.motion.hsmm.segment import CYCLIC_ACTIONS, ONE_SHOT_UNIT, foot_separation, segment_clip
+from mse.motion.hsmm.segment import (
+    CYCLIC_ACTIONS,
+    ONE_SHOT_UNIT,
+    Segment,
+    foot_separation,
+    segment_clip,
+)
 from mse.motion.hsmm.synth import synthesize as _synthesize
 from mse.motion.library import MotionLibrary, load_library
 
@@ -65,6 +71,9 @@ class Options:
     use_map: bool = True
     soft: bool = True  # occupancy-weighted (forward-backward) adaptation statistics
     regression_classes: bool = True  # per-leg CMLLR transforms when the data allows
+    unit_classes: bool = False  # and per-unit transforms below them (a third tree level)
+    soft_training: bool = False  # occupancy-weighted training (average and scratch models)
+    style_gv_spread: bool = True  # adapted GV variance from the style's data, not the average's
     gv_tau: float = 0.05  # weight of the average model's global variance when adapting
 
 
@@ -103,14 +112,38 @@ def is_cyclic(action: str) -> bool:
     return action in CYCLIC_ACTIONS
 
 
+def segment_motion(motion: Motion, template: Template, cyclic: bool) -> list[Segment]:
+    """The unit segments of a complete clip (steps in context for cyclic actions)."""
+    statics = static_features(motion, template)
+    separation = foot_separation(pose_positions(statics, template), template.contacts)
+    return segment_clip(statics.shape[0], cyclic, separation if cyclic else None)
+
+
+#: Unit segments per clip, e.g. from a hand labelling or from :func:`segment_motion` on a
+#: whole take when only some of its steps are used; None: found automatically.
+Segmentation = Sequence[Sequence[Segment] | None] | None
+
+
 def clip_instances(
-    motion: Motion, style: str, template: Template, cyclic: bool, states: int
+    motion: Motion,
+    style: str,
+    template: Template,
+    cyclic: bool,
+    states: int,
+    segments: Sequence[Segment] | None = None,
 ) -> tuple[list[Instance], FloatArray]:
-    """Unit instances of one clip (equal state splits) and its static features."""
+    """Unit instances of one clip (equal state splits) and its static features.
+
+    With ``segments`` (labelled frame ranges of the clip), only those frames are used and
+    the static features returned are those of the frames they span.
+    """
     statics = static_features(motion, template)
     obs = observations(statics)
-    separation = foot_separation(pose_positions(statics, template), template.contacts)
-    segments = segment_clip(statics.shape[0], cyclic, separation if cyclic else None)
+    if segments is None:
+        separation = foot_separation(pose_positions(statics, template), template.contacts)
+        segments = segment_clip(statics.shape[0], cyclic, separation if cyclic else None)
+    elif segments:
+        statics = statics[min(s.start for s in segments) : max(s.stop for s in segments)]
     instances = [
         Instance(s.unit, style, obs[s.start : s.stop], uniform_bounds(s.length, states))
         for s in segments
@@ -120,12 +153,17 @@ def clip_instances(
 
 
 def _gather(
-    clips: Sequence[tuple[Motion, str]], template: Template, cyclic: bool, states: int
+    clips: Sequence[tuple[Motion, str]],
+    template: Template,
+    cyclic: bool,
+    states: int,
+    segmentation: Segmentation = None,
 ) -> tuple[list[Instance], list[FloatArray]]:
     instances: list[Instance] = []
     statics: list[FloatArray] = []
-    for motion, style in clips:
-        found, features = clip_instances(motion, style, template, cyclic, states)
+    for index, (motion, style) in enumerate(clips):
+        segments = segmentation[index] if segmentation is not None else None
+        found, features = clip_instances(motion, style, template, cyclic, states, segments)
         instances.extend(found)
         statics.append(features)
     if cyclic and any(i.unit != ONE_SHOT_UNIT for i in instances):
@@ -148,25 +186,34 @@ def _gv_stats(statics: Sequence[FloatArray]) -> tuple[FloatArray, FloatArray]:
 
 
 def _prepare(
-    clips: Sequence[tuple[Motion, str]], action: str, options: Options
+    clips: Sequence[tuple[Motion, str]], action: str, options: Options, segmentation: Segmentation
 ) -> tuple[bool, Template, list[Instance], list[FloatArray], FloatArray]:
     """What both trainings start from: cyclic?, skeleton template, unit instances, static
     features and the variance floor."""
     cyclic = is_cyclic(action)
     template = build_template([m for m, _ in clips])
-    instances, statics = _gather(clips, template, cyclic, options.states)
+    instances, statics = _gather(clips, template, cyclic, options.states, segmentation)
     return cyclic, template, instances, statics, variance_floor(instances)
 
 
 @one_blas_thread
 def train_average(
-    clips: Sequence[tuple[Motion, str]], action: str, options: Options = Options()
+    clips: Sequence[tuple[Motion, str]],
+    action: str,
+    options: Options = Options(),
+    segmentation: Segmentation = None,
 ) -> HsmmModel:
     """Average model over (motion, style) clips with style-adaptive training."""
-    cyclic, template, instances, statics, floor = _prepare(clips, action, options)
+    cyclic, template, instances, statics, floor = _prepare(clips, action, options, segmentation)
     blocks = blocks_for(template.feature_count, options.blocks)
     units, _ = adaptive_training(
-        instances, options.states, floor, blocks, rounds=options.sat_rounds, prior=options.prior
+        instances,
+        options.states,
+        floor,
+        blocks,
+        rounds=options.sat_rounds,
+        prior=options.prior,
+        soft=options.soft_training,
     )
     gv_mean, gv_var = _gv_stats(statics)
     return HsmmModel(
@@ -185,11 +232,19 @@ def train_average(
 
 @one_blas_thread
 def train_scratch(
-    clips: Sequence[tuple[Motion, str]], action: str, options: Options = Options()
+    clips: Sequence[tuple[Motion, str]],
+    action: str,
+    options: Options = Options(),
+    segmentation: Segmentation = None,
 ) -> HsmmModel:
     """A style model trained from its own (little) data only: the bench's baseline."""
-    cyclic, template, instances, statics, floor = _prepare(clips, action, options)
-    units, _ = train_units(instances, options.states, options.iterations, floor)
+    cyclic, template, instances, statics, floor = _prepare(clips, action, options, segmentation)
+    if options.soft_training:
+        from mse.motion.hsmm.soft_training import train_units_soft
+
+        units = train_units_soft(instances, options.states, options.iterations, floor)
+    else:
+        units, _ = train_units(instances, options.states, options.iterations, floor)
     gv_mean, gv_var = _gv_stats(statics)
     return HsmmModel(
         action, clips[0][1], cyclic, units, template, gv_mean, gv_var, floor, _first_leg(instances)
@@ -198,12 +253,20 @@ def train_scratch(
 
 @one_blas_thread
 def adapt_model(
-    average: HsmmModel, motions: Sequence[Motion], style: str, options: Options = Options()
+    average: HsmmModel,
+    motions: Sequence[Motion],
+    style: str,
+    options: Options = Options(),
+    segmentation: Segmentation = None,
 ) -> HsmmModel:
-    """The average model adapted to ``style`` from a few clips (CMLLR then MAP)."""
+    """The average model adapted to ``style`` from a few clips (CMLLR then MAP).
+
+    ``segmentation``: labelled unit segments per motion (e.g. a few steps of a take, with
+    the contexts they have in the take); default: each motion is a complete sequence.
+    """
     template = average.template
     instances, statics = _gather(
-        [(m, style) for m in motions], template, average.cyclic, average.states
+        [(m, style) for m in motions], template, average.cyclic, average.states, segmentation
     )
     instances = [replace(i, unit=average.resolve(i.unit)) for i in instances]
     kind = options.adapt_blocks
@@ -222,12 +285,18 @@ def adapt_model(
         use_map=options.use_map,
         soft=options.soft,
         regression_classes=options.regression_classes,
+        unit_classes=options.unit_classes,
     )
     target = np.array([global_variance(s) for s in statics])
     gv_mean = (options.gv_tau * average.gv_mean + target.sum(axis=0)) / (
         options.gv_tau + target.shape[0]
     )
-    gv_var = average.gv_var * (gv_mean / np.maximum(average.gv_mean, 1e-12)) ** 2
+    if options.style_gv_spread:
+        # The average model's GV spread is mostly BETWEEN styles; one style varies less.
+        # Same rule as a model trained on the target data alone (_gv_stats).
+        gv_var = np.maximum(target.var(axis=0), (0.1 * gv_mean) ** 2 + 1e-12)
+    else:
+        gv_var = average.gv_var * (gv_mean / np.maximum(average.gv_mean, 1e-12)) ** 2
     return replace(
         average,
         style=style,
