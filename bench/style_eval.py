@@ -1,7 +1,7 @@
 """Evaluation of the HSMM stylistic synthesis (issue 7) on Bandai dataset 1 walks and bows.
 
     python bench/style_eval.py [--library ../shared/motion/bandai-ds1] [--actions walk bow]
-                               [--steps 2 4 0] [--runs 0] [--one-fold] [--split-take]
+                               [--steps 1 2 4 0] [--runs 0] [--one-fold] [--split-take]
                                [--shared-average]
 
 Question: does adapting the average model to a style from LITTLE data give clips whose style
@@ -385,7 +385,7 @@ def main() -> int:
         "--steps",
         type=int,
         nargs="+",
-        default=[2, 4, 0],
+        default=[1, 2, 4, 0],
         help="adaptation data in steps (units) of a take; several: one report each (0: the whole take)",
     )
     parser.add_argument(
