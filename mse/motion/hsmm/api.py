@@ -143,6 +143,12 @@ def clip_instances(
         separation = foot_separation(pose_positions(statics, template), template.contacts)
         segments = segment_clip(statics.shape[0], cyclic, separation if cyclic else None)
     elif segments:
+        for segment in segments:
+            if not 0 <= segment.start < segment.stop <= statics.shape[0]:
+                raise ValueError(
+                    f"segment {segment.unit} [{segment.start}, {segment.stop}) is outside the "
+                    f"clip's {statics.shape[0]} frames"
+                )
         statics = statics[min(s.start for s in segments) : max(s.stop for s in segments)]
     instances = [
         Instance(s.unit, style, obs[s.start : s.stop], uniform_bounds(s.length, states))
@@ -161,6 +167,8 @@ def _gather(
 ) -> tuple[list[Instance], list[FloatArray]]:
     instances: list[Instance] = []
     statics: list[FloatArray] = []
+    if segmentation is not None and len(segmentation) != len(clips):
+        raise ValueError(f"{len(segmentation)} segmentations for {len(clips)} clips")
     for index, (motion, style) in enumerate(clips):
         segments = segmentation[index] if segmentation is not None else None
         found, features = clip_instances(motion, style, template, cyclic, states, segments)

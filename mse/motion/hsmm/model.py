@@ -142,7 +142,7 @@ def align(loglik: FloatArray, unit: UnitModel) -> tuple[tuple[int, ...], float]:
 Transform = Callable[[str, FloatArray], FloatArray]  # (style, observations) -> observations
 
 
-def _identity(_style: str, observations: FloatArray) -> FloatArray:
+def identity_transform(_style: str, observations: FloatArray) -> FloatArray:
     return observations
 
 
@@ -156,8 +156,8 @@ def estimate_units(
     instances: Sequence[Instance],
     states: int,
     floor: FloatArray,
-    transform: Transform = _identity,
-    duration_transform: Transform = _identity,
+    transform: Transform = identity_transform,
+    duration_transform: Transform = identity_transform,
 ) -> dict[str, UnitModel]:
     """Maximum-likelihood Gaussians from the frames and durations each state holds."""
     by_unit: dict[str, list[Instance]] = {}
@@ -194,7 +194,7 @@ def estimate_units(
 def realign(
     instances: Sequence[Instance],
     units: Mapping[str, UnitModel],
-    transform: Transform = _identity,
+    transform: Transform = identity_transform,
 ) -> list[Instance]:
     """Every instance re-split into states by the HSMM Viterbi search."""
     out = []

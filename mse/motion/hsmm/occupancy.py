@@ -16,7 +16,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from mse.motion.hsmm.features import FloatArray
-from mse.motion.hsmm.model import UnitModel, duration_logpdf, frame_loglik
+from mse.motion.hsmm.model import Instance, UnitModel, duration_logpdf, frame_loglik
 
 
 @dataclass(frozen=True, eq=False)
@@ -79,3 +79,18 @@ def occupancy(observations: FloatArray, unit: UnitModel) -> Occupancy | None:
         by_start = np.cumsum(posterior, axis=0)
         gamma[:, s] = np.sum(np.where(upper, by_start, 0.0), axis=1)[:length]
     return Occupancy(gamma, mean, square, total)
+
+
+def posteriors(
+    observations: FloatArray, unit: UnitModel, instance: Instance
+) -> tuple[FloatArray, FloatArray, FloatArray]:
+    """Frame posteriors (L, S) and per-state duration moments (mean, mean square) of an
+    instance; its hard alignment when the lattice is empty (fewer frames than states)."""
+    occ = occupancy(observations, unit)
+    if occ is not None:
+        return occ.gamma, occ.duration_mean, occ.duration_square
+    gamma = np.zeros((observations.shape[0], unit.states))
+    for s in range(unit.states):
+        gamma[instance.bounds[s] : instance.bounds[s + 1], s] = 1.0
+    mean = instance.durations()
+    return gamma, mean, mean**2

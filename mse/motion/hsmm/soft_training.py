@@ -20,36 +20,18 @@ from mse.motion.hsmm.model import (
     Instance,
     Transform,
     UnitModel,
+    identity_transform,
     train_units,
 )
-from mse.motion.hsmm.occupancy import occupancy
-
-
-def _identity(_style: str, values: FloatArray) -> FloatArray:
-    return values
-
-
-def _posteriors(
-    observations: FloatArray, unit: UnitModel, instance: Instance
-) -> tuple[FloatArray, FloatArray, FloatArray]:
-    """Frame posteriors and duration moments; the hard alignment if the lattice is empty."""
-    occ = occupancy(observations, unit)
-    if occ is not None:
-        return occ.gamma, occ.duration_mean, occ.duration_square
-    states = unit.states
-    gamma = np.zeros((observations.shape[0], states))
-    for s in range(states):
-        gamma[instance.bounds[s] : instance.bounds[s + 1], s] = 1.0
-    mean = instance.durations().astype(np.float64)
-    return gamma, mean, mean**2
+from mse.motion.hsmm.occupancy import posteriors
 
 
 def estimate_units_soft(
     instances: Sequence[Instance],
     units: Mapping[str, UnitModel],
     floor: FloatArray,
-    transform: Transform = _identity,
-    duration_transform: Transform = _identity,
+    transform: Transform = identity_transform,
+    duration_transform: Transform = identity_transform,
 ) -> dict[str, UnitModel]:
     """One soft re-estimation of every unit from its instances' posteriors under ``units``."""
     sums: dict[str, list[FloatArray]] = {}
@@ -57,7 +39,7 @@ def estimate_units_soft(
     for instance in instances:
         unit = units[instance.unit]
         obs = transform(instance.style, instance.observations)
-        gamma, mean, square = _posteriors(obs, unit, instance)
+        gamma, mean, square = posteriors(obs, unit, instance)
         acc = sums.setdefault(
             instance.unit,
             [np.zeros(unit.states), np.zeros(unit.means.shape), np.zeros(unit.means.shape)],

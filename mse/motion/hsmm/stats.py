@@ -10,7 +10,7 @@ import numpy as np
 
 from mse.motion.hsmm.features import FloatArray
 from mse.motion.hsmm.model import Instance, UnitModel, realign
-from mse.motion.hsmm.occupancy import occupancy
+from mse.motion.hsmm.occupancy import posteriors
 
 
 @dataclass(frozen=True, eq=False)
@@ -86,15 +86,7 @@ def soft_stats(
     dacc: dict[str, list[FloatArray]] = {}
     for instance in instances:
         obs = instance.observations
-        occ = occupancy(obs, posterior[instance.unit])
-        if occ is None:
-            gamma = np.zeros((obs.shape[0], states))
-            for s in range(states):
-                gamma[instance.bounds[s] : instance.bounds[s + 1], s] = 1.0
-            mean = instance.durations()
-            square = mean**2
-        else:
-            gamma, mean, square = occ.gamma, occ.duration_mean, occ.duration_square
+        gamma, mean, square = posteriors(obs, posterior[instance.unit], instance)
         for s in range(states):
             weight = gamma[:, s]
             key = (instance.unit, s)
