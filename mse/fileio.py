@@ -1,4 +1,5 @@
-"""Writing output files atomically: a reader never sees a half-written file."""
+"""Output files written atomically (a reader never sees a half-written file), and the cache
+folder."""
 
 from __future__ import annotations
 
@@ -29,3 +30,13 @@ def _umask() -> int:
     current = os.umask(0)
     os.umask(current)
     return current
+
+
+def user_cache_dir(kind: str) -> Path:
+    """The folder of one kind of cache: ``$MSE_CACHE_DIR/kind``, else the XDG cache folder
+    (``$XDG_CACHE_HOME/mse/kind``, default ``~/.cache/mse/kind``)."""
+    configured = os.environ.get("MSE_CACHE_DIR")
+    if configured:
+        return Path(configured) / kind
+    base = os.environ.get("XDG_CACHE_HOME") or str(Path.home() / ".cache")
+    return Path(base) / "mse" / kind

@@ -11,12 +11,12 @@ from __future__ import annotations
 import contextlib
 import hashlib
 import json
-import os
 from collections.abc import Callable
 from pathlib import Path
 
 from mse import __version__
 from mse.diagnostics import Diagnostic, MseError
+from mse.fileio import user_cache_dir, write_atomic
 from mse.ir.decode import DecodeError, model_from_trusted_json
 from mse.ir.model import Model
 
@@ -24,11 +24,7 @@ Compile = Callable[[Path], tuple[Model | None, list[Diagnostic]]]
 
 
 def cache_dir() -> Path:
-    configured = os.environ.get("MSE_CACHE_DIR")
-    if configured:
-        return Path(configured) / "models"
-    base = os.environ.get("XDG_CACHE_HOME") or str(Path.home() / ".cache")
-    return Path(base) / "mse" / "models"
+    return user_cache_dir("models")
 
 
 def _key(path: Path, data: bytes) -> str:
@@ -53,7 +49,6 @@ def load_cached(path: Path, compile_source: Compile) -> Model:
     if model is None:
         raise MseError(diagnostics)
     if entry is not None:
-        from mse.fileio import write_atomic
         from mse.ir.canonical import model_dumps
 
         with contextlib.suppress(OSError):

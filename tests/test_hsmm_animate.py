@@ -12,7 +12,7 @@ import pytest
 from mse.ir.model import Model, MotionLeaf, Signal
 from mse.motion.animate import MotionWarning, animate
 from mse.motion.bvh import Motion, read_bvh
-from mse.motion.hsmm import api
+from mse.motion.hsmm import leaf
 from mse.motion.library import MotionLibrary, load_library
 from mse.timeline import Timeline, TimelineSignal
 
@@ -20,13 +20,13 @@ from mse.timeline import Timeline, TimelineSignal
 def _spy(monkeypatch: pytest.MonkeyPatch) -> list[tuple[str, str, float]]:
     """Record the calls ``animate`` makes to the HSMM leaf entry point."""
     calls: list[tuple[str, str, float]] = []
-    real = api.synthesize_leaf
+    real = leaf.synthesize_leaf
 
     def spy(source: MotionLibrary, action: str, style: str, duration_s: float, **kw: object) -> Motion:
         calls.append((action, style, duration_s))
         return real(source, action, style, duration_s, **kw)  # type: ignore[arg-type]
 
-    monkeypatch.setattr(api, "synthesize_leaf", spy)
+    monkeypatch.setattr(leaf, "synthesize_leaf", spy)
     return calls
 
 

@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 from mse.motion.bvh import Motion, read_bvh
-from mse.motion.hsmm import api
+from mse.motion.hsmm import api, leaf
 from mse.motion.hsmm.io import load_model, save_model
 from mse.motion.hsmm.model import HsmmModel
 from mse.motion.library import MotionLibrary, load_library
@@ -38,7 +38,7 @@ def walk_average(small_library: MotionLibrary) -> HsmmModel:
 
 @pytest.fixture(scope="module")
 def walk_sad(walk_average: HsmmModel, small_library: MotionLibrary) -> HsmmModel:
-    return api.adapt_from_library(walk_average, small_library, "sad", takes=1)
+    return leaf.adapt_from_library(walk_average, small_library, "sad", takes=1)
 
 
 def _bone_lengths(motion: Motion, root: int) -> np.ndarray:
@@ -133,11 +133,11 @@ def test_leaf_gets_its_scheduled_duration(small_library: MotionLibrary, tmp_path
         tuple(c for c in small_library.select(action="walk") if c.id.endswith("_001"))[:2],
     )
     style = two_walks.clips[1].style
-    motion = api.synthesize_leaf(two_walks, "walk", style, 2.5, seed=1, cache_dir=tmp_path)
+    motion = leaf.synthesize_leaf(two_walks, "walk", style, 2.5, seed=1, cache_dir=tmp_path)
     assert motion.frame_count == 75
     assert len(list(tmp_path.glob("*.npz"))) == 2  # average and adapted models cached on disk
-    api._MODELS.clear()  # the next call must come from the disk cache
-    again = api.synthesize_leaf(two_walks, "walk", style, 2.5, seed=1, cache_dir=tmp_path)
+    leaf._MODELS.clear()  # the next call must come from the disk cache
+    again = leaf.synthesize_leaf(two_walks, "walk", style, 2.5, seed=1, cache_dir=tmp_path)
     assert np.allclose(motion.values, again.values)
 
 

@@ -6,13 +6,13 @@ from pathlib import Path
 
 import numpy as np
 
-from mse.motion.hsmm import api
+from mse.motion.hsmm import leaf
 from mse.motion.starter import starter_library
 
 
 def test_starter_leaf_has_its_scheduled_duration(tmp_path: Path) -> None:
     library = starter_library()
-    motion = api.synthesize_leaf(library, "bow", "sad", 2.0, seed=2, cache_dir=tmp_path)
+    motion = leaf.synthesize_leaf(library, "bow", "sad", 2.0, seed=2, cache_dir=tmp_path)
     assert motion.frame_count == round(2.0 / motion.frame_time)
     assert np.all(np.isfinite(motion.values))
     assert motion.skeleton.same_layout(library.motion(library.select(action="bow")[0]).skeleton)

@@ -12,6 +12,7 @@ from __future__ import annotations
 import argparse
 import sys
 import time
+from collections.abc import Callable
 from typing import Any
 
 from mse.cli.common import print_error
@@ -79,41 +80,53 @@ def _positive(value: float | None, name: str) -> str | None:
     return None
 
 
-def run_train(args: argparse.Namespace) -> int:
-    from mse.motion.hsmm.api import Options, train_from_library
-    from mse.motion.hsmm.io import save_model
-
-    if args.states < 1:
-        return _fail(args.library, "--states must be at least 1")
+def _run_step(step: Callable[[], str], source: str, output: str, verb: str, product: str) -> int:
+    """Run one step and print ``output: summary, time``; its failures become located errors
+    (a bad input at ``source``, an unwritable ``output``)."""
     started = time.perf_counter()
     try:
-        model = train_from_library(
-            args.library, args.action, Options(states=args.states, blocks=args.blocks)
-        )
-        save_model(args.output, model)
+        summary = step()
     except MseError as error:
         return print_error(error)
     except ValueError as error:
-        return _fail(args.library, f"cannot train: {error}")
+        return _fail(source, f"cannot {verb}: {error}")
     except OSError as error:
-        return _fail(args.output, f"cannot write model: {error.strerror or error}")
-    print(
-        f"{args.output}: average {args.action} model, {len(model.units)} unit(s) x "
-        f"{model.states} states, {model.info.get('clips')} clip(s), "
-        f"{time.perf_counter() - started:.1f} s",
-        file=sys.stderr,
-    )
+        return _fail(output, f"cannot write {product}: {error.strerror or error}")
+    elapsed = time.perf_counter() - started
+    took = f"{elapsed:.1f} s" if elapsed >= 1 else f"{1000 * elapsed:.0f} ms"
+    print(f"{output}: {summary}, {took}", file=sys.stderr)
     return 0
 
 
+def run_train(args: argparse.Namespace) -> int:
+    from mse.motion.hsmm.api import Options
+    from mse.motion.hsmm.io import save_model
+    from mse.motion.hsmm.leaf import train_from_library
+
+    if args.states < 1:
+        return _fail(args.library, "--states must be at least 1")
+
+    def step() -> str:
+        options = Options(states=args.states, blocks=args.blocks)
+        model = train_from_library(args.library, args.action, options)
+        save_model(args.output, model)
+        return (
+            f"average {args.action} model, {len(model.units)} unit(s) x {model.states} states, "
+            f"{model.info.get('clips')} clip(s)"
+        )
+
+    return _run_step(step, args.library, args.output, "train", "model")
+
+
 def run_adapt(args: argparse.Namespace) -> int:
-    from mse.motion.hsmm.api import Options, adapt_from_library
+    from mse.motion.hsmm.api import Options
     from mse.motion.hsmm.io import load_model, save_model
+    from mse.motion.hsmm.leaf import adapt_from_library
 
     if args.takes < 0:
         return _fail(args.library, "--takes must be 0 (all) or more")
-    started = time.perf_counter()
-    try:
+
+    def step() -> str:
         average = load_model(args.model)
         options = Options(
             states=average.states,
@@ -122,18 +135,9 @@ def run_adapt(args: argparse.Namespace) -> int:
         )
         model = adapt_from_library(average, args.library, args.style, args.takes or None, options)
         save_model(args.output, model)
-    except MseError as error:
-        return print_error(error)
-    except ValueError as error:
-        return _fail(args.library, f"cannot adapt: {error}")
-    except OSError as error:
-        return _fail(args.output, f"cannot write model: {error.strerror or error}")
-    print(
-        f"{args.output}: {model.action} model adapted to {args.style!r} from "
-        f"{model.info.get('takes')} take(s), {time.perf_counter() - started:.1f} s",
-        file=sys.stderr,
-    )
-    return 0
+        return f"{model.action} model adapted to {args.style!r} from {model.info.get('takes')} take(s)"
+
+    return _run_step(step, args.library, args.output, "adapt", "model")
 
 
 def run_synth(args: argparse.Namespace) -> int:
@@ -144,22 +148,15 @@ def run_synth(args: argparse.Namespace) -> int:
     problem = _positive(args.duration, "--duration") or _positive(args.steps, "--steps")
     if problem:
         return _fail(args.model, problem)
-    started = time.perf_counter()
-    try:
+
+    def step() -> str:
         model = load_model(args.model)
         motion = synthesize(
             model, steps=args.steps, duration_s=args.duration, gv=not args.no_gv, seed=args.seed
         )
         write_bvh(args.output, motion)
-    except MseError as error:
-        return print_error(error)
-    except ValueError as error:
-        return _fail(args.model, f"cannot synthesize: {error}")
-    except OSError as error:
-        return _fail(args.output, f"cannot write BVH: {error.strerror or error}")
-    print(
-        f"{args.output}: {motion.frame_count} frames ({motion.duration:.2f} s) of "
-        f"{model.style} {model.action}, {1000 * (time.perf_counter() - started):.0f} ms",
-        file=sys.stderr,
-    )
-    return 0
+        return (
+            f"{motion.frame_count} frames ({motion.duration:.2f} s) of {model.style} {model.action}"
+        )
+
+    return _run_step(step, args.model, args.output, "synthesize", "BVH")

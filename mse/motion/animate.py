@@ -19,7 +19,7 @@ The emotion of the expression (``timeline.expression``, else ``model.name``; a l
 through :data:`mse.motion.library.EMOTION_STYLES`, overridden by the library index and then
 by ``emotion_styles``. When the library lacks the leaf's action (or that style of it), the
 starter library is used with a :class:`MotionWarning` naming the action. ``method="hsmm"``
-leaves go to :func:`mse.motion.hsmm.api.synthesize_leaf` (falling back to lma-hmm with a
+leaves go to :func:`mse.motion.hsmm.leaf.synthesize_leaf` (falling back to lma-hmm with a
 warning when it cannot serve them). Warnings go through
 :mod:`warnings` so that front-ends decide how to show them.
 """
@@ -114,7 +114,7 @@ def _generate_hsmm(
 ) -> Motion | None:
     """``method="hsmm"``: the HSMM method (:mod:`mse.motion.hsmm`); None -> use lma-hmm."""
     from mse.diagnostics import MseError
-    from mse.motion.hsmm.api import synthesize_leaf
+    from mse.motion.hsmm.leaf import synthesize_leaf
 
     try:
         return synthesize_leaf(library, leaf.action, style, duration, seed=0)

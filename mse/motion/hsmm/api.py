@@ -1,30 +1,26 @@
-"""Library API of the HSMM method: train, adapt, synthesize, and the cached leaf entry point.
+"""Library API of the HSMM method: train, adapt, synthesize.
 
-``train_average`` builds the average model of an action over every style of a library with
-style-adaptive training; ``adapt_model`` adapts it to a style from a few takes (CMLLR, then
-MAP); ``synthesize`` generates a clip; ``synthesize_leaf`` chains them for the ``animate``
-pipeline with an in-process and on-disk cache keyed by the library's content hash.
+``train_average`` builds the average model of an action over (motion, style) clips with
+style-adaptive training; ``adapt_model`` adapts it to a style from a few takes or labelled
+steps (CMLLR, then MAP); ``train_scratch`` is the no-prior baseline; ``synthesize`` generates
+a clip.  Training from a motion library and the cached leaf entry point of ``animate`` are in
+:mod:`mse.motion.hsmm.leaf`.
 """
 
 from __future__ import annotations
 
 import contextlib
 import functools
-import hashlib
 import importlib
-import os
 from collections.abc import Callable, Iterator, Sequence
 from dataclasses import asdict, dataclass, replace
-from pathlib import Path
 from typing import ParamSpec, TypeVar
 
 import numpy as np
 
-from mse.diagnostics import Diagnostic, MseError, Span
 from mse.motion.bvh import Motion
 from mse.motion.hsmm.adapt import adapt_units, adaptive_training, auto_blocks, blocks_for
 from mse.motion.hsmm.features import FloatArray, observations
-from mse.motion.hsmm.io import load_model, save_model
 from mse.motion.hsmm.mlpg import global_variance
 from mse.motion.hsmm.model import (
     HsmmModel,
@@ -42,16 +38,13 @@ from mse.motion.hsmm.segment import (
     segment_clip,
 )
 from mse.motion.hsmm.synth import synthesize as _synthesize
-from mse.motion.library import MotionLibrary, load_library
 
 __all__ = [
     "Options",
-    "adapt_from_library",
     "adapt_model",
+    "segment_motion",
     "synthesize",
-    "synthesize_leaf",
     "train_average",
-    "train_from_library",
     "train_scratch",
 ]
 
@@ -319,120 +312,3 @@ def adapt_model(
         },
     )
 
-
-# -- library level ------------------------------------------------------------------------
-def _library(source: str | os.PathLike[str] | MotionLibrary) -> MotionLibrary:
-    return source if isinstance(source, MotionLibrary) else load_library(source)
-
-
-def _where(source: str | os.PathLike[str] | MotionLibrary) -> str:
-    return source.name if isinstance(source, MotionLibrary) else os.fspath(source)
-
-
-def _no_clips(source: str | os.PathLike[str] | MotionLibrary, what: str) -> MseError:
-    return MseError([Diagnostic("E213", f"no {what} in the motion library", Span(_where(source)))])
-
-
-def train_from_library(
-    source: str | os.PathLike[str] | MotionLibrary, action: str, options: Options = Options()
-) -> HsmmModel:
-    library = _library(source)
-    clips = [(library.motion(c), c.style) for c in library.select(action=action)]
-    if not clips:
-        raise _no_clips(source, f"clips of action {action!r}")
-    return train_average(clips, action, options)
-
-
-def adapt_from_library(
-    average: HsmmModel,
-    source: str | os.PathLike[str] | MotionLibrary,
-    style: str,
-    takes: int | None = 1,
-    options: Options = Options(),
-) -> HsmmModel:
-    library = _library(source)
-    chosen = sorted(library.select(action=average.action, style=style), key=lambda c: c.id)
-    if not chosen:
-        raise _no_clips(source, f"{average.action!r} clips of style {style!r}")
-    if takes is not None:
-        chosen = chosen[: max(1, takes)]
-    return adapt_model(average, [library.motion(c) for c in chosen], style, options)
-
-
-_MODELS: dict[str, HsmmModel] = {}
-
-
-def default_cache_dir() -> Path:
-    configured = os.environ.get("MSE_CACHE_DIR")
-    if configured:
-        return Path(configured) / "hsmm"
-    base = os.environ.get("XDG_CACHE_HOME") or str(Path.home() / ".cache")
-    return Path(base) / "mse" / "hsmm"
-
-
-def _cached(key: str, cache_dir: Path | None, build: Callable[[], HsmmModel]) -> HsmmModel:
-    """The model for ``key`` from memory, then disk, else ``build()`` (and store it)."""
-    if key in _MODELS:
-        return _MODELS[key]
-    path = cache_dir / f"{key}.npz" if cache_dir is not None else None
-    model: HsmmModel | None = None
-    if path is not None and path.is_file():
-        try:
-            model = load_model(path)
-        except MseError:
-            model = None  # a stale or broken cache entry: rebuild it
-    if model is None:
-        model = build()
-        if path is not None:
-            # The cache is an optimisation: a read-only disk must not fail a leaf.
-            with contextlib.suppress(OSError):
-                save_model(path, model)
-    _MODELS[key] = model
-    return model
-
-
-def synthesize_leaf(
-    source: str | os.PathLike[str] | MotionLibrary,
-    action: str,
-    style: str,
-    duration_s: float,
-    seed: int | None = None,
-    options: Options = Options(),
-    cache_dir: str | os.PathLike[str] | None = "default",
-    takes: int | None = 1,
-) -> Motion:
-    """A clip of ``action`` in ``style`` lasting exactly ``duration_s`` seconds.
-
-    It has ``round(duration_s / frame_time)`` frames; the frame time is adjusted (by under
-    half a frame over the clip) so that the total is exact, as lma-hmm's time warp does.
-
-    The average model of the action and its adaptation to the style are cached (memory and
-    ``cache_dir``; ``None`` disables the disk cache).  A style without clips of the action
-    uses the average model.
-    """
-    library = _library(source)
-    directory = default_cache_dir() if cache_dir == "default" else cache_dir
-    folder = Path(directory) if directory is not None else None
-    settings = hashlib.sha256(repr(options).encode()).hexdigest()[:8]
-    base_key = f"{library.content_hash}-{action}-{settings}"
-    where = Span(_where(source))
-    try:
-        average = _cached(
-            f"{base_key}-average", folder, lambda: train_from_library(library, action, options)
-        )
-        model = average
-        if library.select(action=action, style=style):
-            model = _cached(
-                f"{base_key}-{style}-{takes}",
-                folder,
-                lambda: adapt_from_library(average, library, style, takes, options),
-            )
-        motion = _synthesize(model, duration_s=duration_s, seed=seed)
-    except ValueError as error:  # e.g. a skeleton without two legs under its root
-        message = f"HSMM {action!r} failed: {error}"
-        raise MseError([Diagnostic("E213", message, where)]) from None
-    if motion.frame_count and duration_s > 0:
-        # Like lma-hmm's time warp: the frame time absorbs the rounding to whole frames, so
-        # the clip lasts exactly the scheduled duration (the change is under half a frame).
-        motion = replace(motion, frame_time=duration_s / motion.frame_count)
-    return motion
