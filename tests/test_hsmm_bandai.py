@@ -177,6 +177,26 @@ def test_cli_train_adapt_synth(
     assert "E100" in err and "E213" in err and "Traceback" not in err
 
 
+def test_cli_trains_a_style_on_its_own_takes(
+    small_library: MotionLibrary, bandai_dir: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """``mse style train --style S`` is the no-average-model baseline, from the style's takes."""
+    alone = tmp_path / "walk.sad-only"
+    argv = ("style", "train", "--library", str(bandai_dir), "--action", "walk")
+    assert _run(*argv, "--style", "sad", "--takes", "1", "-o", str(alone)) == 0
+    model = load_model(alone)
+    assert (model.style, model.info["takes"], model.info["trained_on"]) == ("sad", 1, "style data only")
+    take = small_library.motion(min(small_library.select(action="walk", style="sad"), key=lambda c: c.id))
+    expected = api.train_scratch([(take, "sad")], "walk")
+    assert set(model.units) == set(expected.units)
+    assert all(np.allclose(model.units[u].means, expected.units[u].means) for u in model.units)
+    assert _run(*argv, "--takes", "1", "-o", str(tmp_path / "x")) == 1  # --takes needs --style
+    assert _run(*argv, "--style", "nope", "-o", str(tmp_path / "x")) == 1
+    assert not (tmp_path / "x").exists()
+    err = capsys.readouterr().err
+    assert "--takes goes with --style" in err and "E213" in err and "Traceback" not in err
+
+
 def test_adaptation_from_labelled_steps_of_a_take(walk_average: HsmmModel, small_library: MotionLibrary) -> None:
     """A run of steps from the middle of a take keeps the labels it has in the take (inner
     steps, not a mislabelled 'first'), and only those frames are used."""

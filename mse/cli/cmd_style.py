@@ -2,6 +2,7 @@
 
 ```
 mse style train --library DIR --action walk -o walk.avg
+mse style train --library DIR --action walk --style sad -o walk.sad-only   # no average model
 mse style adapt walk.avg --library DIR --style sad --takes 1 -o walk.sad
 mse style synth walk.sad --steps 6 -o sad_walk.bvh      # or --duration 5
 ```
@@ -32,6 +33,14 @@ def register(subparsers: Any) -> None:
     train = commands.add_parser("train", help="train the average model of an action")
     train.add_argument("--library", required=True, help="motion library folder or index")
     train.add_argument("--action", required=True, help="action label, e.g. walk or bow")
+    train.add_argument(
+        "--style",
+        help="train a model of this style on its own takes only (no average model; "
+        "from about two steps of data it is as good as adaptation, see docs/hsmm.md)",
+    )
+    train.add_argument(
+        "--takes", type=int, default=0, help="with --style: takes to use (default 0: all)"
+    )
     train.add_argument("-o", "--output", required=True, help="model file to write")
     train.add_argument("--states", type=int, default=5, help="states per unit (default 5)")
     train.add_argument(
@@ -105,15 +114,21 @@ def run_train(args: argparse.Namespace) -> int:
 
     if args.states < 1:
         return _fail(args.library, "--states must be at least 1")
+    if args.takes < 0:
+        return _fail(args.library, "--takes must be 0 (all) or more")
+    if args.takes and args.style is None:
+        return _fail(args.library, "--takes goes with --style")
 
     def step() -> str:
         options = Options(states=args.states, blocks=args.blocks)
-        model = train_from_library(args.library, args.action, options)
-        save_model(args.output, model)
-        return (
-            f"average {args.action} model, {len(model.units)} unit(s) x {model.states} states, "
-            f"{model.info.get('clips')} clip(s)"
+        model = train_from_library(
+            args.library, args.action, options, style=args.style, takes=args.takes or None
         )
+        save_model(args.output, model)
+        shape = f"{len(model.units)} unit(s) x {model.states} states"
+        if args.style is not None:
+            return f"{args.style} {args.action} model, {shape}, from its {model.info.get('takes')} take(s) alone"
+        return f"average {args.action} model, {shape}, {model.info.get('clips')} clip(s)"
 
     return _run_step(step, args.library, args.output, "train", "model")
 

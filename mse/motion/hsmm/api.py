@@ -238,7 +238,8 @@ def train_scratch(
     options: Options = Options(),
     segmentation: Segmentation = None,
 ) -> HsmmModel:
-    """A style model trained from its own (little) data only: the bench's baseline."""
+    """A style model trained on its own data only, without an average model (the bench's
+    baseline; as good as adaptation on this data from about two steps on, docs/hsmm.md)."""
     cyclic, template, instances, statics, floor = _prepare(clips, action, options, segmentation)
     if options.soft_training:
         from mse.motion.hsmm.soft_training import train_units_soft
@@ -248,7 +249,16 @@ def train_scratch(
         units, _ = train_units(instances, options.states, options.iterations, floor)
     gv_mean, gv_var = _gv_stats(statics)
     return HsmmModel(
-        action, clips[0][1], cyclic, units, template, gv_mean, gv_var, floor, _first_leg(instances)
+        action,
+        clips[0][1],
+        cyclic,
+        units,
+        template,
+        gv_mean,
+        gv_var,
+        floor,
+        _first_leg(instances),
+        info={"takes": len(clips), "trained_on": "style data only", **asdict(options)},
     )
 
 

@@ -17,7 +17,7 @@ from pathlib import Path
 from mse.diagnostics import Diagnostic, MseError, Span
 from mse.fileio import user_cache_dir
 from mse.motion.bvh import Motion
-from mse.motion.hsmm.api import Options, adapt_model, train_average
+from mse.motion.hsmm.api import Options, adapt_model, train_average, train_scratch
 from mse.motion.hsmm.io import load_model, save_model
 from mse.motion.hsmm.model import HsmmModel
 from mse.motion.hsmm.synth import synthesize
@@ -38,10 +38,31 @@ def _no_clips(source: str | os.PathLike[str] | MotionLibrary, what: str) -> MseE
     return MseError([Diagnostic("E213", f"no {what} in the motion library", Span(_where(source)))])
 
 
+def _style_takes(
+    library: MotionLibrary, where: str | os.PathLike[str] | MotionLibrary, action: str, style: str, takes: int | None
+) -> list[Motion]:
+    """The first ``takes`` clips (by id; None: all) of ``action`` in ``style``."""
+    chosen = sorted(library.select(action=action, style=style), key=lambda c: c.id)
+    if not chosen:
+        raise _no_clips(where, f"{action!r} clips of style {style!r}")
+    if takes is not None:
+        chosen = chosen[: max(1, takes)]
+    return [library.motion(c) for c in chosen]
+
+
 def train_from_library(
-    source: str | os.PathLike[str] | MotionLibrary, action: str, options: Options = Options()
+    source: str | os.PathLike[str] | MotionLibrary,
+    action: str,
+    options: Options = Options(),
+    style: str | None = None,
+    takes: int | None = None,
 ) -> HsmmModel:
+    """The average model of ``action`` over every style of the library, or with ``style`` a
+    model of that style trained on its first ``takes`` clips alone (no average model)."""
     library = _library(source)
+    if style is not None:
+        motions = _style_takes(library, source, action, style, takes)
+        return train_scratch([(m, style) for m in motions], action, options)
     clips = [(library.motion(c), c.style) for c in library.select(action=action)]
     if not clips:
         raise _no_clips(source, f"clips of action {action!r}")
@@ -56,12 +77,8 @@ def adapt_from_library(
     options: Options = Options(),
 ) -> HsmmModel:
     library = _library(source)
-    chosen = sorted(library.select(action=average.action, style=style), key=lambda c: c.id)
-    if not chosen:
-        raise _no_clips(source, f"{average.action!r} clips of style {style!r}")
-    if takes is not None:
-        chosen = chosen[: max(1, takes)]
-    return adapt_model(average, [library.motion(c) for c in chosen], style, options)
+    motions = _style_takes(library, source, average.action, style, takes)
+    return adapt_model(average, motions, style, options)
 
 
 _MODELS: dict[str, HsmmModel] = {}
