@@ -30,13 +30,15 @@ def register(subparsers: Any) -> None:
     )
     commands = parser.add_subparsers(dest="style_command", metavar="STEP")
 
-    train = commands.add_parser("train", help="train the average model of an action")
+    train = commands.add_parser(
+        "train", help="train the average model of an action (with --style: one style's own model)"
+    )
     train.add_argument("--library", required=True, help="motion library folder or index")
     train.add_argument("--action", required=True, help="action label, e.g. walk or bow")
     train.add_argument(
         "--style",
         help="train a model of this style on its own takes only (no average model; "
-        "from about two steps of data it is as good as adaptation, see docs/hsmm.md)",
+        "on Bandai walks as good as adaptation from about two steps of data, docs/hsmm.md)",
     )
     train.add_argument(
         "--takes", type=int, default=0, help="with --style: takes to use (default 0: all)"
