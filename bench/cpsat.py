@@ -22,8 +22,8 @@ sys.path.insert(0, str(REPO))
 from mse.api import load, loads  # noqa: E402
 from mse.resources import bundled_names  # noqa: E402
 from mse.solve.cpsat import CpSatSolver  # noqa: E402
-from mse.solve.deep_lint import deep_lint  # noqa: E402
-from mse.solve.explain import explain  # noqa: E402
+from mse.solve.cpsat.deep_lint import deep_lint  # noqa: E402
+from mse.solve.cpsat.explain import explain  # noqa: E402
 from mse.solve.protocol import SolveRequest  # noqa: E402
 
 CONFLICT = REPO / "tests" / "fixtures" / "solvers" / "conflict.xml"

@@ -21,7 +21,7 @@ from mse.timeline import Timeline, TimelineSignal, from_schedule
 # functions that parse: a model from the compiled-model cache needs none of them.
 
 if TYPE_CHECKING:
-    from mse.solve.explain import Explanation
+    from mse.solve.cpsat.explain import Explanation
 
 
 def compile_source(path: str | Path, data: bytes | None = None) -> tuple[Model | None, list[Diagnostic]]:
@@ -132,7 +132,7 @@ def lint(
             continue
         found.extend(lint_model(model))
         if deep:
-            from mse.solve.deep_lint import deep_lint
+            from mse.solve.cpsat.deep_lint import deep_lint
 
             found.extend(deep_lint(model, duration))
 
@@ -219,6 +219,6 @@ def iter_sample(
 
 def explain(model: Model, duration: float = 10.0, **options: Any) -> Explanation | None:
     """Why no timeline of ``duration`` exists (a minimal conflicting set), or None."""
-    from mse.solve.explain import explain as explain_model
+    from mse.solve.cpsat.explain import explain as explain_model
 
     return explain_model(model, float(duration), **options)

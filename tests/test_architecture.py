@@ -104,3 +104,47 @@ def test_cli_paths_do_not_load_heavy_libraries(argv: list[str]) -> None:
     out = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True, cwd=root, check=True)
     assert out.stdout.strip().endswith("[]"), out.stdout + out.stderr
     assert out.stdout.startswith("0 "), out.stdout + out.stderr
+
+
+def test_no_import_cycles() -> None:
+    """Imports run one way: no module reaches itself again through mse imports (lazy ones too)."""
+    names = {module for module, _ in _modules()}
+    graph: dict[str, set[str]] = {}
+    for module, path in _modules():
+        edges = set()
+        for imported, _, _ in _imports(path):
+            # "from mse.a import b" may name the submodule mse.a.b or an attribute of mse.a
+            target = imported if imported in names else None
+            if target and target != module and not module.startswith(target + "."):
+                edges.add(target)
+        graph[module] = edges
+    state: dict[str, int] = {}
+    cycles: list[str] = []
+
+    def visit(node: str, stack: list[str]) -> None:
+        state[node] = 1
+        for nxt in sorted(graph.get(node, ())):
+            if state.get(nxt) == 1:
+                cycles.append(" -> ".join([*stack[stack.index(nxt):], nxt]))
+            elif nxt not in state:
+                visit(nxt, [*stack, nxt])
+        state[node] = 2
+
+    for node in sorted(graph):
+        if node not in state:
+            visit(node, [node])
+    assert not cycles, "\n".join(cycles)
+
+
+def test_solver_backends_do_not_import_each_other() -> None:
+    backends = ("greedy", "cpsat", "csp")
+    problems = []
+    for module, path in _modules():
+        own = next((b for b in backends if module.startswith(f"mse.solve.{b}")), None)
+        if own is None:
+            continue
+        for imported, line, _ in _imports(path):
+            other = next((b for b in backends if imported.startswith(f"mse.solve.{b}")), None)
+            if other is not None and other != own:
+                problems.append(f"{path.relative_to(PACKAGE.parent)}:{line}: {module} imports {imported}")
+    assert not problems, "\n".join(problems)

@@ -223,8 +223,8 @@ def test_constraint_less_mode_ignores_constraints() -> None:
 
 
 def test_importing_mse_does_not_load_solvers() -> None:
-    code = ("import sys, mse, mse.api, mse.solve.cpsat, mse.solve.csp, mse.solve.explain, "
-            "mse.solve.deep_lint; "
+    code = ("import sys, mse, mse.api, mse.solve.cpsat, mse.solve.csp, mse.solve.cpsat.explain, "
+            "mse.solve.cpsat.deep_lint; "
             "assert 'ortools' not in sys.modules and 'constraint' not in sys.modules, "
             "[m for m in sys.modules if m.startswith(('ortools', 'constraint'))]")
     subprocess.run([sys.executable, "-c", code], check=True)

@@ -9,10 +9,11 @@ from strategies import models
 from mse.ir import model as ir
 from mse.ir.evaluate import check_schedule
 from mse.ir.schedule import to_ticks
-from mse.solve.cpsat import make_solver, solve_one
-from mse.solve.cpsat_bounds import slot_counts
-from mse.solve.cpsat_encode import build
-from mse.solve.explain import explain
+from mse.solve.bounds import slot_counts
+from mse.solve.cpsat.encode import build
+from mse.solve.cpsat.engine import make_solver
+from mse.solve.cpsat.explain import explain
+from mse.solve.cpsat.solver import solve_one
 from mse.solve.protocol import NoSolution, SolveRequest
 
 

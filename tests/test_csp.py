@@ -14,8 +14,8 @@ from mse.diagnostics import MseError
 from mse.ir import model as ir
 from mse.ir.evaluate import check_schedule
 from mse.ir.schedule import to_ticks
-from mse.solve.cpsat import enumerate_schedules, solve_one
-from mse.solve.csp import CspSolver, enumerate_grid
+from mse.solve.cpsat.solver import enumerate_schedules, solve_one
+from mse.solve.csp.solver import CspSolver, enumerate_grid
 from mse.solve.protocol import NoSolution, Pin, SolveRequest
 from mse.timeline import Timeline
 

@@ -10,7 +10,7 @@ import mse.api
 from mse.api import load, loads
 from mse.diagnostics import Diagnostic
 from mse.resources import behaviour_sets_dir, bundled_names
-from mse.solve.deep_lint import deep_lint
+from mse.solve.cpsat.deep_lint import deep_lint
 
 FIXTURES = Path(__file__).parent / "fixtures" / "solvers"
 

@@ -324,14 +324,15 @@ def test_starts_never_decrease_in_decision_order(name: str) -> None:
     """The paper's invariant: each placed signal starts no earlier than the previous one."""
     import random
 
-    from mse.solve.greedy_engine import Attempt, Doomed
-    from mse.solve.greedy_plan import plan_for
+    from mse.solve.greedy.engine import Attempt, Doomed
+    from mse.solve.greedy.plan import plan_for
+    from mse.solve.greedy.walk import walk
 
     plan = plan_for(bundled(name), 10_000, 1.0)
     rng = random.Random(7)
     for _ in range(30):
         try:
-            occurrences = Attempt(plan, rng, frozenset(), frozenset()).run()
+            occurrences = walk(Attempt(plan, rng, frozenset(), frozenset()))
         except Doomed:
             continue
         starts = [o.start for o in occurrences]

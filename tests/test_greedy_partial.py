@@ -13,7 +13,7 @@ from strategies import models
 
 from mse.ir import model as ir
 from mse.ir.evaluate import evaluate_expr, is_violated
-from mse.solve.greedy_partial import (
+from mse.solve.greedy.partial import (
     Box,
     CompiledConstraint,
     F,
@@ -25,7 +25,7 @@ from mse.solve.greedy_partial import (
     mask_or,
     relation_mask,
 )
-from mse.solve.greedy_windows import feasible, nearest, nearest_feasible
+from mse.solve.greedy.windows import feasible, nearest, nearest_feasible
 
 DURATION = 10_000
 

@@ -55,4 +55,4 @@ def run(args: argparse.Namespace) -> int:
 def _deep_available() -> bool:
     import importlib.util
 
-    return importlib.util.find_spec("mse.solve.deep_lint") is not None
+    return importlib.util.find_spec("mse.solve.cpsat.deep_lint") is not None

@@ -125,3 +125,25 @@ def check_supported(solver: Solver, request: SolveRequest) -> None:
         hint = " (use --solver cpsat)" if solver.name != "cpsat" else ""
         message = f"solver {solver.name!r} does not support {', '.join(unsupported)}{hint}"
         raise MseError([Diagnostic("E100", message, Span("<arguments>"))])
+
+
+def _argument_error(message: str) -> MseError:
+    return MseError([Diagnostic("E100", message, Span("<arguments>"))])
+
+
+def check_request(model: Model, request: SolveRequest) -> None:
+    """Unknown signals and impossible pins are user errors, not infeasibility."""
+    known = model.signal_by_id
+    named = [p.signal for p in request.pinned] + list(request.require) + list(request.forbid)
+    for name in named:
+        if name not in known:
+            raise _argument_error(f"unknown signal {name!r} in {model.name!r} (known: {', '.join(known)})")
+    for pin in request.pinned:
+        if not 0 <= pin.start < pin.stop <= request.duration:
+            raise _argument_error(
+                f"pin {pin.signal}@{pin.start:g}-{pin.stop:g} is not inside [0, {request.duration:g}] s")
+    if request.objective is not None and request.objective not in (
+        "likely", "random", "most-signals", "fewest-signals"):
+        raise _argument_error(f"unknown objective {request.objective!r}")
+    if request.duration <= 0:
+        raise _argument_error("the duration must be positive")

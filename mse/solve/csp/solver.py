@@ -21,7 +21,7 @@ from mse.diagnostics import Diagnostic, MseError, Span
 from mse.ir import model as ir
 from mse.ir.evaluate import check_schedule, constraint_status
 from mse.ir.schedule import Occurrence, Schedule, to_ticks
-from mse.solve.cpsat_bounds import length_bounds, semantic_limit
+from mse.solve.bounds import length_bounds, semantic_limit
 from mse.solve.protocol import NoSolution, SolveRequest, derive_seed
 
 #: Larger sets are refused: exhaustive search is exponential in the number of signals.
@@ -154,7 +154,7 @@ class CspSolver:
     supports = frozenset({"grid", "pin", "require", "forbid", "constraint-less"})
 
     def solve(self, model: ir.Model, request: SolveRequest) -> list[Schedule]:
-        from mse.solve.cpsat import check_request
+        from mse.solve.protocol import check_request
 
         check_request(model, request)
         search = _Search(model, request)

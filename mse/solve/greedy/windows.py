@@ -11,7 +11,7 @@ from __future__ import annotations
 import random
 from collections.abc import Callable, Iterable, Mapping, Sequence
 
-from mse.solve.greedy_plan import Edge, SignalPlan
+from mse.solve.greedy.plan import Edge, SignalPlan
 
 Intervals = list[tuple[int, int]]
 

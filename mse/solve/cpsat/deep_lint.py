@@ -1,6 +1,6 @@
 """Solver-backed lint (W401-W406): questions about *all* consistent timelines.
 
-One switchable CP-SAT model (:mod:`mse.solve.cpsat_encode`) answers every question by
+One switchable CP-SAT model (:mod:`mse.solve.cpsat.encode`) answers every question by
 assumptions, each query with a small time limit:
 
 * W401 no consistent timeline at all (the message carries the minimal explanation);
@@ -27,8 +27,8 @@ from mse.diagnostics import Diagnostic, Span
 from mse.ir import model as ir
 from mse.ir.evaluate import intervals_of, is_instantiated
 from mse.ir.schedule import to_ticks
-from mse.solve.cpsat_bounds import slot_counts
-from mse.solve.cpsat_encode import Encoding, Lit, build, lnot
+from mse.solve.bounds import slot_counts
+from mse.solve.cpsat.encode import Encoding, Lit, build, lnot
 
 #: Length of the first time stamp (the greedy sampler's slot is about 1 s).
 FIRST_STAMP = 1.0
@@ -74,7 +74,7 @@ class _Linter:
         """'feasible' | 'infeasible' | 'unknown' under ``rules`` (default all) and ``extra``."""
         from ortools.sat.python import cp_model
 
-        from mse.solve.cpsat import decode, make_solver
+        from mse.solve.cpsat.engine import decode, make_solver
 
         if any(lit is False for lit in extra):
             return "infeasible"
@@ -128,7 +128,7 @@ class _Linter:
         return self.found
 
     def _no_timeline(self, status: str) -> None:
-        from mse.solve.explain import explain
+        from mse.solve.cpsat.explain import explain
 
         if status == "unknown":
             self.report("W401", f"is there a consistent timeline of {self.duration:g} s",

@@ -18,8 +18,9 @@ from mse.diagnostics import Diagnostic, MseError, Span
 from mse.ir import model as ir
 from mse.ir.evaluate import check_schedule
 from mse.ir.schedule import Occurrence, Schedule, to_ticks
-from mse.solve.greedy_engine import Attempt, Doomed
-from mse.solve.greedy_plan import DEFAULT_SLOT, plan_for
+from mse.solve.greedy.engine import Attempt, Doomed
+from mse.solve.greedy.plan import DEFAULT_SLOT, plan_for
+from mse.solve.greedy.walk import walk
 from mse.solve.protocol import NoSolution, SolveRequest, derive_seed
 
 
@@ -89,7 +90,7 @@ class GreedySolver:
             self.attempts += 1
             self.restarts += attempt > 0
             try:
-                occurrences = Attempt(plan, rng, forbid, require).run()
+                occurrences = walk(Attempt(plan, rng, forbid, require))
             except Doomed as doomed:
                 unmet[str(doomed)] += 1
                 continue

@@ -24,8 +24,8 @@ import random
 from collections.abc import Sequence
 
 from mse.ir.schedule import Schedule
-from mse.solve.cpsat_bounds import length_bounds
-from mse.solve.cpsat_encode import Encoding, Slot
+from mse.solve.bounds import length_bounds
+from mse.solve.cpsat.encode import Encoding, Slot
 
 SCALE = 1000
 #: Probabilities are clipped away from 0 and 1 so that logarithms stay finite.

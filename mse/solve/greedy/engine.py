@@ -9,7 +9,7 @@ time fails, the ad-hoc inference computes the exact set of times the instantiate
 allow (critical points, docs/sampler.md) and draws inside it, so equalities and offsets are
 met exactly.  Starts never decrease.  The attempt returns its occurrences; the caller verifies
 them with the full evaluator and restarts when needed.  The walk over the stamps is in
-greedy_walk.py; this module holds the state, the checks, placing and the obligations.
+walk.py; this module holds the state, the checks, placing and the obligations.
 """
 
 from __future__ import annotations
@@ -19,10 +19,9 @@ import random
 from collections.abc import Iterable
 
 from mse.ir.schedule import Occurrence
-from mse.solve.greedy_partial import Box, CompiledConstraint
-from mse.solve.greedy_plan import Plan, SignalPlan
-from mse.solve.greedy_walk import walk
-from mse.solve.greedy_windows import (
+from mse.solve.greedy.partial import Box, CompiledConstraint
+from mse.solve.greedy.plan import Plan, SignalPlan
+from mse.solve.greedy.windows import (
     Intervals,
     critical_points,
     feasible,
@@ -395,7 +394,3 @@ class Attempt:
         for name in self.require:
             if not self.env.get(name) and name not in self.latest:
                 raise Doomed(f"require {name}")
-
-    # -- the walk over the time stamps (mse/solve/greedy_walk.py) --------------------------------
-    def run(self) -> list[Occurrence]:
-        return walk(self)

@@ -1,10 +1,10 @@
 """The CP-SAT backend: exact timelines with OR-Tools (docs/solvers.md).
 
-``ortools`` is imported only inside functions here and in :mod:`mse.solve.cpsat_encode`,
+``ortools`` is imported only inside functions here and in :mod:`mse.solve.cpsat.encode`,
 so ``import mse`` and the greedy path never load it.  Every timeline returned has passed
 :func:`mse.ir.evaluate.check_schedule`; "infeasible" is only reported as a proof
 (``NoSolution(proven=True)``) when CP-SAT says INFEASIBLE with enough occurrence slots for
-the witness argument of :mod:`mse.solve.cpsat_bounds`; a time-out says so.
+the witness argument of :mod:`mse.solve.bounds`; a time-out says so.
 """
 
 from __future__ import annotations
@@ -13,81 +13,19 @@ import time
 from collections.abc import Iterator, Mapping, Sequence
 from typing import TYPE_CHECKING
 
-from mse.diagnostics import Diagnostic, MseError, Span
+from mse.diagnostics import Diagnostic, Span
 from mse.ir import model as ir
-from mse.ir.evaluate import check_schedule
 from mse.ir.schedule import Occurrence, Schedule, to_ticks
-from mse.solve.cpsat_bounds import MAX_SLOTS, is_complete, slot_counts
-from mse.solve.cpsat_encode import Encoding, build
-from mse.solve.protocol import NoSolution, SolveRequest, derive_seed
+from mse.solve.bounds import MAX_SLOTS, is_complete, slot_counts
+from mse.solve.cpsat.encode import Encoding, build
+from mse.solve.cpsat.engine import decode, make_solver, verified
+from mse.solve.protocol import NoSolution, SolveRequest, check_request, derive_seed
 
 if TYPE_CHECKING:
-    from ortools.sat.python import cp_model
+    pass
 
 #: CP-SAT deterministic time (about seconds) spent on one --diverse timeline after the first.
 DIVERSE_WORK = 0.2
-
-
-def make_solver(
-    time_limit: float, workers: int = 1, seed: int = 0, *, light: bool = False
-) -> cp_model.CpSolver:
-    """A CP-SAT solver; ``light`` skips presolve and LP relaxation, which cost more than
-    they save on the small sampling models (measured in bench/cpsat.py: 3x faster)."""
-    from ortools.sat.python import cp_model
-
-    solver = cp_model.CpSolver()
-    if light:
-        solver.parameters.cp_model_presolve = False
-        solver.parameters.linearization_level = 0
-        solver.parameters.symmetry_level = 0
-        solver.parameters.cp_model_probing_level = 0
-    solver.parameters.max_time_in_seconds = max(0.001, float(time_limit))
-    solver.parameters.num_workers = max(1, int(workers))
-    solver.parameters.random_seed = seed % (2**31)
-    return solver
-
-
-def decode(enc: Encoding, solver: cp_model.CpSolver | cp_model.CpSolverSolutionCallback) -> Schedule:
-    occurrences = [
-        Occurrence(solver.value(slot.start), solver.value(slot.stop), signal_id)
-        for signal_id, slots in enc.slots.items()
-        for slot in slots
-        if solver.boolean_value(slot.present)
-    ]
-    return Schedule.of(enc.duration, occurrences)
-
-
-def verified(model: ir.Model, schedule: Schedule, *, constraints: bool = True) -> Schedule:
-    """``schedule`` after checking it with the evaluator; an encoding bug raises."""
-    violations = check_schedule(model, schedule)
-    if not constraints:
-        violations = [v for v in violations if v.kind != "constraint"]
-    if violations:
-        details = "; ".join(v.message for v in violations)
-        raise RuntimeError(f"CP-SAT produced an inconsistent timeline (a bug): {details}")
-    return schedule
-
-
-def _argument_error(message: str) -> MseError:
-    return MseError([Diagnostic("E100", message, Span("<arguments>"))])
-
-
-def check_request(model: ir.Model, request: SolveRequest) -> None:
-    """Unknown signals and impossible pins are user errors, not infeasibility."""
-    known = model.signal_by_id
-    named = [p.signal for p in request.pinned] + list(request.require) + list(request.forbid)
-    for name in named:
-        if name not in known:
-            raise _argument_error(f"unknown signal {name!r} in {model.name!r} (known: {', '.join(known)})")
-    for pin in request.pinned:
-        if not 0 <= pin.start < pin.stop <= request.duration:
-            raise _argument_error(
-                f"pin {pin.signal}@{pin.start:g}-{pin.stop:g} is not inside [0, {request.duration:g}] s")
-    if request.objective is not None and request.objective not in (
-        "likely", "random", "most-signals", "fewest-signals"):
-        raise _argument_error(f"unknown objective {request.objective!r}")
-    if request.duration <= 0:
-        raise _argument_error("the duration must be positive")
 
 
 class CpSatSolver:
@@ -124,7 +62,7 @@ def solve_one(
     """One timeline; NoSolution (with an explanation when proven) when there is none."""
     from ortools.sat.python import cp_model
 
-    from mse.solve.cpsat_objective import set_objective
+    from mse.solve.cpsat.objective import set_objective
 
     duration = to_ticks(request.duration)
     pins = [p.signal for p in request.pinned]
@@ -164,7 +102,7 @@ def solve_one(
 
 
 def _proven_infeasible(model: ir.Model, request: SolveRequest) -> NoSolution:
-    from mse.solve.explain import explain
+    from mse.solve.cpsat.explain import explain
 
     explanation = explain(
         model, request.duration, pinned=request.pinned, require=request.require,

@@ -4,7 +4,7 @@ At each stamp t_j the candidates are the owed signals (first, each with the larg
 table's probability and 1 / the stamps left before its deadline) and the signals whose next
 candidacy falls at this stamp (drawn ahead from the cumulative hazard, :func:`schedule`), in
 random order.  Each is tried once per state with :meth:`Attempt.try_place`; a placement that
-opens an owed signal's window tries that one again at once.  Split from greedy_engine.py,
+opens an owed signal's window tries that one again at once.  Split from engine.py,
 which holds the checks and the bookkeeping.
 """
 
@@ -16,10 +16,10 @@ from collections.abc import Callable
 from typing import TYPE_CHECKING
 
 from mse.ir.schedule import Occurrence
-from mse.solve.greedy_plan import SignalPlan
+from mse.solve.greedy.plan import SignalPlan
 
 if TYPE_CHECKING:
-    from mse.solve.greedy_engine import Attempt
+    from mse.solve.greedy.engine import Attempt
 
 # bound once: the walk calls them tens of thousands of times per second
 _log = math.log

@@ -2,7 +2,7 @@
 
 Every rule a user can be blamed for — each constraint, each signal's duration bounds,
 each exclusive modality (the occurrence rules), each pin, require and forbid — is
-guarded by an assumption literal (:mod:`mse.solve.cpsat_encode`, ``switchable``).
+guarded by an assumption literal (:mod:`mse.solve.cpsat.encode`, ``switchable``).
 CP-SAT's *sufficient assumptions for infeasibility* give a first core; deletion-based
 shrinking then drops every item whose removal keeps the problem infeasible, so the result
 is minimal (every item is needed) unless a query ran out of time (``minimal=False``).
@@ -17,8 +17,8 @@ from dataclasses import dataclass
 from mse.diagnostics import Diagnostic, Span
 from mse.ir import model as ir
 from mse.ir.schedule import to_ticks
-from mse.solve.cpsat_bounds import slot_counts
-from mse.solve.cpsat_encode import Encoding, Item, build
+from mse.solve.bounds import slot_counts
+from mse.solve.cpsat.encode import Encoding, Item, build
 from mse.solve.protocol import Pin
 
 #: One item of an explanation: id, kind, span (file:line) and text.
@@ -68,7 +68,7 @@ def _status(enc: Encoding, keys: Sequence[str], time_limit: float, workers: int)
     """'feasible' | 'infeasible' | 'unknown' with ``keys`` assumed, and a sufficient core."""
     from ortools.sat.python import cp_model
 
-    from mse.solve.cpsat import make_solver
+    from mse.solve.cpsat.engine import make_solver
 
     enc.cp.clear_assumptions()
     enc.cp.add_assumptions([enc.enable[k] for k in keys])

@@ -1,6 +1,6 @@
 """The exact CP-SAT encoding of a model (docs/solvers.md; the law is docs/semantics.md).
 
-Every signal gets a few *slots* (optional occurrences, :mod:`mse.solve.cpsat_bounds`):
+Every signal gets a few *slots* (optional occurrences, :mod:`mse.solve.bounds`):
 a presence literal and integer start/stop on the 1 ms grid.  Slots of one signal are
 ordered and non-overlapping (slot i+1 present implies slot i present and starts after it
 stops), which also breaks the symmetry between them; an absent slot is pinned to [0, 0]
@@ -28,7 +28,7 @@ from typing import TYPE_CHECKING, Literal, Union
 from mse.diagnostics import Span
 from mse.ir import model as ir
 from mse.ir.schedule import to_ticks
-from mse.solve.cpsat_bounds import length_bounds
+from mse.solve.bounds import length_bounds
 from mse.solve.protocol import Pin
 
 if TYPE_CHECKING:

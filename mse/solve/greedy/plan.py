@@ -16,7 +16,7 @@ from typing import NamedTuple
 
 from mse.ir import model as ir
 from mse.ir.schedule import to_ticks
-from mse.solve.greedy_partial import CompiledConstraint
+from mse.solve.greedy.partial import CompiledConstraint
 
 #: Default length of a time stamp in seconds (the original implementation's ~1 s).
 DEFAULT_SLOT = 1.0
