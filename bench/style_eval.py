@@ -55,13 +55,13 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
-from mse.motion.bvh import Motion
+from mse.motion.base.bvh import Motion
+from mse.motion.base.library import MotionLibrary, load_library
 from mse.motion.hsmm import api
 from mse.motion.hsmm.features import FloatArray
 from mse.motion.hsmm.model import HsmmModel
 from mse.motion.hsmm.prep import Template, build_template, static_features
 from mse.motion.hsmm.segment import Segment
-from mse.motion.library import MotionLibrary, load_library
 
 WINDOW, HOP = 60, 15
 

@@ -148,3 +148,20 @@ def test_solver_backends_do_not_import_each_other() -> None:
             if other is not None and other != own:
                 problems.append(f"{path.relative_to(PACKAGE.parent)}:{line}: {module} imports {imported}")
     assert not problems, "\n".join(problems)
+
+
+def test_motion_methods_do_not_import_each_other() -> None:
+    """The two motion methods sit side by side over mse.motion.base; the base imports neither."""
+    methods = ("lma_hmm", "hsmm")
+    problems = []
+    for module, path in _modules():
+        if not module.startswith("mse.motion."):
+            continue
+        part = module.split(".")[2]
+        for imported, line, _ in _imports(path):
+            if not imported.startswith("mse.motion."):
+                continue
+            other = imported.split(".")[2]
+            if (part in methods and other in methods and other != part) or (part == "base" and other != "base"):
+                problems.append(f"{path.relative_to(PACKAGE.parent)}:{line}: {module} imports {imported}")
+    assert not problems, "\n".join(problems)

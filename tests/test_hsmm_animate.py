@@ -11,9 +11,9 @@ import pytest
 
 from mse.ir.model import Model, MotionLeaf, Signal
 from mse.motion.animate import MotionWarning, animate
-from mse.motion.bvh import Motion, read_bvh
+from mse.motion.base.bvh import Motion, read_bvh
+from mse.motion.base.library import MotionLibrary, load_library
 from mse.motion.hsmm import leaf
-from mse.motion.library import MotionLibrary, load_library
 from mse.timeline import Timeline, TimelineSignal
 
 

@@ -9,11 +9,11 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from mse.motion.bvh import Motion, read_bvh
+from mse.motion.base.bvh import Motion, read_bvh
+from mse.motion.base.library import MotionLibrary, load_library
 from mse.motion.hsmm import api, leaf
 from mse.motion.hsmm.io import load_model, save_model
 from mse.motion.hsmm.model import HsmmModel
-from mse.motion.library import MotionLibrary, load_library
 
 WALK_STYLES = ("normal", "sad", "happy")
 

@@ -5,6 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from mse.motion.base.kinematics import euler_to_matrix
 from mse.motion.hsmm.adapt import (
     AffineTransform,
     GaussianStats,
@@ -23,7 +24,6 @@ from mse.motion.hsmm.features import (
 from mse.motion.hsmm.mlpg import generate_with_gv, global_variance, mlpg, mlpg_dense
 from mse.motion.hsmm.model import Instance, UnitModel, align, frame_loglik
 from mse.motion.hsmm.synth import state_durations
-from mse.motion.kinematics import euler_to_matrix
 
 
 def test_observations_equal_window_matrix_times_statics() -> None:

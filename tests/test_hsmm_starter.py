@@ -6,8 +6,8 @@ from pathlib import Path
 
 import numpy as np
 
+from mse.motion.base.starter import starter_library
 from mse.motion.hsmm import leaf
-from mse.motion.starter import starter_library
 
 
 def test_starter_leaf_has_its_scheduled_duration(tmp_path: Path) -> None:

@@ -12,8 +12,8 @@ import pytest
 from mse.diagnostics import MseError
 from mse.ir.model import Model, MotionLeaf, Signal
 from mse.motion.animate import MotionWarning, animate, motion_annotations
-from mse.motion.bvh import read_bvh
-from mse.motion.library import load_library
+from mse.motion.base.bvh import read_bvh
+from mse.motion.base.library import load_library
 from mse.timeline import Timeline, TimelineSignal
 
 REPO = Path(__file__).resolve().parent.parent
@@ -94,9 +94,9 @@ def test_fallback_warns_with_the_action(bandai_dir: Path, tmp_path: Path) -> Non
 
 def test_motion_modules_import_no_heavy_packages() -> None:
     code = (
-        "import sys, mse.motion.animate, mse.motion.generate, mse.motion.lma, mse.motion.search, "
-        "mse.motion.hmm, mse.motion.library, mse.motion.starter, mse.motion.compose, "
-        "mse.motion.filters, mse.cli.cmd_lma, mse.cli.cmd_animate; "
+        "import sys, mse.motion.animate, mse.motion.lma_hmm.generate, mse.motion.base.lma, mse.motion.lma_hmm.search, "
+        "mse.motion.lma_hmm.hmm, mse.motion.base.library, mse.motion.base.starter, mse.motion.base.compose, "
+        "mse.motion.base.filters, mse.cli.cmd_lma, mse.cli.cmd_animate; "
         "print([m for m in ('scipy', 'sklearn', 'hmmlearn') if m in sys.modules])"
     )
     found = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, cwd=REPO, check=True)

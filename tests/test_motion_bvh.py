@@ -8,8 +8,8 @@ import numpy as np
 import pytest
 
 from mse.diagnostics import MseError
-from mse.motion.bvh import format_bvh, parse_bvh, read_bvh, write_bvh
-from mse.motion.kinematics import euler_to_matrix, matrix_to_euler
+from mse.motion.base.bvh import format_bvh, parse_bvh, read_bvh, write_bvh
+from mse.motion.base.kinematics import euler_to_matrix, matrix_to_euler
 
 TWO_BONES = """HIERARCHY
 ROOT Hips

@@ -9,8 +9,8 @@ from pathlib import Path
 import pytest
 
 from mse.cli import cmd_animate, cmd_lma
-from mse.motion.bvh import write_bvh
-from mse.motion.starter import generate_clip
+from mse.motion.base.bvh import write_bvh
+from mse.motion.base.starter import generate_clip
 from mse.timeline import Timeline, TimelineSignal
 
 

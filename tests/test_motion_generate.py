@@ -9,11 +9,11 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from mse.motion.bvh import Motion
-from mse.motion.generate import GenerationParams, MotionUnavailable, generate_motion, time_warp
-from mse.motion.library import Clip, MotionLibrary, load_library
-from mse.motion.search import fit_rmlr, nearest_neighbours
-from mse.motion.starter import generate_clip, starter_library
+from mse.motion.base.bvh import Motion
+from mse.motion.base.library import Clip, MotionLibrary, load_library
+from mse.motion.base.starter import generate_clip, starter_library
+from mse.motion.lma_hmm.generate import GenerationParams, MotionUnavailable, generate_motion, time_warp
+from mse.motion.lma_hmm.search import fit_rmlr, nearest_neighbours
 
 
 def _bone_lengths(motion: Motion) -> np.ndarray:
@@ -120,7 +120,7 @@ def test_frames_regeneration_keeps_length_bones_and_movement() -> None:
 
 
 def test_state_aligned_frames_follow_the_desired_state_order() -> None:
-    from mse.motion.hmm import state_aligned_frames
+    from mse.motion.lma_hmm.hmm import state_aligned_frames
 
     means = np.array([[0.0], [10.0]])
     neighbour = np.arange(6, dtype=np.float64)[:, None]  # state 0 on 0..2, state 1 on 3..5

@@ -8,9 +8,9 @@ from pathlib import Path
 import pytest
 
 from mse.diagnostics import MseError
-from mse.motion.bvh import write_bvh
-from mse.motion.library import load_library, style_for_emotion
-from mse.motion.starter import generate_clip
+from mse.motion.base.bvh import write_bvh
+from mse.motion.base.library import load_library, style_for_emotion
+from mse.motion.base.starter import generate_clip
 
 
 def test_emotion_table_and_overrides() -> None:

@@ -8,9 +8,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from mse.motion.bodyparts import body_map, split_name
-from mse.motion.bvh import read_bvh
-from mse.motion.lma import FEATURE_NAMES, PART_KEYS, WHOLE_BODY_KEYS, lma_features
+from mse.motion.base.bodyparts import body_map, split_name
+from mse.motion.base.bvh import read_bvh
+from mse.motion.base.lma import FEATURE_NAMES, PART_KEYS, WHOLE_BODY_KEYS, lma_features
 
 
 def _bow(bandai_dir: Path, style: str) -> dict[str, float]:

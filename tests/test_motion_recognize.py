@@ -5,8 +5,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from mse.motion.recognize import StyleRecognizer, style_descriptor
-from mse.motion.starter import generate_clip
+from mse.motion.base.recognize import StyleRecognizer, style_descriptor
+from mse.motion.base.starter import generate_clip
 
 
 def test_descriptor_is_finite_and_fixed_length() -> None:

@@ -6,8 +6,8 @@ import numpy as np
 import pytest
 
 from mse.diagnostics import MseError
-from mse.motion.lma import lma_features
-from mse.motion.starter import (
+from mse.motion.base.lma import lma_features
+from mse.motion.base.starter import (
     PERFORMERS,
     STYLE_EFFORT,
     _generate,

@@ -78,7 +78,7 @@ def animate_timelines(
     ``timeline.json`` beside the clips, print warnings on stderr; returns the timelines."""
     from mse.fileio import write_atomic
     from mse.motion.animate import animate
-    from mse.motion.library import load_library
+    from mse.motion.base.library import load_library
 
     library = load_library(library_path) if library_path else None
     animated_all = []

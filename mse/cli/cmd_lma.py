@@ -23,8 +23,8 @@ def register(subparsers: Any) -> None:
 def run(args: argparse.Namespace) -> int:
     from mse.cli.common import emit, print_error
     from mse.diagnostics import MseError
-    from mse.motion.bvh import read_bvh
-    from mse.motion.lma import format_text, lma_features
+    from mse.motion.base.bvh import read_bvh
+    from mse.motion.base.lma import format_text, lma_features
 
     results = {}
     try:

@@ -158,7 +158,7 @@ def run_adapt(args: argparse.Namespace) -> int:
 
 
 def run_synth(args: argparse.Namespace) -> int:
-    from mse.motion.bvh import write_bvh
+    from mse.motion.base.bvh import write_bvh
     from mse.motion.hsmm.io import load_model
     from mse.motion.hsmm.synth import synthesize
 

@@ -10,7 +10,7 @@ The page gets a JSON object (the format is ours, documented in docs/export.md)::
 Positions are a three-quarter view (35° yaw; y up; BVH units, rounded to 0.1) resampled at
 ``fps``.
 Clips are read from the BVH files that motion generation wrote (``signal.motion["file"]``)
-through :mod:`mse.motion.bvh`, imported only when a timeline has motion.
+through :mod:`mse.motion.base.bvh`, imported only when a timeline has motion.
 """
 
 from __future__ import annotations
@@ -131,7 +131,7 @@ def clips_from_timeline(timeline: Timeline, base_dir: Path | None) -> list[Figur
 def _read_bvh_positions(path: Path) -> tuple[float, tuple[str, ...], tuple[int, ...], FloatArray]:
     """fps, joint names, parent indices and world positions ``[frame, joint, xyz]``."""
     # The motion layer's reader (raises MseError E100 itself), imported only when needed.
-    from mse.motion.bvh import read_bvh
+    from mse.motion.base.bvh import read_bvh
 
     motion = read_bvh(path)
     skeleton = motion.skeleton

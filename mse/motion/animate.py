@@ -5,7 +5,7 @@
 - one BVH per motion occurrence, ``<signal>_<start ms>.bvh``, lasting exactly the
   occurrence's scheduled duration (frame time adjusted, see :func:`generate.time_warp`);
 - ``timeline.bvh``: the whole timeline, every track composed over a rest pose
-  (:mod:`mse.motion.compose`). Its skeleton is the one most generated clips use; clips on
+  (:mod:`mse.motion.base.compose`). Its skeleton is the one most generated clips use; clips on
   another skeleton (e.g. starter fallbacks next to Bandai clips) are left out of it with a
   warning. The rest pose is the starter's for the starter skeleton, else the first frame of
   the first clip;
@@ -16,7 +16,7 @@ signals (``emotion`` is the expression's, ``style`` the library label it mapped 
 
 The emotion of the expression (``timeline.expression``, else ``model.name``; a leaf's own
 ``emotion`` attribute wins) maps to a style
-through :data:`mse.motion.library.EMOTION_STYLES`, overridden by the library index and then
+through :data:`mse.motion.base.library.EMOTION_STYLES`, overridden by the library index and then
 by ``emotion_styles``. When the library lacks the leaf's action (or that style of it), the
 starter library is used with a :class:`MotionWarning` naming the action. ``method="hsmm"``
 leaves go to :func:`mse.motion.hsmm.leaf.synthesize_leaf` (falling back to lma-hmm with a
@@ -36,12 +36,12 @@ from typing import Any
 from mse.diagnostics import Span
 from mse.fileio import write_atomic
 from mse.ir.model import Model, MotionLeaf
-from mse.motion.bvh import Motion, write_bvh
-from mse.motion.compose import Track, compose
-from mse.motion.generate import GenerationParams, MotionUnavailable, generate_motion
-from mse.motion.library import MotionLibrary
-from mse.motion.lma import lma_features
-from mse.motion.starter import STYLE_EFFORT, rest_motion, starter_library, unknown_action_error
+from mse.motion.base.bvh import Motion, write_bvh
+from mse.motion.base.compose import Track, compose
+from mse.motion.base.library import MotionLibrary
+from mse.motion.base.lma import lma_features
+from mse.motion.base.starter import STYLE_EFFORT, rest_motion, starter_library, unknown_action_error
+from mse.motion.lma_hmm.generate import GenerationParams, MotionUnavailable, generate_motion
 from mse.timeline import Timeline, TimelineSignal
 
 TIMELINE_BVH = "timeline.bvh"

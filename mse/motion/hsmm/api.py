@@ -18,7 +18,7 @@ from typing import ParamSpec, TypeVar
 
 import numpy as np
 
-from mse.motion.bvh import Motion
+from mse.motion.base.bvh import Motion
 from mse.motion.hsmm.adapt import adapt_units, adaptive_training, auto_blocks, blocks_for
 from mse.motion.hsmm.features import FloatArray, observations
 from mse.motion.hsmm.mlpg import global_variance

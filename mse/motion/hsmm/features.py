@@ -16,8 +16,8 @@ from __future__ import annotations
 import numpy as np
 import numpy.typing as npt
 
-from mse.motion.kinematics import mean_rotation as mean_rotation  # re-exported for the HSMM modules
-from mse.motion.kinematics import rotation_exp
+from mse.motion.base.kinematics import mean_rotation as mean_rotation  # re-exported for the HSMM modules
+from mse.motion.base.kinematics import rotation_exp
 
 FloatArray = npt.NDArray[np.float64]
 

@@ -18,7 +18,7 @@ import numpy as np
 
 from mse.diagnostics import Diagnostic, MseError, Span
 from mse.fileio import write_atomic
-from mse.motion.bvh import Skeleton
+from mse.motion.base.bvh import Skeleton
 from mse.motion.hsmm.model import HsmmModel, UnitModel
 from mse.motion.hsmm.prep import Template
 

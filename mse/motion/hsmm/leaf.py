@@ -16,12 +16,12 @@ from pathlib import Path
 
 from mse.diagnostics import Diagnostic, MseError, Span
 from mse.fileio import user_cache_dir
-from mse.motion.bvh import Motion
+from mse.motion.base.bvh import Motion
+from mse.motion.base.library import MotionLibrary, load_library
 from mse.motion.hsmm.api import Options, adapt_model, train_average, train_scratch
 from mse.motion.hsmm.io import load_model, save_model
 from mse.motion.hsmm.model import HsmmModel
 from mse.motion.hsmm.synth import synthesize
-from mse.motion.library import MotionLibrary, load_library
 
 __all__ = ["adapt_from_library", "default_cache_dir", "synthesize_leaf", "train_from_library"]
 

@@ -18,7 +18,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from mse.motion.bvh import Motion, Skeleton
+from mse.motion.base.bvh import Motion, Skeleton
+from mse.motion.base.kinematics import forward_kinematics
 from mse.motion.hsmm.features import (
     FloatArray,
     continuous_expmaps,
@@ -26,7 +27,6 @@ from mse.motion.hsmm.features import (
     mean_rotation,
     yaw_matrix,
 )
-from mse.motion.kinematics import forward_kinematics
 
 
 @dataclass(frozen=True, eq=False)

@@ -17,13 +17,13 @@ from __future__ import annotations
 
 import numpy as np
 
-from mse.motion.bvh import Motion
+from mse.motion.base.bvh import Motion
+from mse.motion.base.kinematics import forward_kinematics, matrix_to_euler
 from mse.motion.hsmm.features import FloatArray
 from mse.motion.hsmm.mlpg import generate_with_gv, mlpg
 from mse.motion.hsmm.model import HsmmModel, UnitModel
 from mse.motion.hsmm.prep import Template, local_rotations_from_features
 from mse.motion.hsmm.segment import ONE_SHOT_UNIT
-from mse.motion.kinematics import forward_kinematics, matrix_to_euler
 
 
 def _other(leg: str) -> str:

@@ -15,8 +15,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from mse.motion.bvh import Motion
-from mse.motion.kinematics import FloatArray, matrix_to_euler, rotation_exp, rotation_log
+from mse.motion.base.bvh import Motion
+from mse.motion.base.kinematics import FloatArray, matrix_to_euler, rotation_exp, rotation_log
 
 FADE_SECONDS = 0.2
 

@@ -38,7 +38,7 @@ import numpy as np
 
 from mse.diagnostics import Diagnostic, MseError, Span
 from mse.fileio import write_atomic
-from mse.motion.kinematics import FloatArray, euler_to_matrix, forward_kinematics
+from mse.motion.base.kinematics import FloatArray, euler_to_matrix, forward_kinematics
 
 POSITION_CHANNELS = ("Xposition", "Yposition", "Zposition")
 ROTATION_CHANNELS = ("Xrotation", "Yrotation", "Zrotation")

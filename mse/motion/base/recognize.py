@@ -25,11 +25,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from mse.motion.bodyparts import body_map
-from mse.motion.bvh import Motion
-from mse.motion.filters import zero_phase_lowpass
-from mse.motion.kinematics import FloatArray
-from mse.motion.lma import UP_AXIS, arm_length, lma_from_positions
+from mse.motion.base.bodyparts import body_map
+from mse.motion.base.bvh import Motion
+from mse.motion.base.filters import zero_phase_lowpass
+from mse.motion.base.kinematics import FloatArray
+from mse.motion.base.lma import UP_AXIS, arm_length, lma_from_positions
 
 #: C grid of the classifier (1/λ of the L2 penalty)
 C_GRID = (0.1, 0.3, 1.0)

@@ -34,7 +34,7 @@ from pathlib import Path
 from typing import Any
 
 from mse.diagnostics import Diagnostic, MseError, Span
-from mse.motion.bvh import Motion, read_bvh
+from mse.motion.base.bvh import Motion, read_bvh
 
 LIBRARY_FORMAT = "mse-motion-library/1"
 

@@ -30,9 +30,9 @@ from dataclasses import dataclass
 import numpy as np
 import numpy.typing as npt
 
-from mse.motion.bvh import Motion, Skeleton
-from mse.motion.filters import zero_phase_lowpass
-from mse.motion.kinematics import (
+from mse.motion.base.bvh import Motion, Skeleton
+from mse.motion.base.filters import zero_phase_lowpass
+from mse.motion.base.kinematics import (
     FloatArray,
     matrix_to_euler,
     mean_rotation,
@@ -249,7 +249,7 @@ def train_hmm(
 
 def smooth(sequence: FloatArray, frame_time: float, cutoff_hz: float = 3.0) -> FloatArray:
     """Zero-phase low-pass filter along time (Butterworth order 2, forwards and backwards:
-    ``scipy.signal.filtfilt``'s result, computed by :mod:`mse.motion.filters`)."""
+    ``scipy.signal.filtfilt``'s result, computed by :mod:`mse.motion.base.filters`)."""
     return zero_phase_lowpass(sequence, frame_time, cutoff_hz)
 
 

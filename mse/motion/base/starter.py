@@ -5,7 +5,7 @@ So that ``animate`` works on a fresh install without any motion data. The skelet
 ``Hips`` with six channels (XYZ position, ZXY rotation) and every other joint with three
 rotation channels (ZXY); the rest pose is standing with the arms hanging.
 
-Every action of :data:`mse.motion.starter_actions.ACTIONS` exists in every style of
+Every action of :data:`mse.motion.base.starter_actions.ACTIONS` exists in every style of
 :data:`STYLE_EFFORT` for :data:`PERFORMERS` seeded performers. A style is an Effort profile:
 
 - ``speed`` scales the tempo (clip length = base duration / speed);
@@ -26,10 +26,10 @@ import functools
 import numpy as np
 
 from mse.diagnostics import Diagnostic, MseError, Span
-from mse.motion.bvh import Motion, Skeleton
-from mse.motion.kinematics import FloatArray
-from mse.motion.library import Clip, MotionLibrary
-from mse.motion.starter_actions import ACTIONS, ActionPose
+from mse.motion.base.bvh import Motion, Skeleton
+from mse.motion.base.kinematics import FloatArray
+from mse.motion.base.library import Clip, MotionLibrary
+from mse.motion.base.starter_actions import ACTIONS, ActionPose
 
 FRAME_TIME = 1.0 / 30.0
 PERFORMERS = 3

@@ -23,7 +23,7 @@ import re
 from dataclasses import dataclass
 
 from mse.diagnostics import Diagnostic, MseError, Span
-from mse.motion.bvh import Skeleton
+from mse.motion.base.bvh import Skeleton
 
 PARTS: tuple[str, ...] = ("head", "left_hand", "right_hand", "left_foot", "right_foot", "torso")
 

@@ -2,7 +2,7 @@
 
 Each action is a peak pose (local joint rotations in degrees, ``(x, y, z)`` in the order of
 the file's ZXY channels but given here as x, y, z) plus an optional root displacement (cm)
-and a base duration. The clip goes rest -> peak -> hold -> rest; :mod:`mse.motion.starter`
+and a base duration. The clip goes rest -> peak -> hold -> rest; :mod:`mse.motion.base.starter`
 shapes the timing and the amplitude with the style's Effort.
 
 Axes of the starter skeleton (Y up, facing +Z, the agent's left is +X, arms hang along -Y):

@@ -3,11 +3,11 @@
 Every component is computed on world joint positions (forward kinematics) divided by the
 performer's arm length (right shoulder -> elbow -> wrist, mean over the clip), with time in
 seconds so that clips sampled at 30 and 120 fps are comparable. Six points: the torso and the
-end-effectors head, left/right hand, left/right foot (see :mod:`mse.motion.bodyparts`); unit
+end-effectors head, left/right hand, left/right foot (see :mod:`mse.motion.base.bodyparts`); unit
 masses for all of them, as in the paper.
 
 - velocity, acceleration and jerk are successive derivatives, each low-pass filtered
-  (zero-phase Butterworth, order 2, cut-off 6 Hz or 0.8 x Nyquist; :mod:`mse.motion.filters`,
+  (zero-phase Butterworth, order 2, cut-off 6 Hz or 0.8 x Nyquist; :mod:`mse.motion.base.filters`,
   numpy only) to remove mocap noise;
 - **Weight** = max over time of the summed kinetic energy Σ v² (eq. 1-3);
 - **Time** = max over time of the summed acceleration magnitudes (eq. 4);
@@ -31,10 +31,10 @@ from typing import Any
 
 import numpy as np
 
-from mse.motion.bodyparts import PARTS, BodyMap, body_map
-from mse.motion.bvh import Motion
-from mse.motion.filters import convex_hull_area, zero_phase_lowpass
-from mse.motion.kinematics import FloatArray
+from mse.motion.base.bodyparts import PARTS, BodyMap, body_map
+from mse.motion.base.bvh import Motion
+from mse.motion.base.filters import convex_hull_area, zero_phase_lowpass
+from mse.motion.base.kinematics import FloatArray
 
 UP_AXIS = 1  # all three datasets and the starter skeleton are Y-up
 WHOLE_BODY_KEYS: tuple[str, ...] = (

@@ -7,12 +7,12 @@
 2. LMA features of the clips (cached), RMLR saliency (cached) -> the affectively
    non-discriminative components for (original, target) (eq. 12);
 3. the ε-neighbourhood of X_d among the target-style clips of the same action, at least one;
-4. HMM_NN trained on the neighbours plus ``nd`` copies of X_d (:mod:`mse.motion.hmm`);
+4. HMM_NN trained on the neighbours plus ``nd`` copies of X_d (:mod:`mse.motion.lma_hmm.hmm`);
 5. Viterbi state sequence of X_d (moved onto the neighbours' mean posture and spread first),
    sequence of state means (ramps between the midpoints of state runs), zero-phase low-pass
    filter (Butterworth, 3 Hz); ``GenerationParams(regenerate="frames")`` instead plays the
    neighbours' own frames of each state in X_d's state order and timing
-   (:func:`mse.motion.hmm.state_aligned_frames`);
+   (:func:`mse.motion.lma_hmm.hmm.state_aligned_frames`);
 6. time-warp (linear resampling) to the requested duration: the frame count is
    ``round(duration / frame_time)`` and the frame time is adjusted so that the clip lasts
    exactly ``duration``.
@@ -31,8 +31,11 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from mse.diagnostics import Diagnostic, MseError, Span
-from mse.motion.bvh import Motion, Skeleton
-from mse.motion.hmm import (
+from mse.motion.base.bvh import Motion, Skeleton
+from mse.motion.base.kinematics import FloatArray
+from mse.motion.base.library import Clip, MotionLibrary
+from mse.motion.base.lma import FEATURE_NAMES
+from mse.motion.lma_hmm.hmm import (
     Encoding,
     decode,
     encode,
@@ -42,10 +45,7 @@ from mse.motion.hmm import (
     state_path,
     train_hmm,
 )
-from mse.motion.kinematics import FloatArray
-from mse.motion.library import Clip, MotionLibrary
-from mse.motion.lma import FEATURE_NAMES
-from mse.motion.search import (
+from mse.motion.lma_hmm.search import (
     EPSILON_FRACTION,
     clip_features,
     feature_table,

@@ -16,7 +16,7 @@ import math
 
 import numpy as np
 
-from mse.motion.kinematics import FloatArray
+from mse.motion.base.kinematics import FloatArray
 
 
 def butterworth2(cutoff_hz: float, frame_time: float) -> tuple[tuple[float, float, float], float, float]:

@@ -1,6 +1,6 @@
 """LMA feature tables, RMLR saliency and the ε-neighbourhood search (paper §III-B, §III-D).
 
-- Features are the 27 components of :data:`mse.motion.lma.FEATURE_NAMES`, ``log1p``-compressed
+- Features are the 27 components of :data:`mse.motion.base.lma.FEATURE_NAMES`, ``log1p``-compressed
   (Weight and Flow span orders of magnitude) and z-scored over the training clips.
 - RMLR: scikit-learn multinomial ``LogisticRegression`` with an elastic-net penalty (saga);
   α (``l1_ratio``) and λ (``1/C``) chosen by a small stratified cross-validation
@@ -22,9 +22,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from mse.motion.kinematics import FloatArray
-from mse.motion.library import Clip, MotionLibrary
-from mse.motion.lma import FEATURE_NAMES, lma_features
+from mse.motion.base.kinematics import FloatArray
+from mse.motion.base.library import Clip, MotionLibrary
+from mse.motion.base.lma import FEATURE_NAMES, lma_features
 
 MIN_SEARCH_DIMENSIONS = 3
 L1_RATIOS = (0.5, 1.0)
