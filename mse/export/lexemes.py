@@ -1,4 +1,4 @@
-"""Lexeme names: splitting Greta references, BML ids, and the Greta face library.
+"""Lexeme names: splitting Greta references and BML ids (and, re-exported, the face library).
 
 A timeline lexeme is free text; Greta's style is ``class=name`` (``faceexp=smile``,
 ``gaze=look_down``, ``emotion=embarrassment_signal_10``) or a bare library id
@@ -10,9 +10,10 @@ from __future__ import annotations
 import re
 from collections.abc import Iterable, Mapping
 from dataclasses import dataclass
-from pathlib import Path
 
-from mse.diagnostics import Diagnostic, MseError, Span
+# The Greta face library lives with the other realizer-library readers; re-exported here so
+# that ``from mse.export.lexemes import load_face_library`` keeps working.
+from mse.export.realizer_libraries import ActionUnit, FaceLibrary, load_face_library
 
 _NOT_ID_CHAR = re.compile(r"[^A-Za-z0-9_]+")
 
@@ -101,82 +102,16 @@ def format_seconds(value: float) -> str:
     return "0" if text in ("", "-0") else text
 
 
-# -- the Greta face library -----------------------------------------------------------------
-@dataclass(frozen=True, slots=True)
-class ActionUnit:
-    number: int
-    intensity: float = 1.0
-    side: str = "BOTH"
-
-
-@dataclass(frozen=True)
-class FaceLibrary:
-    """``(class, instance)`` (lower case) -> action units, from Greta's ``facelibrary.xml``."""
-
-    entries: Mapping[tuple[str, str], tuple[ActionUnit, ...]]
-
-    def resolve(self, lexeme: Lexeme) -> tuple[ActionUnit, ...] | None:
-        """The action units of ``lexeme``, or None when the library does not name it."""
-        name = lexeme.name.lower()
-        if lexeme.klass:
-            return self.entries.get((lexeme.klass.lower(), name))
-        for klass in ("faceexp", "gaze"):
-            found = self.entries.get((klass, name))
-            if found is not None:
-                return found
-        return None
-
-
-def load_face_library(path: Path) -> FaceLibrary:
-    """Read a Greta face library; unreadable -> E100, malformed XML -> E101 (MseError)."""
-    from lxml import etree
-
-    where = str(path)
-    try:
-        data = path.read_bytes()
-    except OSError as error:
-        raise MseError(
-            [Diagnostic("E100", f"cannot read face library: {error.strerror or error}", Span(where))]
-        ) from None
-    # No DTDs, no entities, no network: a face library is plain data.
-    parser = etree.XMLParser(resolve_entities=False, no_network=True, load_dtd=False, huge_tree=False)
-    try:
-        root = etree.fromstring(data, parser)
-    except etree.XMLSyntaxError as error:
-        line, col = error.position
-        raise MseError(
-            [
-                Diagnostic(
-                    "E101",
-                    f"face library is not well-formed XML: {error.msg}",
-                    Span(where, line, col),
-                )
-            ]
-        ) from None
-    entries: dict[tuple[str, str], tuple[ActionUnit, ...]] = {}
-    for expression in root.iter("expression"):
-        klass = (expression.get("class") or "faceexp").strip().lower()
-        instance = (expression.get("instance") or "").strip().lower()
-        if not instance:
-            continue
-        units: list[ActionUnit] = []
-        for action in expression.iter("action"):
-            unit = _action_unit(action.get("name") or "", action.get("intensity"), action.get("side"))
-            if unit is not None:
-                units.append(unit)
-        entries[(klass, instance)] = tuple(units)
-    return FaceLibrary(entries)
-
-
-def _action_unit(name: str, intensity: str | None, side: str | None) -> ActionUnit | None:
-    match = re.fullmatch(r"\s*AU\s*(\d+)\s*", name, flags=re.IGNORECASE)
-    if match is None:
-        return None
-    try:
-        value = float(intensity) if intensity is not None else 1.0
-    except ValueError:
-        value = 1.0
-    side_name = (side or "BOTH").strip().upper()
-    if side_name not in ("LEFT", "RIGHT", "BOTH"):
-        side_name = "BOTH"
-    return ActionUnit(int(match.group(1)), max(0.0, min(1.0, value)), side_name)
+__all__ = [
+    "CLASS_MODALITY",
+    "ActionUnit",
+    "FaceLibrary",
+    "Lexeme",
+    "format_seconds",
+    "load_face_library",
+    "modality_of",
+    "sanitize_id",
+    "split_lexeme",
+    "unique_ids",
+    "upper_token",
+]
