@@ -14,8 +14,12 @@ from mse.ir.evaluate import Violation, check_schedule
 from mse.ir.model import Model
 from mse.ir.schedule import to_seconds
 from mse.resources import bundled_names, bundled_path
-from mse.solve.protocol import SolveRequest, check_supported, derive_seed, get_solver
+from mse.solve.protocol import Pin, SolveRequest, check_supported, derive_seed, get_solver
 from mse.timeline import Timeline, TimelineSignal, from_schedule
+
+#: The name of the default objective: every backend follows the probability profile
+#: (``--objective profile``; the CP-SAT backend by perturb-and-MAP, docs/solvers.md).
+DEFAULT_OBJECTIVE = "profile"
 
 # The XML reader, the grammar and the IR builder (lxml, lark) are imported inside the
 # functions that parse: a model from the compiled-model cache needs none of them.
@@ -101,47 +105,86 @@ def check(model: Model, timeline: Timeline) -> list[Violation]:
 
 
 def expand_paths(paths: Iterable[str | Path]) -> list[Path]:
+    """The files named by ``paths``: folders searched for ``*.xml``, bundled names resolved."""
     files: list[Path] = []
     for entry in paths:
         path = Path(entry)
+        bundled = None if path.exists() else bundled_path(str(entry))
         if path.is_dir():
             files.extend(sorted(p for p in path.rglob("*.xml") if p.is_file()))
         else:
-            files.append(path)
+            files.append(bundled or path)
     return files
 
 
+def _code_prefixes(prefixes: str | Sequence[str], option: str) -> tuple[str, ...]:
+    """``select``/``ignore`` as a tuple (a string is comma-separated); every prefix must name
+    at least one rule code, so that a typo cannot silently select or ignore nothing."""
+    from mse.diagnostics import CODES
+
+    items = prefixes.split(",") if isinstance(prefixes, str) else list(prefixes)
+    cleaned = tuple(p.strip() for p in items if p.strip())
+    unknown = [p for p in cleaned if not any(code.startswith(p) for code in CODES)]
+    if unknown:
+        names = ", ".join(repr(p) for p in unknown)
+        message = f"{option} {names} matches no rule code (codes: {', '.join(CODES)})"
+        raise MseError([Diagnostic("E100", message, Span("<arguments>"))])
+    return cleaned
+
+
 def lint(
-    paths: Sequence[str | Path],
+    paths: str | Path | Sequence[str | Path],
     *,
-    select: Sequence[str] = (),
-    ignore: Sequence[str] = (),
-    deep: bool = False,
+    select: str | Sequence[str] = (),
+    ignore: str | Sequence[str] = (),
+    deep: bool = True,
     duration: float = 10.0,
 ) -> list[Diagnostic]:
-    """Errors and lint warnings of every file (directories are searched for ``*.xml``).
+    """Errors and lint warnings of every file, as ``mse lint`` reports them.
 
-    ``select``/``ignore`` are code prefixes; ``deep`` adds the solver-backed W4xx rules."""
+    ``paths`` are files, folders (searched for ``*.xml``; one without any is a W300 warning)
+    or bundled names. ``select``/``ignore`` are rule-code prefixes (a prefix that matches no
+    code raises :class:`MseError`); ``deep`` (the default, as on the command line) adds the
+    solver-backed W4xx rules at ``duration`` seconds.
+
+    >>> import mse
+    >>> [d.code for d in mse.lint("embarrassment")]
+    []
+    >>> mse.lint(["embarrassment"], select=["W9"])
+    Traceback (most recent call last):
+    mse.diagnostics.MseError: <arguments>: E100 select 'W9' matches no rule code (codes: ...)
+    """
     from mse.ir.lint import lint_model
 
+    selected = _code_prefixes(select, "select")
+    ignored = _code_prefixes(ignore, "ignore")
+    entries = [paths] if isinstance(paths, str | Path) else list(paths)
     found: list[Diagnostic] = []
-    for path in expand_paths(paths):
-        model, diagnostics = compile_source(path)
-        found.extend(diagnostics)
-        if model is None:
+    for entry in entries:
+        try:
+            files = expand_paths([entry]) if Path(entry).is_dir() else [resolve_path(entry)]
+        except MseError as error:  # neither a file nor a bundled name: say which names exist
+            found.extend(error.diagnostics)
             continue
-        found.extend(lint_model(model))
-        if deep:
-            from mse.solve.cpsat.deep_lint import deep_lint
+        if not files:
+            found.append(Diagnostic("W300", "no behaviour-set file (*.xml) in this folder", Span(str(entry))))
+        for path in files:
+            model, diagnostics = compile_source(path)
+            found.extend(diagnostics)
+            if model is None:
+                continue
+            found.extend(lint_model(model))
+            if deep:
+                from mse.solve.cpsat.deep_lint import deep_lint
 
-            found.extend(deep_lint(model, duration))
+                found.extend(deep_lint(model, duration))
 
     def wanted(diagnostic: Diagnostic) -> bool:
         if diagnostic.is_error:
             return True
-        if select and not any(diagnostic.code.startswith(prefix) for prefix in select):
+        if selected and not any(diagnostic.code.startswith(prefix) for prefix in selected):
             return False
-        return not any(diagnostic.code.startswith(prefix) for prefix in ignore)
+        return not any(diagnostic.code.startswith(prefix) for prefix in ignored)
 
     return sorted((d for d in found if wanted(d)), key=Diagnostic.sort_key)
 
@@ -151,9 +194,39 @@ def motion_annotations(model: Model) -> dict[str, dict[str, object]]:
     return {s.id: {"action": s.motion.action} for s in model.signals if s.motion is not None}
 
 
+def _names_option(value: object) -> object:
+    """``require="frown"`` is one signal, not five letters; any iterable becomes a tuple."""
+    if isinstance(value, str):
+        return (value,)
+    return tuple(value) if isinstance(value, Iterable) else value
+
+
+def _pins_option(value: object) -> tuple[Pin, ...]:
+    pins = (value,) if isinstance(value, Pin) else tuple(value) if isinstance(value, Iterable) else (value,)
+    for pin in pins:
+        if not isinstance(pin, Pin):
+            message = f"pinned takes Pin(signal, start, stop) values, not {pin!r}"
+            raise MseError([Diagnostic("E100", message, Span("<arguments>"))])
+        if not pin.start < pin.stop:
+            relation = "=" if pin.start == pin.stop else ">"
+            message = (
+                f"pin {pin.signal}@{pin.start:g}-{pin.stop:g}: start {pin.start:g} {relation} stop {pin.stop:g} "
+                "(give SIGNAL@START-STOP with START < STOP)"
+            )
+            raise MseError([Diagnostic("E100", message, Span("<arguments>"))])
+    return pins
+
+
 def _request(duration: float, seed: int | None, count: int, **options: object) -> SolveRequest:
     if seed is None:
         seed = random.SystemRandom().randrange(2**31)
+    for key in ("require", "forbid"):
+        if key in options:
+            options[key] = _names_option(options[key])
+    if "pinned" in options:
+        options["pinned"] = _pins_option(options["pinned"])
+    if options.get("objective") == DEFAULT_OBJECTIVE:
+        del options["objective"]  # the backend's own default: follow the probability profile
     return SolveRequest(duration=float(duration), seed=seed, count=count, **options)  # type: ignore[arg-type]
 
 

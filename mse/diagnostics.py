@@ -59,6 +59,7 @@ CODES: dict[str, str] = {
     "E212": "invalid timeline",
     "E213": "invalid motion leaf",
     # W3xx: static lint
+    "W300": "no behaviour-set file found",
     "W301": "inactive signal (both probabilities are 0)",
     "W302": "signal shorter than the sampler's time slot",
     "W303": "relation of a signal with itself",

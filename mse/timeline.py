@@ -102,6 +102,11 @@ class Timeline:
 
         if not isinstance(obj, dict):
             raise fail("a timeline must be a JSON object")
+        if "signals" not in obj and {"id", "start", "stop"} <= obj.keys():
+            raise fail(
+                "this is a signal line of 'mse sample --stream', not a timeline: timelines come from "
+                "'mse sample' without --stream (--format json or jsonl)"
+            )
         fmt = obj.get("format", FORMAT)
         if fmt != FORMAT:
             raise fail(f"unsupported timeline format {fmt!r} (expected {FORMAT!r})")

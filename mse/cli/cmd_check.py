@@ -3,11 +3,14 @@
 from __future__ import annotations
 
 import argparse
-import sys
-from typing import Any
+import json
+from typing import TYPE_CHECKING, Any
 
 from mse.cli.common import print_error, read_timelines
 from mse.diagnostics import MseError
+
+if TYPE_CHECKING:
+    from mse.ir.evaluate import Violation
 
 
 def register(subparsers: Any) -> None:
@@ -15,11 +18,18 @@ def register(subparsers: Any) -> None:
         "check",
         help="check timelines against a behaviour set",
         description="Check one timeline, a JSON array of timelines, or JSON lines against a "
-        "behaviour set. Prints each violated constraint with its file:line; exit 1 if any.",
+        "behaviour set. Prints each violated constraint with its file:line and a summary line "
+        "on stdout (--format json: one report object); exit 1 if any.",
     )
     parser.add_argument("source", help="a behaviour-set file or a bundled expression name")
     parser.add_argument("timeline", help="timeline JSON file ('-' for stdin)")
     parser.add_argument("-q", "--quiet", action="store_true", help="print nothing when consistent")
+    parser.add_argument(
+        "--format",
+        choices=("text", "json"),
+        default="text",
+        help="text (default): a line per violation, then a summary; json: one machine-readable report",
+    )
     parser.set_defaults(handler=run)
 
 
@@ -32,14 +42,35 @@ def run(args: argparse.Namespace) -> int:
     except MseError as error:
         return print_error(error)
     failing = 0
+    results = []
     for index, timeline in enumerate(timelines):
         violations = check(model, timeline)
         label = f"timeline {index + 1}" if len(timelines) > 1 else "timeline"
         if violations:
             failing += 1
-            for violation in violations:
+            for violation in violations if args.format == "text" else ():
                 print(f"{violation.render()} [{label}]")
-    if not args.quiet:
-        ok = len(timelines) - failing
-        print(f"{ok} of {len(timelines)} timeline(s) consistent with {model.name}", file=sys.stderr)
+        if args.format == "json":
+            results.append({"index": index + 1, "consistent": not violations, "violations": _json(violations)})
+    ok = len(timelines) - failing
+    if args.format == "json":
+        report = {"expression": model.name, "timelines": len(timelines), "consistent": ok, "results": results}
+        print(json.dumps(report, indent=2))
+    elif not args.quiet:
+        print(f"{ok} of {len(timelines)} timeline(s) consistent with {model.name}")
     return 1 if failing else 0
+
+
+def _json(violations: list[Violation]) -> list[dict[str, Any]]:
+    return [
+        {
+            "path": v.span.path,
+            "line": v.span.line,
+            "col": v.span.col,
+            "kind": v.kind,
+            "constraint": v.constraint,
+            "signals": list(v.signals),
+            "message": v.message,
+        }
+        for v in violations
+    ]

@@ -21,7 +21,10 @@ def register(subparsers: Any) -> None:
         "import-greta",
         help="convert Greta's MSE behaviour sets (lexicon.xml + constraint.xml) to native files",
         description="Convert Greta's MSE behaviour sets to native MSE files, one per emotion "
-        "(see docs/greta.md for the mapping).",
+        "(OUTDIR/<emotion>.xml). Every <behaviorset type=\"mse\"> of lexicon.xml is paired with "
+        "the <multimodal emotion> of constraint.xml of the same name (a near match is paired with "
+        "a W501 warning); a construct approximated in the conversion is a W502 warning at its "
+        "file:line. Greta's data is GPL/LGPL: do not commit the converted files.",
     )
     parser.add_argument("files", nargs="*", metavar="FILE",
                         help="Greta's lexicon.xml and constraint.xml, in that order")

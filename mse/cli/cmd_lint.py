@@ -22,8 +22,13 @@ def register(subparsers: Any) -> None:
         description="Report errors (E) and warnings (W) of behaviour-set files. Exit 1 on "
         "errors, or on warnings with --strict.",
     )
-    parser.add_argument("paths", nargs="+", help="files or folders (searched for *.xml)")
-    parser.add_argument("--format", choices=FORMATS, default="text")
+    parser.add_argument("paths", nargs="+", help="files, folders (searched for *.xml) or bundled names")
+    parser.add_argument(
+        "--format",
+        choices=FORMATS,
+        default="text",
+        help="text (default), json, github (workflow annotations) or sarif (SARIF 2.1.0 for code scanning)",
+    )
     parser.add_argument("--select", type=_codes, default=[], help="only these code prefixes, e.g. W30,W401")
     parser.add_argument("--ignore", type=_codes, default=[], help="skip these code prefixes")
     parser.add_argument("--strict", action="store_true", help="warnings make the exit code 1")
@@ -38,9 +43,14 @@ def register(subparsers: Any) -> None:
 def run(args: argparse.Namespace) -> int:
     from mse.api import lint
     from mse.cli.lint_formats import FORMATTERS
+    from mse.diagnostics import MseError
 
     deep = args.deep and _deep_available()
-    diagnostics = lint(args.paths, select=args.select, ignore=args.ignore, deep=deep, duration=args.duration)
+    try:
+        diagnostics = lint(args.paths, select=args.select, ignore=args.ignore, deep=deep, duration=args.duration)
+    except MseError as error:  # a usage error: --select/--ignore naming no rule
+        print_diagnostics(error.diagnostics)
+        return 2
     if args.format == "text" and not args.output:
         print_diagnostics(diagnostics, sys.stdout)
     else:

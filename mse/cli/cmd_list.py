@@ -7,7 +7,13 @@ from typing import Any
 
 
 def register(subparsers: Any) -> None:
-    parser = subparsers.add_parser("list", help="list the bundled expressions")
+    parser = subparsers.add_parser(
+        "list",
+        help="list the bundled expressions",
+        description="List the expressions bundled with mse, one a line: name, number of signals and "
+        "constraints, and the start of the description. Any of these names can stand for a file in "
+        "compile, sample, check and lint.",
+    )
     parser.set_defaults(handler=run)
 
 

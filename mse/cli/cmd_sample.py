@@ -16,6 +16,7 @@ from mse.diagnostics import Diagnostic, MseError, Span
 
 BASE_FORMATS = ("table", "json", "jsonl")
 EXPORT_FORMATS = ("bml", "greta-bml", "svg", "html")
+DEFAULT_OBJECTIVE = "profile"  # as mse.api.DEFAULT_OBJECTIVE (not imported: the CLI starts light)
 _PIN = re.compile(r"^([A-Za-z_][A-Za-z0-9_]*)@(\d+(?:\.\d+)?)-(\d+(?:\.\d+)?)$")
 
 
@@ -37,17 +38,37 @@ def register(subparsers: Any) -> None:
     parser.add_argument("-n", "--count", type=int, help="number of timelines (seeds seed, seed+1, ...)")
     parser.add_argument("--format", choices=BASE_FORMATS + EXPORT_FORMATS, help="table on a terminal, else json")
     parser.add_argument("-o", "--output", help="write to this file (atomically) instead of stdout")
-    parser.add_argument("--solver", choices=("greedy", "cpsat", "csp"), default="greedy")
-    parser.add_argument("--mode", choices=("consistent", "constraint-less"), default="consistent")
+    parser.add_argument(
+        "--solver",
+        choices=("greedy", "cpsat", "csp"),
+        default="greedy",
+        help="greedy: the paper's stochastic sampler (default); cpsat: exact (OR-Tools CP-SAT); "
+        "csp: exhaustive grid search, an oracle for small sets",
+    )
+    parser.add_argument(
+        "--mode",
+        choices=("consistent", "constraint-less"),
+        default="consistent",
+        help="consistent (default) or constraint-less: ignore the constraints, the paper's control condition",
+    )
     parser.add_argument("--stream", action="store_true", help="print each signal as a JSON line once decided")
     parser.add_argument("--realtime", action="store_true", help="with --stream: pace the lines to the clock")
     parser.add_argument("--slot", type=float, help="greedy: time-stamp length in seconds (default about 1)")
     parser.add_argument("--max-restarts", type=int, default=50, help="greedy: restarts before giving up")
+    wanted = parser.add_argument_group("requests", "A solver that cannot honour a request refuses it and says so.")
+    pin_help = "SIG occurs from START to STOP seconds (repeatable)"
+    wanted.add_argument("--pin", action="append", default=[], metavar="SIG@START-STOP", help=pin_help)
+    require_help, forbid_help = "SIG must occur (repeatable, or a,b)", "SIG must not occur (repeatable, or a,b)"
+    wanted.add_argument("--require", action="append", type=_names, default=[], metavar="SIG", help=require_help)
+    wanted.add_argument("--forbid", action="append", type=_names, default=[], metavar="SIG", help=forbid_help)
     exact = parser.add_argument_group("exact solvers (cpsat, csp)")
-    exact.add_argument("--pin", action="append", default=[], metavar="SIG@START-STOP", help="pin a signal")
-    exact.add_argument("--require", action="append", type=_names, default=[], metavar="SIG", help="must occur")
-    exact.add_argument("--forbid", action="append", type=_names, default=[], metavar="SIG", help="must not occur")
-    exact.add_argument("--objective", choices=("likely", "random", "most-signals", "fewest-signals"))
+    exact.add_argument(
+        "--objective",
+        choices=(DEFAULT_OBJECTIVE, "likely", "random", "most-signals", "fewest-signals"),
+        default=DEFAULT_OBJECTIVE,
+        help="cpsat: profile (default) samples the signals' probability profiles; likely: the most probable "
+        "timeline; random: ignore the probabilities; most-signals/fewest-signals: as many/few signals as possible",
+    )
     exact.add_argument("--diverse", action="store_true", help="with --count: maximally different timelines")
     exact.add_argument("--time-limit", type=float, default=10.0, help="seconds (default 10)")
     exact.add_argument("--workers", type=int, default=1, help="CP-SAT search workers")
@@ -74,14 +95,19 @@ def load_model_argument(source: str | None) -> Any:
     from mse.api import load, loads
     from mse.resources import DEFAULT_EXPRESSION
 
-    if source == "-":
-        return loads(read_stdin_bytes(), path="<stdin>")
-    if source is not None:
+    if source is not None and source != "-":
         return load(source, cache=True)
-    if _stdin_has_data():
+    if source == "-" or _stdin_has_data():
         data = read_stdin_bytes()
-        if data.strip():
-            return loads(data, path="<stdin>")
+        if not data.strip():
+            # An empty pipe is a failed producer (mse compile bad.xml | mse sample), not a
+            # request for the bundled default.
+            message = (
+                "no model on stdin (the input was empty: did the command before the pipe fail?); "
+                f"name a SOURCE, e.g. 'mse sample {DEFAULT_EXPRESSION}'"
+            )
+            raise MseError([Diagnostic("E100", message, Span("<stdin>"))])
+        return loads(data, path="<stdin>")
     print(f"mse: sampling the bundled expression '{DEFAULT_EXPRESSION}'", file=sys.stderr)
     return load(DEFAULT_EXPRESSION, cache=True)
 
@@ -112,7 +138,7 @@ def _options(args: argparse.Namespace) -> dict[str, Any]:
     }
     if args.slot is not None:
         options["slot"] = args.slot
-    if args.objective is not None:
+    if args.objective != DEFAULT_OBJECTIVE:
         options["objective"] = args.objective
     return options
 

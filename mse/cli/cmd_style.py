@@ -31,14 +31,18 @@ def register(subparsers: Any) -> None:
     commands = parser.add_subparsers(dest="style_command", metavar="STEP")
 
     train = commands.add_parser(
-        "train", help="train the average model of an action (with --style: one style's own model)"
+        "train",
+        help="train the average model of an action (with --style: one style's own model)",
+        description="Train the average HSMM of one action over every style of a motion library "
+        "(with --style: a model of that style alone, from its own takes). An unknown action or "
+        "style is an error listing those the library has.",
     )
     train.add_argument("--library", required=True, help="motion library folder or index")
     train.add_argument("--action", required=True, help="action label, e.g. walk or bow")
     train.add_argument(
         "--style",
         help="train a model of this style on its own takes only (no average model; "
-        "on Bandai walks as good as adaptation from about two steps of data, docs/hsmm.md)",
+        "on Bandai walks as good as adaptation from about two steps of data)",
     )
     train.add_argument(
         "--takes", type=int, default=0, help="with --style: takes to use (default 0: all)"
@@ -54,7 +58,12 @@ def register(subparsers: Any) -> None:
     )
     train.set_defaults(handler=run_train)
 
-    adapt = commands.add_parser("adapt", help="adapt a model to a style from a few takes")
+    adapt = commands.add_parser(
+        "adapt",
+        help="adapt a model to a style from a few takes",
+        description="Adapt an average model (from 'mse style train') to one style of the library "
+        "from a few takes of it: CMLLR, then MAP unless --no-map.",
+    )
     adapt.add_argument("model", help="average model file (from 'mse style train')")
     adapt.add_argument("--library", required=True, help="motion library folder or index")
     adapt.add_argument("--style", required=True, help="target style label, e.g. sad")
@@ -63,7 +72,12 @@ def register(subparsers: Any) -> None:
     adapt.add_argument("-o", "--output", required=True, help="adapted model file to write")
     adapt.set_defaults(handler=run_adapt)
 
-    synth = commands.add_parser("synth", help="synthesize a BVH clip from a model")
+    synth = commands.add_parser(
+        "synth",
+        help="synthesize a BVH clip from a model",
+        description="Synthesize a BVH clip from an average or adapted model by maximum-likelihood "
+        "parameter generation with global variance, for a number of steps or an exact duration.",
+    )
     synth.add_argument("model", help="model file (average or adapted)")
     length = synth.add_mutually_exclusive_group()
     length.add_argument("--steps", type=int, help="number of steps (cyclic actions)")

@@ -47,6 +47,27 @@ def as_github(diagnostics: Sequence[Diagnostic]) -> str:
     return "".join(lines)
 
 
+def _information_uri() -> dict[str, str]:
+    """``informationUri`` of the SARIF driver: the documentation URL the installed package
+    declares ([project.urls] in pyproject.toml, preferring Documentation, then Homepage or
+    Repository). SARIF makes the field optional, so without a declared URL it is left out
+    rather than filled with a placeholder."""
+    from importlib import metadata
+
+    try:
+        declared = metadata.metadata("mse").get_all("Project-URL") or []
+    except metadata.PackageNotFoundError:
+        return {}
+    urls = {}
+    for entry in declared:
+        label, _, url = entry.partition(",")
+        urls[label.strip().lower()] = url.strip()
+    for label in ("documentation", "homepage", "repository", "source"):
+        if urls.get(label, "").startswith("https://"):
+            return {"informationUri": urls[label]}
+    return {}
+
+
 def as_sarif(diagnostics: Sequence[Diagnostic]) -> str:
     used = sorted({d.code for d in diagnostics})
     rules = [
@@ -80,7 +101,7 @@ def as_sarif(diagnostics: Sequence[Diagnostic]) -> str:
                     "driver": {
                         "name": "mse",
                         "version": __version__,
-                        "informationUri": "https://example.invalid/mse",
+                        **_information_uri(),
                         "rules": rules,
                     }
                 },
