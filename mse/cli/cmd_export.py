@@ -9,8 +9,13 @@ from __future__ import annotations
 import argparse
 import sys
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from mse.export import FORMAT_NAMES  # light: the exporters themselves load lazily
+
+if TYPE_CHECKING:
+    from mse.export import ExportOptions
+    from mse.timeline import Timeline
 
 
 def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
@@ -20,7 +25,12 @@ def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) ->
         description="Write a timeline (mse-timeline/1 JSON) in another format.",
     )
     p.add_argument("timeline", help="timeline JSON file ('-' reads standard input)")
-    p.add_argument("--format", "-f", choices=FORMAT_NAMES, required=True, help="output format")
+    p.add_argument(
+        "--format",
+        "-f",
+        choices=FORMAT_NAMES,
+        help="output format (default: from the -o file's extension, e.g. t.svg -> svg, t.bml -> bml)",
+    )
     p.add_argument(
         "-o",
         "--output",
@@ -55,6 +65,7 @@ def run(args: argparse.Namespace) -> int:
 
     output: str | None = args.output
     try:
+        args.format = args.format or _format_from_output(output)
         where = "<stdin>" if args.timeline == "-" else args.timeline
         timelines = read_timelines(args.timeline)
         if not timelines:
@@ -83,6 +94,7 @@ def run(args: argparse.Namespace) -> int:
         for diagnostic in error.diagnostics:
             print(diagnostic.render(), file=sys.stderr)
         return 1
+    report_unmapped_faces(timelines, options)
     if output is None:
         sys.stdout.write(pages[0])
         return 0
@@ -103,3 +115,45 @@ def run(args: argparse.Namespace) -> int:
             )
             return 1
     return 0
+
+
+def _format_from_output(output: str | None) -> str:
+    """The export format named by the output file's extension (``t.svg`` -> svg)."""
+    from mse.diagnostics import Diagnostic, MseError, Span
+    from mse.export import SUFFIXES
+
+    by_suffix = {suffix: name for name, suffix in SUFFIXES.items()}
+    by_suffix.setdefault(".htm", "html")
+    suffix = Path(output).suffix.lower() if output else ""
+    if output and not output.endswith(("/", "\\")) and suffix in by_suffix:
+        return by_suffix[suffix]
+    known = ", ".join(f"{s} ({n})" for s, n in by_suffix.items())
+    what = f"from {output!r}" if output else "without -o"
+    message = f"cannot tell the format {what}: give --format, or -o a file ending in {known}"
+    raise MseError([Diagnostic("E100", message, Span("<arguments>"))])
+
+
+def report_unmapped_faces(timelines: list[Timeline], options: ExportOptions) -> None:
+    """With --face-library, say which face lexemes the library lacks: they are exported as
+    plain lexemes, without action units, which --bml-extensions would otherwise add."""
+    from mse.export.lexemes import load_face_library, modality_of, split_lexeme
+
+    if options.face_library is None:
+        return
+    library = load_face_library(options.face_library)
+    missing = sorted(
+        {
+            s.lexeme
+            for timeline in timelines
+            for s in timeline.signals
+            for lexeme in (split_lexeme(s.lexeme),)
+            if modality_of(s.modality, lexeme) == "face" and library.resolve(lexeme) is None
+        }
+    )
+    if missing:
+        effect = "as plain faceLexeme, without ext:faceFacs" if options.bml_extensions else "without action units"
+        print(
+            f"{options.face_library}: warning: face lexeme(s) not in this face library, exported {effect}: "
+            f"{', '.join(missing)}",
+            file=sys.stderr,
+        )

@@ -231,4 +231,7 @@ def _render(timelines: list[Any], fmt: str, args: argparse.Namespace, *, many: b
     )
     if len(timelines) > 1:
         raise MseError([Diagnostic("E100", f"--format {fmt} exports one timeline; drop --count", Span("<arguments>"))])
+    from mse.cli.cmd_export import report_unmapped_faces
+
+    report_unmapped_faces(timelines, options)
     return str(render(timelines[0], fmt, options))
