@@ -3,9 +3,11 @@
 from __future__ import annotations
 
 import difflib
+import hashlib
 import json
 import random
-from collections.abc import Iterable, Iterator, Sequence
+from collections.abc import Iterable, Iterator, Mapping, Sequence
+from dataclasses import replace
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -194,6 +196,38 @@ def motion_annotations(model: Model) -> dict[str, dict[str, object]]:
     return {s.id: {"action": s.motion.action} for s in model.signals if s.motion is not None}
 
 
+def expression_source(model: Model) -> dict[str, str] | None:
+    """Where ``model`` was read from, as timelines record it (their ``"source"``):
+    ``{"bundled": name, "sha256": ...}`` or ``{"path": absolute path, "sha256": ...}``, the
+    hash being of the file's bytes; None when the model comes from no file (a string, stdin).
+
+    >>> import mse
+    >>> from mse.api import expression_source
+    >>> expression_source(mse.load("relief"))["bundled"]
+    'relief'
+    """
+    path = Path(model.path)
+    try:
+        data = path.read_bytes() if path.is_file() else None
+    except OSError:
+        data = None
+    if data is None:
+        return None
+    digest = hashlib.sha256(data).hexdigest()
+    resolved = path.resolve()
+    bundled = bundled_path(resolved.stem)
+    if bundled is not None and bundled.resolve() == resolved:
+        return {"bundled": resolved.stem, "sha256": digest}
+    return {"path": str(resolved), "sha256": digest}
+
+
+def with_source(timeline: Timeline, source: Mapping[str, str] | None) -> Timeline:
+    """``timeline`` recording ``source`` (see :func:`expression_source`) in its JSON."""
+    if source is None:
+        return timeline
+    return replace(timeline, extra={**timeline.extra, "source": dict(source)})
+
+
 def _names_option(value: object) -> object:
     """``require="frown"`` is one signal, not five letters; any iterable becomes a tuple."""
     if isinstance(value, str):
@@ -249,14 +283,18 @@ def sample(
     check_supported(backend, request)
     schedules = backend.solve(model, request)
     motions = motion_annotations(model)
+    source = expression_source(model)
     timelines = [
-        from_schedule(
-            schedule,
-            expression=model.name,
-            signal_info=model.signal_info,
-            solver=solver,
-            seed=derive_seed(request.seed, index),
-            motions=motions,
+        with_source(
+            from_schedule(
+                schedule,
+                expression=model.name,
+                signal_info=model.signal_info,
+                solver=solver,
+                seed=derive_seed(request.seed, index),
+                motions=motions,
+            ),
+            source,
         )
         for index, schedule in enumerate(schedules)
     ]

@@ -8,7 +8,10 @@
 ```
 Signals are sorted by start, then id; times are seconds with at most 3 decimals.
 A signal entry may carry ``"motion": {...}`` (motion leaves); unknown top-level keys are
-kept in ``extra`` so that tools can add data without breaking readers.
+kept in ``extra`` so that tools can add data without breaking readers.  ``mse.sample``
+records where the expression came from in ``"source"``: ``{"bundled": "embarrassment",
+"sha256": ...}`` or ``{"path": "/abs/x.xml", "sha256": ...}`` (hash of the file's bytes);
+it is optional, so older timelines and other tools' timelines still read.
 """
 
 from __future__ import annotations
@@ -64,6 +67,14 @@ class Timeline:
     def __post_init__(self) -> None:
         ordered = tuple(sorted(self.signals, key=lambda s: (round(s.start, 3), s.id, s.stop)))
         object.__setattr__(self, "signals", ordered)
+
+    @property
+    def source(self) -> Mapping[str, str] | None:
+        """Where the expression came from (``"source"`` in the JSON), or None when unrecorded."""
+        value = self.extra.get("source")
+        if not isinstance(value, Mapping):
+            return None
+        return {str(k): str(v) for k, v in value.items() if isinstance(v, str)}
 
     # -- conversions -------------------------------------------------------------------
     def to_schedule(self) -> Schedule:

@@ -45,7 +45,8 @@ def register(subparsers: Any) -> None:
 def run(args: argparse.Namespace) -> int:
     from mse.api import load
     from mse.cli.common import print_error, read_timelines
-    from mse.diagnostics import Diagnostic, MseError, Span
+    from mse.diagnostics import MseError
+
     overrides = {}
     for item in args.style:
         emotion, _, style = item.partition("=")
@@ -57,15 +58,69 @@ def run(args: argparse.Namespace) -> int:
         timelines = read_timelines(args.timeline)
         resolved: list[tuple[Timeline, Model]] = []
         for timeline in timelines:
-            expression = args.expression or timeline.expression
-            if not expression:
-                message = "the timeline names no expression: use --expression"
-                raise MseError([Diagnostic("E212", message, Span(args.timeline))])
-            resolved.append((timeline, load(expression)))
+            model = load(args.expression) if args.expression else _recorded_expression(timeline, args.timeline)
+            _check_signals(timeline, model, args.timeline)
+            resolved.append((timeline, model))
         animate_timelines(resolved, Path(args.output), args.library, overrides)
     except MseError as error:
         return print_error(error)
     return 0
+
+
+def _recorded_expression(timeline: Timeline, where: str) -> Model:
+    """The expression the timeline was sampled from: its recorded source file (a warning
+    when the file changed since), its bundled name, else its expression name."""
+    import hashlib
+
+    from mse.api import load
+    from mse.diagnostics import Diagnostic, MseError, Span
+
+    source = timeline.source or {}
+    if "path" in source:
+        path = Path(source["path"])
+        if not path.is_file():
+            message = f"the timeline's expression file {path} is gone: give --expression FILE"
+            raise MseError([Diagnostic("E100", message, Span(where))])
+        recorded = source.get("sha256")
+        if recorded and hashlib.sha256(path.read_bytes()).hexdigest() != recorded:
+            print(f"{path}: warning: changed since the timeline was sampled from it", file=sys.stderr)
+        return load(path)
+    name = source.get("bundled") or timeline.expression
+    if not name:
+        raise MseError([Diagnostic("E212", "the timeline names no expression: use --expression", Span(where))])
+    return load(name)
+
+
+def _check_signals(timeline: Timeline, model: Model, where: str) -> None:
+    """Every signal of the timeline must be declared by ``model``: animating with the wrong
+    expression would otherwise write no motion at all, silently."""
+    from mse.diagnostics import Diagnostic, MseError, Span
+
+    unknown = sorted({s.id for s in timeline.signals} - set(model.signal_by_id))
+    if unknown:
+        shown = ", ".join(unknown[:8]) + (f" and {len(unknown) - 8} more" if len(unknown) > 8 else "")
+        message = (
+            f"the timeline's signals {shown} are not in expression {model.name!r} ({model.path}): "
+            "give the --expression the timeline was sampled from"
+        )
+        raise MseError([Diagnostic("E212", message, Span(where))])
+
+
+def _check_style_overrides(items: list[tuple[Timeline, Model]], library: Any, overrides: dict[str, str]) -> None:
+    """An override for an emotion nothing knows is a typo (``--style angr=sad``): refuse it."""
+    from mse.diagnostics import Diagnostic, MseError, Span
+    from mse.motion.base.library import EMOTION_STYLES
+
+    known = {name.lower() for name in EMOTION_STYLES}
+    known |= {name.lower() for name in (library.emotion_styles if library is not None else {})}
+    for timeline, model in items:
+        known |= {timeline.expression.lower(), model.name.lower()}
+        known |= {str(s.motion.attributes.get("emotion", "")).lower() for s in model.signals if s.motion}
+    known.discard("")
+    unknown = sorted(e for e in overrides if e.lower().removeprefix("emotion-") not in known)
+    if unknown:
+        message = f"--style: unknown emotion(s) {', '.join(map(repr, unknown))}; known: {', '.join(sorted(known))}"
+        raise MseError([Diagnostic("E100", message, Span("<arguments>"))])
 
 
 def animate_timelines(
@@ -81,6 +136,8 @@ def animate_timelines(
     from mse.motion.base.library import load_library
 
     library = load_library(library_path) if library_path else None
+    if overrides:
+        _check_style_overrides(items, library, overrides)
     animated_all = []
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")

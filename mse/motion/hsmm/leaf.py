@@ -34,8 +34,9 @@ def _where(source: str | os.PathLike[str] | MotionLibrary) -> str:
     return source.name if isinstance(source, MotionLibrary) else os.fspath(source)
 
 
-def _no_clips(source: str | os.PathLike[str] | MotionLibrary, what: str) -> MseError:
-    return MseError([Diagnostic("E213", f"no {what} in the motion library", Span(_where(source)))])
+def _no_clips(source: str | os.PathLike[str] | MotionLibrary, what: str, has: list[str] | None = None) -> MseError:
+    listed = f"; it has: {', '.join(has) or 'none'}" if has is not None else ""
+    return MseError([Diagnostic("E213", f"no {what} in the motion library{listed}", Span(_where(source)))])
 
 
 def _style_takes(
@@ -44,7 +45,10 @@ def _style_takes(
     """The first ``takes`` clips (by id; None: all) of ``action`` in ``style``."""
     chosen = sorted(library.select(action=action, style=style), key=lambda c: c.id)
     if not chosen:
-        raise _no_clips(where, f"{action!r} clips of style {style!r}")
+        styles = sorted({c.style for c in library.select(action=action)})
+        if styles:
+            raise _no_clips(where, f"{action!r} clips of style {style!r}", [f"{action} in {', '.join(styles)}"])
+        raise _no_clips(where, f"clips of action {action!r}", library.actions())
     if takes is not None:
         chosen = chosen[: max(1, takes)]
     return [library.motion(c) for c in chosen]
@@ -65,7 +69,7 @@ def train_from_library(
         return train_scratch([(m, style) for m in motions], action, options)
     clips = [(library.motion(c), c.style) for c in library.select(action=action)]
     if not clips:
-        raise _no_clips(source, f"clips of action {action!r}")
+        raise _no_clips(source, f"clips of action {action!r}", library.actions())
     return train_average(clips, action, options)
 
 
