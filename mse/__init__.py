@@ -5,6 +5,17 @@ Four parts, data flowing one way:
 - ``mse.ir``: the resolved, typed model and the one semantic evaluator (``ir.evaluate``);
 - ``mse.solve``: backends behind one protocol (greedy sampler, CP-SAT, python-constraint);
 - ``mse.timeline`` -> ``mse.export`` (JSON, BML, SVG, HTML) and ``mse.motion`` (motion leaves).
+
+The public API (docs/api.md): ``load``, ``loads``, ``sample``, ``iter_sample``, ``check``,
+``lint``, ``explain`` and the types they take and return (``Model``, ``Timeline``,
+``TimelineSignal``, ``Pin``, ``SolveRequest``, ``Violation``, ``Explanation``,
+``Diagnostic``, ``MseError``, ``NoSolution``), imported on first use.
+
+>>> import mse
+>>> model = mse.load("anger")
+>>> timeline = mse.sample(model, 10.0, seed=3, solver="cpsat", pinned=[mse.Pin("frown", 1.0, 2.5)])
+>>> mse.check(model, timeline)
+[]
 """
 
 from __future__ import annotations
@@ -18,7 +29,9 @@ if TYPE_CHECKING:
     from mse.diagnostics import Diagnostic, MseError
     from mse.ir.evaluate import Violation
     from mse.ir.model import Model
-    from mse.timeline import Timeline
+    from mse.solve.cpsat.explain import Explanation
+    from mse.solve.protocol import NoSolution, Pin, SolveRequest
+    from mse.timeline import Timeline, TimelineSignal
 
 # The public names are imported on first use, so that `import mse` (and the command
 # line's start) stays cheap.
@@ -35,6 +48,11 @@ _LAZY = {
     "Violation": "mse.ir.evaluate",
     "Model": "mse.ir.model",
     "Timeline": "mse.timeline",
+    "TimelineSignal": "mse.timeline",
+    "Pin": "mse.solve.protocol",
+    "SolveRequest": "mse.solve.protocol",
+    "NoSolution": "mse.solve.protocol",
+    "Explanation": "mse.solve.cpsat.explain",
 }
 
 
@@ -51,9 +69,14 @@ def __getattr__(name: str) -> Any:
 
 __all__ = [
     "Diagnostic",
+    "Explanation",
     "Model",
     "MseError",
+    "NoSolution",
+    "Pin",
+    "SolveRequest",
     "Timeline",
+    "TimelineSignal",
     "Violation",
     "__version__",
     "check",

@@ -1,4 +1,14 @@
-"""The library API: one function per stage.  The CLI is a thin layer over these."""
+"""The library API: one function per stage.  The CLI is a thin layer over these.
+
+The names most users need are also importable from ``mse`` itself (``mse.load``,
+``mse.sample``, ``mse.Pin``...); docs/api.md lists them all with examples.
+
+>>> import mse
+>>> model = mse.load("relief")
+>>> timeline = mse.sample(model, 4.0, seed=7)
+>>> mse.check(model, timeline)
+[]
+"""
 
 from __future__ import annotations
 
@@ -31,7 +41,20 @@ if TYPE_CHECKING:
 
 
 def compile_source(path: str | Path, data: bytes | None = None) -> tuple[Model | None, list[Diagnostic]]:
-    """Parse and resolve one native file; the model is None when there are errors."""
+    """Parse and resolve one native file; the model is None when there are errors.
+
+    ``data`` (bytes) stands for the file's content when given; ``path`` then only names it
+    in diagnostics. Unlike :func:`load`, errors are returned, not raised, with any warnings.
+
+    >>> from mse.api import compile_source
+    >>> model, diagnostics = compile_source("tiny.xml", b'<expression name="tiny"><signals>'
+    ...     b'<signal id="a" modality="head"/></signals></expression>')
+    >>> model.name, diagnostics
+    ('tiny', [])
+    >>> model, diagnostics = compile_source("bad.xml", b"<expression")
+    >>> model is None, diagnostics[0].code
+    (True, 'E101')
+    """
     from mse.ir.build import build_model
     from mse.syntax.reader import read_document
 
@@ -46,7 +69,15 @@ def compile_source(path: str | Path, data: bytes | None = None) -> tuple[Model |
 
 
 def resolve_path(path_or_name: str | Path) -> Path:
-    """A file path as given, or the bundled file of that name; MseError (E100) otherwise."""
+    """A file path as given, or the bundled file of that name; MseError (E100) otherwise.
+
+    >>> from mse.api import resolve_path
+    >>> resolve_path("anger").name
+    'anger.xml'
+    >>> resolve_path("angr")
+    Traceback (most recent call last):
+    mse.diagnostics.MseError: angr: E100 no such file or bundled expression (did you mean 'anger'?); bundled: ...
+    """
     candidate = Path(path_or_name)
     if candidate.exists():
         return candidate
@@ -64,7 +95,16 @@ def load(path_or_name: str | Path, *, cache: bool = False) -> Model:
     """Load a behaviour-set file, a compiled IR JSON file, or a bundled expression by name.
 
     With ``cache=True`` a file that compiled before is read from the compiled-model cache
-    (keyed by its path and exact bytes), which skips XML parsing and the grammar."""
+    (keyed by its path and exact bytes), which skips XML parsing and the grammar. Errors
+    raise :class:`mse.MseError` carrying every diagnostic (``path:line:col: CODE message``).
+
+    >>> import mse
+    >>> model = mse.load("embarrassment")
+    >>> model.name, len(model.signals) > 0
+    ('embarrassment', True)
+    >>> model.signal("head_down").modality
+    'head'
+    """
     path = resolve_path(path_or_name)
     if path.suffix == ".json":
         return loads_ir(path.read_text(encoding="utf-8"), path=str(path))
@@ -79,7 +119,23 @@ def load(path_or_name: str | Path, *, cache: bool = False) -> Model:
 
 
 def loads(data: bytes | str, *, path: str = "<string>") -> Model:
-    """Load a model from the text of a native file or of compiled IR JSON."""
+    """Load a model from the text of a native file or of compiled IR JSON; ``path`` names
+    it in diagnostics. Errors raise :class:`mse.MseError`.
+
+    >>> import mse
+    >>> model = mse.loads('''<expression name="nod_then_smile">
+    ...   <signals>
+    ...     <signal id="nod" modality="head" min_duration="0.5" max_duration="1"/>
+    ...     <signal id="smile" modality="face" min_duration="1" max_duration="3"/>
+    ...   </signals>
+    ...   <constraints><constraint>precedes(nod, smile)</constraint></constraints>
+    ... </expression>''')
+    >>> model.name, [s.id for s in model.signals]
+    ('nod_then_smile', ['nod', 'smile'])
+    >>> mse.loads("<expression", path="x.xml")
+    Traceback (most recent call last):
+    mse.diagnostics.MseError: x.xml:1:12: E101 ...
+    """
     raw = data.encode("utf-8") if isinstance(data, str) else data
     if raw.lstrip().startswith(b"{"):
         return loads_ir(raw.decode("utf-8", errors="replace"), path=path)
@@ -90,6 +146,13 @@ def loads(data: bytes | str, *, path: str = "<string>") -> Model:
 
 
 def loads_ir(text: str, *, path: str = "<stdin>") -> Model:
+    """A model from compiled IR JSON (``mse compile`` output), re-checked like a file.
+
+    >>> from mse.api import load, loads_ir
+    >>> from mse.ir.canonical import model_dumps
+    >>> loads_ir(model_dumps(load("relief"))).name
+    'relief'
+    """
     from mse.ir.canonical import model_from_json
 
     try:
@@ -102,12 +165,28 @@ def loads_ir(text: str, *, path: str = "<stdin>") -> Model:
 
 
 def check(model: Model, timeline: Timeline) -> list[Violation]:
-    """Every way ``timeline`` is inconsistent with ``model``; empty when it is consistent."""
+    """Every way ``timeline`` is inconsistent with ``model``; empty when it is consistent.
+
+    Each :class:`mse.Violation` has a ``span`` (the constraint's file:line) and a message.
+
+    >>> import mse
+    >>> model = mse.load("anger")
+    >>> mse.check(model, mse.sample(model, 10.0, seed=1))
+    []
+    >>> empty = mse.Timeline("anger", 10.0, ())
+    >>> [v.constraint for v in mse.check(model, empty)]
+    ['angry_face_shown']
+    """
     return check_schedule(model, timeline.to_schedule())
 
 
 def expand_paths(paths: Iterable[str | Path]) -> list[Path]:
-    """The files named by ``paths``: folders searched for ``*.xml``, bundled names resolved."""
+    """The files named by ``paths``: folders searched for ``*.xml``, bundled names resolved.
+
+    >>> from mse.api import expand_paths
+    >>> [p.name for p in expand_paths(["relief"])]
+    ['relief.xml']
+    """
     files: list[Path] = []
     for entry in paths:
         path = Path(entry)
@@ -192,7 +271,12 @@ def lint(
 
 
 def motion_annotations(model: Model) -> dict[str, dict[str, object]]:
-    """``{"action": ...}`` for every motion-leaf signal (timeline entries carry it)."""
+    """``{"action": ...}`` for every motion-leaf signal (timeline entries carry it).
+
+    >>> from mse.api import load, motion_annotations
+    >>> motion_annotations(load("embarrassment"))["bow"]
+    {'action': 'bow'}
+    """
     return {s.id: {"action": s.motion.action} for s in model.signals if s.motion is not None}
 
 
@@ -222,7 +306,13 @@ def expression_source(model: Model) -> dict[str, str] | None:
 
 
 def with_source(timeline: Timeline, source: Mapping[str, str] | None) -> Timeline:
-    """``timeline`` recording ``source`` (see :func:`expression_source`) in its JSON."""
+    """``timeline`` recording ``source`` (see :func:`expression_source`) in its JSON.
+
+    >>> from mse.api import with_source
+    >>> from mse.timeline import Timeline
+    >>> with_source(Timeline("x", 1.0, ()), {"path": "/x.xml", "sha256": "0"}).source
+    {'path': '/x.xml', 'sha256': '0'}
+    """
     if source is None:
         return timeline
     return replace(timeline, extra={**timeline.extra, "source": dict(source)})
@@ -276,8 +366,30 @@ def sample(
 ) -> Timeline | list[Timeline]:
     """One timeline (``count=None``) or a list of ``count`` timelines of ``duration`` seconds.
 
-    ``options`` are the fields of :class:`mse.solve.protocol.SolveRequest` (pinned, require,
-    forbid, objective, diverse, time_limit, workers, grid, slot, max_restarts)."""
+    ``solver`` is ``"greedy"`` (the paper's sampler), ``"cpsat"`` (exact) or ``"csp"``;
+    ``mode="constraint-less"`` ignores the constraints (the paper's control condition).
+    ``options`` are the fields of :class:`mse.SolveRequest`: ``pinned`` (:class:`mse.Pin`
+    values), ``require`` and ``forbid`` (signal ids; one id may be given as a string),
+    ``objective`` (``"profile"``, the default, ``"likely"``, ``"random"``, ``"most-signals"``,
+    ``"fewest-signals"``), ``diverse``, ``time_limit``, ``workers``, ``grid``, ``slot``,
+    ``max_restarts``. A solver that cannot honour an option raises :class:`mse.MseError`;
+    when no timeline exists it raises :class:`mse.NoSolution`. Timeline *i* of a ``count``
+    run has seed ``seed + i``.
+
+    >>> import mse
+    >>> model = mse.load("anger")
+    >>> timeline = mse.sample(model, 10.0, seed=7)
+    >>> timeline.duration, timeline.seed, timeline.source["bundled"]
+    (10.0, 7, 'anger')
+    >>> [t.seed for t in mse.sample(model, 10.0, seed=1, count=3)]
+    [1, 2, 3]
+    >>> pinned = mse.sample(model, 10.0, seed=1, solver="cpsat",
+    ...                     pinned=[mse.Pin("frown", 4.0, 6.0)], forbid="head_forward")
+    >>> [(s.start, s.stop) for s in pinned.signals if s.id == "frown"]
+    [(4.0, 6.0)]
+    >>> "head_forward" in {s.id for s in pinned.signals}
+    False
+    """
     backend = get_solver(solver)
     request = _request(duration, seed, count or 1, mode=mode, **options)
     check_supported(backend, request)
@@ -309,7 +421,15 @@ def iter_sample(
     solver: str = "greedy",
     **options: object,
 ) -> Iterator[TimelineSignal]:
-    """The signals of one timeline, each yielded as soon as the solver decides it."""
+    """The signals of one timeline, each yielded as soon as the solver decides it
+    (solvers that cannot stream raise :class:`mse.MseError`); options as :func:`sample`.
+
+    >>> import mse
+    >>> model = mse.load("relief")
+    >>> signals = list(mse.iter_sample(model, 10.0, seed=7))
+    >>> all(0 <= s.start < s.stop <= 10.0 for s in signals)
+    True
+    """
     backend = get_solver(solver)
     request = _request(duration, seed, 1, **options)
     check_supported(backend, request)
@@ -329,7 +449,25 @@ def iter_sample(
 
 
 def explain(model: Model, duration: float = 10.0, **options: Any) -> Explanation | None:
-    """Why no timeline of ``duration`` exists (a minimal conflicting set), or None."""
+    """Why no timeline of ``duration`` exists (a minimal conflicting set), or None.
+
+    Options: ``pinned``, ``require``, ``forbid`` as for :func:`sample`, and a ``time_limit``.
+
+    >>> import mse
+    >>> model = mse.loads('''<expression name="tiny"><signals>
+    ...   <signal id="a" modality="head" min_duration="3"/></signals>
+    ...   <constraints><constraint id="needs_a">exists(a)</constraint></constraints>
+    ... </expression>''')
+    >>> mse.explain(model, 5.0) is None
+    True
+    >>> print(mse.explain(model, 2.0).render())
+    no timeline of 2 s: ...needs_a (<string>:3) exists(a)
+    """
     from mse.solve.cpsat.explain import explain as explain_model
 
+    for key in ("require", "forbid"):
+        if key in options:
+            options[key] = _names_option(options[key])
+    if "pinned" in options:
+        options["pinned"] = _pins_option(options["pinned"])
     return explain_model(model, float(duration), **options)
