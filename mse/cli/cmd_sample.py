@@ -90,6 +90,17 @@ def _stdin_has_data() -> bool:
     return stat.S_ISFIFO(mode) or stat.S_ISREG(mode)
 
 
+def _stdin_inherited() -> bool:
+    """True when our stdin is our parent's own (no pipe was made for this command, as when
+    a script run with an empty pipe for input calls ``mse sample``); Linux only."""
+    try:
+        mine = os.fstat(sys.stdin.fileno())
+        parents = os.stat(f"/proc/{os.getppid()}/fd/0")
+    except (OSError, ValueError, AttributeError):
+        return False
+    return (mine.st_dev, mine.st_ino) == (parents.st_dev, parents.st_ino)
+
+
 def load_model_argument(source: str | None) -> Any:
     """The model named by SOURCE; piped input; or the bundled default (said on stderr)."""
     from mse.api import load, loads
@@ -99,15 +110,16 @@ def load_model_argument(source: str | None) -> Any:
         return load(source, cache=True)
     if source == "-" or _stdin_has_data():
         data = read_stdin_bytes()
-        if not data.strip():
-            # An empty pipe is a failed producer (mse compile bad.xml | mse sample), not a
-            # request for the bundled default.
+        if not data.strip() and (source == "-" or not _stdin_inherited()):
+            # An empty pipe made for us is a failed producer (mse compile bad.xml | mse
+            # sample), not a request for the bundled default.
             message = (
                 "no model on stdin (the input was empty: did the command before the pipe fail?); "
                 f"name a SOURCE, e.g. 'mse sample {DEFAULT_EXPRESSION}'"
             )
             raise MseError([Diagnostic("E100", message, Span("<stdin>"))])
-        return loads(data, path="<stdin>")
+        if data.strip():
+            return loads(data, path="<stdin>")
     print(f"mse: sampling the bundled expression '{DEFAULT_EXPRESSION}'", file=sys.stderr)
     return load(DEFAULT_EXPRESSION, cache=True)
 
