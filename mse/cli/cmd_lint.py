@@ -18,9 +18,10 @@ def _codes(value: str) -> list[str]:
 def register(subparsers: Any) -> None:
     parser = subparsers.add_parser(
         "lint",
-        help="lint behaviour sets (files or folders)",
-        description="Report errors (E) and warnings (W) of behaviour-set files. Exit 1 on "
-        "errors, or on warnings with --strict.",
+        help="lint behaviour sets (files, folders or bundled names)",
+        description="Report errors (E) and warnings (W) of behaviour-set files, the solver-backed "
+        "W4xx rules included unless --no-deep. A folder without any *.xml is a W300 warning. Exit 1 "
+        "on errors, or on warnings with --strict; 2 when --select/--ignore names no rule code.",
     )
     parser.add_argument("paths", nargs="+", help="files, folders (searched for *.xml) or bundled names")
     parser.add_argument(
