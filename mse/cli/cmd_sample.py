@@ -101,6 +101,20 @@ def _stdin_inherited() -> bool:
     return (mine.st_dev, mine.st_ino) == (parents.st_dev, parents.st_ino)
 
 
+def _inherited_and_silent(wait: float = 0.2) -> bool:
+    """Our parent's own stdin that brings nothing at once (a harness's pipe left open): not
+    input for us.  Reading it would block forever when its writer never closes it."""
+    if not _stdin_inherited():
+        return False
+    import select
+
+    try:
+        ready, _, _ = select.select([sys.stdin.fileno()], [], [], wait)
+    except (OSError, ValueError):
+        return False
+    return not ready
+
+
 def load_model_argument(source: str | None) -> Any:
     """The model named by SOURCE; piped input; or the bundled default (said on stderr)."""
     from mse.api import load, loads
@@ -108,7 +122,7 @@ def load_model_argument(source: str | None) -> Any:
 
     if source is not None and source != "-":
         return load(source, cache=True)
-    if source == "-" or _stdin_has_data():
+    if source == "-" or (_stdin_has_data() and not _inherited_and_silent()):
         data = read_stdin_bytes()
         if not data.strip() and (source == "-" or not _stdin_inherited()):
             # An empty pipe made for us is a failed producer (mse compile bad.xml | mse
