@@ -2,7 +2,8 @@
 
 Every layer reports problems as :class:`Diagnostic` records; front-ends (the CLI, an
 editor, CI) decide how to render them.  Codes: ``E1xx`` syntax, ``E2xx`` semantics,
-``W3xx`` static lint, ``W4xx`` solver-backed lint, ``W5xx`` import/conversion notes.
+``W3xx`` static lint, ``W4xx`` solver-backed lint, ``W5xx`` import/conversion notes,
+``W6xx`` export notes.
 """
 
 from __future__ import annotations
@@ -67,6 +68,7 @@ CODES: dict[str, str] = {
     "W305": "duplicate constraint",
     "W306": "lexeme class contradicts the modality",
     "W307": "unknown modality",
+    "W308": "lexeme the realizer cannot resolve",
     # W4xx: solver-backed lint
     "W401": "no consistent timeline",
     "W402": "dead signal",
@@ -77,6 +79,8 @@ CODES: dict[str, str] = {
     # W5xx: import and conversion
     "W501": "Greta name mismatch resolved",
     "W502": "Greta construct approximated",
+    # W6xx: export
+    "W601": "behaviour left out of the export (the realizer cannot play it)",
 }
 
 

@@ -33,6 +33,7 @@ def test_wheel_contains_package_data(wheel: Path) -> None:
     assert "mse/grammar/constraints.lark" in names
     assert "mse/grammar/mse.xsd" in names
     assert "mse/behaviour_sets/embarrassment.xml" in names
+    assert "mse/export/realizer_tables/greta.toml" in names
     assert len([n for n in names if n.startswith("mse/behaviour_sets/") and n.endswith(".xml")]) == 8
 
 

@@ -50,6 +50,12 @@ def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) ->
     )
     p.add_argument("--character-id", default="Agent", help="BML characterId (default: Agent)")
     p.add_argument(
+        "--realizer",
+        choices=("generic", "greta", "asap"),
+        help="BML for this realizer (default: generic for bml, greta for greta-bml; docs/realizers.md)",
+    )
+    p.add_argument("--library-dir", type=Path, help="the realizer's libraries (Greta's BehaviorLexicon folder)")
+    p.add_argument(
         "--motion-dir",
         type=Path,
         help="folder that motion file paths are relative to (default: the timeline's folder)",
@@ -60,7 +66,7 @@ def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) ->
 def run(args: argparse.Namespace) -> int:
     from mse.cli.common import read_timelines
     from mse.diagnostics import Diagnostic, MseError, Span
-    from mse.export import SUFFIXES, ExportOptions, render
+    from mse.export import SUFFIXES, ExportOptions, export_notes, render
     from mse.fileio import write_atomic
 
     output: str | None = args.output
@@ -79,6 +85,8 @@ def run(args: argparse.Namespace) -> int:
             bml_extensions=args.bml_extensions,
             bml_constraints=args.bml_constraints,
             motion_base_dir=base_dir,
+            realizer=args.realizer,
+            library_dir=args.library_dir,
         )
         to_folder = output is not None and (output.endswith(("/", "\\")) or Path(output).is_dir())
         if not to_folder:
@@ -90,11 +98,14 @@ def run(args: argparse.Namespace) -> int:
             timelines = timelines[:1]
         # Render everything before writing anything: bad input leaves no partial output.
         pages = [render(t, args.format, options) for t in timelines]
+        notes = [note for t in timelines for note in export_notes(t, args.format, options, where)]
     except MseError as error:
         for diagnostic in error.diagnostics:
             print(diagnostic.render(), file=sys.stderr)
         return 1
-    report_unmapped_faces(timelines, options)
+    report_unmapped_faces(timelines, options, args.format)
+    for note in notes:
+        print(note.render(), file=sys.stderr)
     if output is None:
         sys.stdout.write(pages[0])
         return 0
@@ -133,21 +144,28 @@ def _format_from_output(output: str | None) -> str:
     raise MseError([Diagnostic("E100", message, Span("<arguments>"))])
 
 
-def report_unmapped_faces(timelines: list[Timeline], options: ExportOptions) -> None:
+def report_unmapped_faces(timelines: list[Timeline], options: ExportOptions, fmt: str | None = None) -> None:
     """With --face-library, say which face lexemes the library lacks: they are exported as
-    plain lexemes, without action units, which --bml-extensions would otherwise add."""
-    from mse.export.lexemes import load_face_library, modality_of, split_lexeme
+    plain lexemes, without action units, which --bml-extensions would otherwise add.  For the
+    greta profile a face is looked up by the Greta name it is written with."""
+    from mse.export.lexemes import Lexeme, load_face_library, modality_of, split_lexeme
+    from mse.export.realizers import realize_greta, realizer_for
 
     if options.face_library is None:
         return
     library = load_face_library(options.face_library)
+    greta = fmt in ("bml", "greta-bml") and realizer_for(fmt, options.realizer) == "greta"
+
+    def looked_up(lexeme: Lexeme) -> Lexeme:
+        return Lexeme("faceexp", realize_greta("face", lexeme, None).name) if greta else lexeme
+
     missing = sorted(
         {
             s.lexeme
             for timeline in timelines
             for s in timeline.signals
             for lexeme in (split_lexeme(s.lexeme),)
-            if modality_of(s.modality, lexeme) == "face" and library.resolve(lexeme) is None
+            if modality_of(s.modality, lexeme) == "face" and library.resolve(looked_up(lexeme)) is None
         }
     )
     if missing:

@@ -17,6 +17,7 @@ from mse.diagnostics import Diagnostic, MseError, Span
 BASE_FORMATS = ("table", "json", "jsonl")
 EXPORT_FORMATS = ("bml", "greta-bml", "svg", "html")
 DEFAULT_OBJECTIVE = "profile"  # as mse.api.DEFAULT_OBJECTIVE (not imported: the CLI starts light)
+REALIZERS = ("generic", "greta", "asap")  # mse.export.realizers.REALIZERS (not imported: start-up time)
 _PIN = re.compile(r"^([A-Za-z_][A-Za-z0-9_]*)@(\d+(?:\.\d+)?)-(\d+(?:\.\d+)?)$")
 
 
@@ -79,6 +80,12 @@ def register(subparsers: Any) -> None:
     out.add_argument("--face-library", metavar="FILE", help="Greta face library for FACS export")
     out.add_argument("--bml-extensions", action="store_true", help="BML: faces as FACS action units")
     out.add_argument("--character-id", default="Agent", help="BML characterId (default Agent)")
+    out.add_argument(
+        "--realizer",
+        choices=REALIZERS,
+        help="BML for this realizer (default: generic for bml, greta for greta-bml; docs/realizers.md)",
+    )
+    out.add_argument("--library-dir", metavar="DIR", help="the realizer's libraries (Greta's BehaviorLexicon folder)")
     parser.set_defaults(handler=run)
 
 
@@ -247,17 +254,21 @@ def _render(timelines: list[Any], fmt: str, args: argparse.Namespace, *, many: b
         return str(timelines[0].dumps()) + "\n"
     from pathlib import Path
 
-    from mse.export import ExportOptions, render
+    from mse.export import ExportOptions, export_notes, render
 
     options = ExportOptions(
         character_id=args.character_id,
         face_library=Path(args.face_library) if args.face_library else None,
         bml_extensions=args.bml_extensions,
         motion_base_dir=Path(args.animate) if args.animate else None,
+        realizer=args.realizer,
+        library_dir=Path(args.library_dir) if args.library_dir else None,
     )
     if len(timelines) > 1:
         raise MseError([Diagnostic("E100", f"--format {fmt} exports one timeline; drop --count", Span("<arguments>"))])
     from mse.cli.cmd_export import report_unmapped_faces
 
-    report_unmapped_faces(timelines, options)
-    return str(render(timelines[0], fmt, options))
+    report_unmapped_faces(timelines, options, fmt)
+    text = str(render(timelines[0], fmt, options))
+    print_diagnostics(export_notes(timelines[0], fmt, options, where=args.source or "<sample>"))
+    return text

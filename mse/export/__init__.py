@@ -14,7 +14,7 @@ from mse.diagnostics import Diagnostic, MseError, Span
 from mse.export.options import ExportOptions
 from mse.timeline import Timeline
 
-__all__ = ["FORMAT_NAMES", "ExportOptions", "render"]
+__all__ = ["FORMAT_NAMES", "ExportOptions", "export_notes", "render"]
 
 Renderer = Callable[[Timeline, ExportOptions], str]
 
@@ -48,3 +48,19 @@ def render(timeline: Timeline, fmt: str, options: ExportOptions = DEFAULT_OPTION
     if not isinstance(timeline, Timeline):
         raise MseError([Diagnostic("E212", "export needs a Timeline", Span("<export>"))])
     return renderer(fmt)(timeline, options)
+
+
+def export_notes(
+    timeline: Timeline, fmt: str, options: ExportOptions = DEFAULT_OPTIONS, where: str = "<export>"
+) -> list[Diagnostic]:
+    """Warnings about what ``render(timeline, fmt, options)`` leaves out (W601: a torso the
+    Greta profile cannot play); empty for formats and profiles that write every occurrence."""
+    if fmt not in ("bml", "greta-bml"):
+        return []
+    from mse.export.realizers import realizer_for
+
+    if realizer_for(fmt, options.realizer) != "greta":
+        return []
+    from mse.export.greta_bml import greta_notes
+
+    return greta_notes(timeline, options, where)

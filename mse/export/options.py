@@ -15,9 +15,12 @@ class ExportOptions:
 
     ``face_library`` is a Greta ``facelibrary.xml``: face lexemes resolve to FACS action
     units through it.  ``bml_extensions`` allows elements outside BML 1.0 core
-    (``ext:faceFacs``); the default output stays inside the BML 1.0 schema.
+    (``ext:faceFacs``); the default output is BML 1.0 core.
     ``bml_constraints`` adds ``<constraint>`` blocks as metadata only (times stay absolute).
     ``motion_base_dir`` is the folder that ``signal.motion["file"]`` paths are relative to.
+    ``realizer`` is the profile BML is written for (``generic``, ``greta``, ``asap``; None:
+    the format's default, see :mod:`mse.export.realizers`); ``library_dir`` is the folder of
+    that realizer's libraries (Greta's BehaviorLexicon), read in place to check names.
     """
 
     character_id: str = "Agent"
@@ -29,3 +32,5 @@ class ExportOptions:
     gaze_target: str = "camera"
     title: str | None = None
     figure_fps: int = 30
+    realizer: str | None = None
+    library_dir: Path | None = None
