@@ -220,13 +220,17 @@ def lint(
     ignore: str | Sequence[str] = (),
     deep: bool = True,
     duration: float = 10.0,
+    realizer: str | None = None,
+    library_dir: str | Path | None = None,
 ) -> list[Diagnostic]:
     """Errors and lint warnings of every file, as ``mse lint`` reports them.
 
     ``paths`` are files, folders (searched for ``*.xml``; one without any is a W300 warning)
     or bundled names. ``select``/``ignore`` are rule-code prefixes (a prefix that matches no
     code raises :class:`MseError`); ``deep`` (the default, as on the command line) adds the
-    solver-backed W4xx rules at ``duration`` seconds.
+    solver-backed W4xx rules at ``duration`` seconds; ``realizer="greta"`` with ``library_dir``
+    (Greta's BehaviorLexicon folder) adds W308 for every signal whose lexeme Greta cannot
+    resolve (docs/realizers.md).
 
     >>> import mse
     >>> [d.code for d in mse.lint("embarrassment")]
@@ -241,6 +245,14 @@ def lint(
     ignored = _code_prefixes(ignore, "ignore")
     entries = [paths] if isinstance(paths, str | Path) else list(paths)
     found: list[Diagnostic] = []
+    libraries = None
+    if realizer is not None:
+        from mse.export.realizer_lint import realizer_libraries_for_lint
+
+        try:
+            libraries = realizer_libraries_for_lint(realizer, Path(library_dir) if library_dir is not None else None)
+        except MseError as error:
+            found.extend(error.diagnostics)
     for entry in entries:
         try:
             files = expand_paths([entry]) if Path(entry).is_dir() else [resolve_path(entry)]
@@ -255,6 +267,10 @@ def lint(
             if model is None:
                 continue
             found.extend(lint_model(model))
+            if libraries is not None:
+                from mse.export.realizer_lint import lint_realizer
+
+                found.extend(lint_realizer(model, libraries))
             if deep:
                 from mse.solve.cpsat.deep_lint import deep_lint
 

@@ -37,6 +37,14 @@ def register(subparsers: Any) -> None:
     parser.add_argument(
         "--duration", type=float, default=10.0, help="timeline duration for the solver-backed rules (default 10 s)"
     )
+    parser.add_argument(
+        "--realizer",
+        choices=("generic", "greta", "asap"),
+        help="also report signals this realizer cannot resolve in its libraries (W308; needs --library-dir)",
+    )
+    parser.add_argument(
+        "--library-dir", metavar="DIR", help="the realizer's libraries (Greta's BehaviorLexicon folder)"
+    )
     parser.add_argument("-o", "--output", help="write the report to this file (atomically)")
     parser.set_defaults(handler=run)
 
@@ -48,7 +56,15 @@ def run(args: argparse.Namespace) -> int:
 
     deep = args.deep and _deep_available()
     try:
-        diagnostics = lint(args.paths, select=args.select, ignore=args.ignore, deep=deep, duration=args.duration)
+        diagnostics = lint(
+            args.paths,
+            select=args.select,
+            ignore=args.ignore,
+            deep=deep,
+            duration=args.duration,
+            realizer=args.realizer,
+            library_dir=args.library_dir,
+        )
     except MseError as error:  # a usage error: --select/--ignore naming no rule
         print_diagnostics(error.diagnostics)
         return 2

@@ -136,12 +136,18 @@ def _behaviour_elements(
     return [Comment(f"{b.id}: modality {b.modality or '?'!r} has no BML 1.0 behaviour")]
 
 
-def sync_constraints(behaviours: Sequence[Behaviour]) -> list[Element]:
-    """``<constraint><synchronize>`` for sync points that share a time (metadata only)."""
+def sync_constraints(written: Sequence[Element | Comment | str]) -> list[Element]:
+    """``<constraint><synchronize>`` for sync points that share a time (metadata only).
+
+    Built from the behaviours actually written (ext:faceFacs ids, no comment-only
+    occurrences): a reference to a behaviour the block lacks makes AsapRealizer drop it."""
     by_time: dict[str, list[str]] = {}
-    for b in behaviours:
-        by_time.setdefault(b.start, []).append(f"{b.id}:start")
-        by_time.setdefault(b.end, []).append(f"{b.id}:end")
+    for node in written:
+        if not isinstance(node, Element) or "id" not in node.attributes or "start" not in node.attributes:
+            continue
+        bid = node.attributes["id"]
+        by_time.setdefault(str(node.attributes["start"]), []).append(f"{bid}:start")
+        by_time.setdefault(str(node.attributes["end"]), []).append(f"{bid}:end")
     blocks = []
     for refs in by_time.values():
         if len(refs) > 1:
@@ -165,7 +171,7 @@ def render_bml(timeline: Timeline, options: ExportOptions) -> str:
         for b in behaviours:
             children.extend(_behaviour_elements(b, realizer, library, options))
     if options.bml_constraints:
-        children.extend(sync_constraints(behaviours))
+        children.extend(sync_constraints(children))
     if not any(isinstance(c, Element) for c in children):
         # BML 1.0 needs at least one behaviour: an empty timeline is a zero-length wait.
         children.append(element("wait", {"id": "empty", "start": "0", "duration": "0"}))

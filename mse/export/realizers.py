@@ -132,10 +132,26 @@ class Realized:
     suggestion: str | None = None
 
 
-def _closest(name: str, candidates: Sequence[str]) -> str | None:
-    lowered = {c.lower(): c for c in candidates}
-    match = difflib.get_close_matches(name.lower(), list(lowered), n=1, cutoff=0.6)
-    return lowered[match[0]] if match else None
+def _stem(text: str) -> str:
+    """The first word of a name without its class: ``emotion=panic_fear_4`` -> ``panic``."""
+    match = re.match(r"[a-z]+", text.rpartition("=")[2].lower())
+    return match.group(0) if match else ""
+
+
+def closest_name(name: str, candidates: Sequence[str]) -> str | None:
+    """The library name closest to ``name``, for a did-you-mean.
+
+    Names of one family (same first word: ``panic_fear_signal_7`` and ``panic_fear_7``) are
+    compared loosely; across families only a near-identical spelling counts, so that
+    ``regret_signal_1`` is never "corrected" to another emotion's ``relief_signal_1``."""
+    stem = _stem(name)
+    by_text = {c.lower(): c for c in candidates}
+    family = [text for text in by_text if _stem(text) == stem]
+    for pool, cutoff in ((family, 0.6), (list(by_text), 0.85)):
+        match = difflib.get_close_matches(name.lower(), pool, n=1, cutoff=cutoff)
+        if match:
+            return by_text[match[0]]
+    return None
 
 
 def gaze_from_units(units: Sequence[ActionUnit] | None) -> str | None:
@@ -236,4 +252,4 @@ def _note(entry: TableEntry | None) -> str:
 def _checked(name: str, found: bool, entry: TableEntry | None, candidates: Callable[[], Sequence[str]]) -> Realized:
     if found:
         return Realized(name, True, _source(entry), _note(entry))
-    return Realized(name, False, _source(entry), _note(entry), _closest(name, candidates()))
+    return Realized(name, False, _source(entry), _note(entry), closest_name(name, candidates()))
