@@ -104,14 +104,21 @@ def realizer_for(fmt: str, realizer: str | None) -> str:
     return chosen
 
 
-@functools.cache
-def _cached_libraries(directory: str) -> GretaLibraries:
+@functools.lru_cache(maxsize=8)
+def _cached_libraries(directory: str, _stamp: tuple[tuple[str, int, int], ...]) -> GretaLibraries:
     return load_greta_libraries(Path(directory))
 
 
 def greta_libraries(directory: Path | None) -> GretaLibraries | None:
-    """Greta's libraries from ``directory`` (read once per process), or None."""
-    return None if directory is None else _cached_libraries(str(Path(directory).resolve()))
+    """Greta's libraries from ``directory``, or None; read again only when a file changed."""
+    if directory is None:
+        return None
+    folder = Path(directory).resolve()
+    try:
+        stamp = tuple(sorted((p.name, p.stat().st_mtime_ns, p.stat().st_size) for p in folder.glob("*.xml")))
+    except OSError:
+        stamp = ()
+    return _cached_libraries(str(folder), stamp)
 
 
 # -- what a realizer gets for one lexeme ---------------------------------------------------------
