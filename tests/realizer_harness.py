@@ -266,6 +266,19 @@ def synthetic_timeline() -> Timeline:
     return Timeline("synthetic", 3.0, signals, solver="hand-made", seed=0)
 
 
+def odd_lexemes_timeline() -> Timeline:
+    """Empty, nested, markup and overlong lexemes on every modality: nothing may make a
+    realizer reject the block or throw (an empty Greta reference once did)."""
+    lexemes = ["", "=", "faceexp=", "a=b=c", "torso=<&>\"'", "gaze=ünïcode", "head=head_", "  spaced  ", "x" * 300]
+    modalities = ["face", "head", "gaze", "gesture", "torso", "posture", "speech", "", "smell"]
+    signals = tuple(
+        TimelineSignal(f"odd{i}-{j}", modality, lexeme, 0.1 * i, 0.1 * i + 0.5)
+        for i, lexeme in enumerate(lexemes)
+        for j, modality in enumerate(modalities)
+    )
+    return Timeline("odd", 2.0, signals, solver="hand-made", seed=0)
+
+
 def build_corpus(shared: Path, folder: Path) -> Corpus:
     """Sample every bundled and imported Greta set with :data:`SEEDS`, export each timeline in
     every variant, and run each parser once over all its files."""
@@ -280,6 +293,7 @@ def build_corpus(shared: Path, folder: Path) -> Corpus:
     sources += [("imported", e.name, loads(e.xml, path=f"<greta {e.name}>")) for e in imported]
     timelines = [(kind, name, sample(model, DURATION, seed=seed)) for kind, name, model in sources for seed in SEEDS]
     timelines.append(("synthetic", "synthetic", synthetic_timeline()))
+    timelines.append(("synthetic", "odd", odd_lexemes_timeline()))
     variants = {**asap_variants(greta), **greta_variants(greta)}
     exports: list[Export] = []
     for index, (kind, name, timeline) in enumerate(timelines):

@@ -252,3 +252,12 @@ def test_bundled_sets_sample_into_greta_bml_without_notes() -> None:
     for name in bundled_names():
         t = sample(load(name), 10.0, seed=5)
         assert isinstance(t, Timeline) and export_notes(t, "greta-bml") == []
+
+
+def test_greta_profile_never_writes_an_empty_reference() -> None:
+    """An empty ``<reference>`` makes Greta's BML reader throw: nameless signals are left out."""
+    t = timeline(("h", "head", "head="), ("g", "gesture", "gesture="), ("f", "face", ""), ("z", "gaze", ""))
+    text = render(t, "greta-bml")
+    assert "<reference></reference>" not in text and "<reference/>" not in text
+    assert sorted(n.message.split("'")[1] for n in export_notes(t, "greta-bml")) == ["f", "g", "h"]
+    assert etree.fromstring(text.encode()).find(f"{GRETA}gaze") is not None  # a gaze needs no name

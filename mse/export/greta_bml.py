@@ -65,12 +65,19 @@ def _faces(b: Behaviour, libraries: GretaLibraries | None, face: FaceLibrary | N
     return [element("faceLexeme", {**timing(b), "lexeme": realized.name, "amount": "1"})]
 
 
-def left_out_torso(b: Behaviour, libraries: GretaLibraries | None) -> str | None:
-    """Why a torso or posture behaviour is not written for Greta, or None when it is."""
-    if b.modality not in ("torso", "posture"):
+def left_out(b: Behaviour, libraries: GretaLibraries | None) -> str | None:
+    """Why a behaviour is not written for Greta, or None when it is: a torso Greta cannot find
+    (its realizer throws on it), or a face, head, gesture or torso without a name (an empty
+    ``<reference>`` makes Greta's BML reader throw)."""
+    if b.modality not in ("face", "head", "gesture", "torso", "posture"):
         return None
     realized = realize_greta(b.modality, b.lexeme, libraries)
-    if realized.known:
+    if not realized.name.rpartition("=")[2].strip():
+        return (
+            f"{b.modality} signal {b.signal.id!r} ({b.signal.lexeme or 'no lexeme'}) left out: "
+            "it names nothing Greta can look up"
+        )
+    if b.modality not in ("torso", "posture") or realized.known:
         return None
     if realized.known is None:
         where = "a torso mse knows Greta has (give --library-dir with Greta's TorsoGestures.xml to check yours)"
@@ -86,6 +93,9 @@ def left_out_torso(b: Behaviour, libraries: GretaLibraries | None) -> str | None
 def _greta_element(
     b: Behaviour, libraries: GretaLibraries | None, face: FaceLibrary | None, extensions: bool
 ) -> list[Element | Comment]:
+    reason = left_out(b, libraries)
+    if reason is not None:
+        return [Comment(f"{b.id}: {reason}")]
     if b.modality == "face":
         return list(_faces(b, libraries, face, extensions))
     if b.modality == "gaze":
@@ -95,7 +105,8 @@ def _greta_element(
         if direction:
             attrs.update(offsetDirection=direction, offsetAngle=GAZE_ANGLE)
         # Greta's gaze parser ignores the description; it keeps the lexicon name visible.
-        return [element("gaze", attrs, _description(b.lexeme.reference))]
+        described = (_description(b.lexeme.reference),) if b.lexeme.reference else ()
+        return [element("gaze", attrs, *described)]
     if b.modality == "head":
         # Greta finds a head by the reference's HeadGestures id, then by the lexeme attribute.
         name = realize_greta("head", b.lexeme, libraries).name
@@ -105,9 +116,6 @@ def _greta_element(
         lexeme = reference.partition("=")[2] or reference
         return [element("gesture", {**timing(b), "lexeme": lexeme}, _description(reference))]
     if b.modality in ("torso", "posture"):
-        reason = left_out_torso(b, libraries)
-        if reason is not None:
-            return [Comment(f"{b.id}: {reason}")]
         name = realize_greta("torso", b.lexeme, libraries).name
         return [element("torso", {**timing(b), "lexeme": name}, _description(f"torso={name}"))]
     if b.modality == "speech" and b.lexeme.name:
@@ -138,7 +146,7 @@ def greta_notes(timeline: Timeline, options: ExportOptions, where: str = "<expor
     libraries = greta_libraries(options.library_dir)
     notes = []
     for b in plan_behaviours(timeline):
-        reason = left_out_torso(b, libraries)
+        reason = left_out(b, libraries)
         if reason is not None:
             notes.append(Diagnostic("W601", reason, Span(where)))
     return notes
