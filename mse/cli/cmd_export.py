@@ -52,7 +52,7 @@ def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) ->
     p.add_argument(
         "--realizer",
         choices=("generic", "greta", "asap"),
-        help="BML for this realizer (default: generic for bml, greta for greta-bml; docs/realizers.md)",
+        help="BML for this realizer (default: generic for bml, greta for greta-bml)",
     )
     p.add_argument("--library-dir", type=Path, help="the realizer's libraries (Greta's BehaviorLexicon folder)")
     p.add_argument(

@@ -83,7 +83,7 @@ def register(subparsers: Any) -> None:
     out.add_argument(
         "--realizer",
         choices=REALIZERS,
-        help="BML for this realizer (default: generic for bml, greta for greta-bml; docs/realizers.md)",
+        help="BML for this realizer (default: generic for bml, greta for greta-bml)",
     )
     out.add_argument("--library-dir", metavar="DIR", help="the realizer's libraries (Greta's BehaviorLexicon folder)")
     parser.set_defaults(handler=run)
