@@ -45,6 +45,8 @@ CODES: dict[str, str] = {
     "E110": "constraint expression syntax error",
     "E111": "constraint expression nested too deeply",
     "E112": "invalid number",
+    "E120": "annotation file cannot be read (ELAN, CSV/TSV)",
+    "E121": "invalid annotation",
     # E2xx: well-formed but meaningless
     "E201": "duplicate signal id",
     "E202": "duplicate constraint id",
@@ -79,6 +81,7 @@ CODES: dict[str, str] = {
     # W5xx: import and conversion
     "W501": "Greta name mismatch resolved",
     "W502": "Greta construct approximated",
+    "W503": "annotation left out or merged",
     # W6xx: export
     "W601": "behaviour left out of the export (the realizer cannot play it)",
 }

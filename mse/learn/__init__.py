@@ -1,0 +1,37 @@
+"""Learning behaviour sets and constraint sets from annotated recordings (docs/learn.md).
+
+``learn(paths)`` reads ELAN files, CSV/TSV tables or mse timelines and returns the learned
+set (XML text and model), the evidence of every rule and the corpus sequences that break
+them.  Layer: beside ``mse.export`` and ``mse.motion`` (it may use syntax, ir, solve,
+timeline and export).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterable
+from pathlib import Path
+
+from mse.learn.corpus import Corpus, TierMapping
+from mse.learn.learn import Break, LearnOptions, LearnResult, learn_corpus
+
+__all__ = ["Break", "Corpus", "LearnOptions", "LearnResult", "TierMapping", "learn", "learn_corpus", "read_corpus"]
+
+
+def read_corpus(paths: Iterable[str | Path], mapping: TierMapping = TierMapping()) -> Corpus:
+    """The corpus of the files (MseError with every problem on bad input)."""
+    from mse.learn.read import read_corpus as read
+
+    corpus, _notes = read(paths, mapping)
+    return corpus
+
+
+def learn(paths: Iterable[str | Path], options: LearnOptions = LearnOptions(),
+          mapping: TierMapping = TierMapping()) -> LearnResult:
+    """Learn a behaviour set from annotation files; reading notes (W503) come with the result."""
+    from dataclasses import replace
+
+    from mse.learn.read import read_corpus as read
+
+    corpus, notes = read(paths, mapping)
+    result = learn_corpus(corpus, options)
+    return replace(result, diagnostics=[*notes, *result.diagnostics])
