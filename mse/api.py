@@ -37,6 +37,7 @@ DEFAULT_OBJECTIVE = "profile"
 # functions that parse: a model from the compiled-model cache needs none of them.
 
 if TYPE_CHECKING:
+    from mse.learn import LearnOptions, LearnResult, TierMapping
     from mse.solve.cpsat.explain import Explanation
 
 
@@ -487,3 +488,24 @@ def explain(model: Model, duration: float = 10.0, **options: Any) -> Explanation
     if "pinned" in options:
         options["pinned"] = _pins_option(options["pinned"])
     return explain_model(model, float(duration), **options)
+
+
+def learn(
+    paths: Sequence[str | Path],
+    options: LearnOptions | None = None,
+    mapping: TierMapping | None = None,
+    **settings: Any,
+) -> LearnResult:
+    """Learn a behaviour set from ELAN files, CSV/TSV tables or timelines (docs/learn.md).
+
+    ``settings`` are fields of :class:`mse.learn.LearnOptions` (name, confidence,
+    min_support, significance, calibrate...); the result has ``xml``, ``model``, ``rules``
+    with their evidence and ``breaks`` (corpus sequences the learned set rejects)."""
+    from dataclasses import replace
+
+    from mse.learn import LearnOptions as Options
+    from mse.learn import TierMapping as Mapping
+    from mse.learn import learn as learn_files
+
+    chosen = replace(options or Options(), **settings)
+    return learn_files(paths, chosen, mapping or Mapping())

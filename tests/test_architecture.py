@@ -22,6 +22,7 @@ LAYERS: dict[str, int] = {
     "mse.timeline": 4,
     "mse.export": 5,
     "mse.motion": 5,
+    "mse.learn": 5,
     "mse.api": 6,
     "mse.model_cache": 6,
     "mse.cli": 7,

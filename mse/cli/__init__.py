@@ -22,6 +22,7 @@ COMMAND_MODULES: tuple[str, ...] = (
     "cmd_list",
     "cmd_export",
     "cmd_import_greta",
+    "cmd_learn",
     "cmd_animate",
     "cmd_lma",
     "cmd_style",

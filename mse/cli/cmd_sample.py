@@ -15,7 +15,7 @@ from mse.cli.common import emit, print_diagnostics, print_error, read_stdin_byte
 from mse.diagnostics import Diagnostic, MseError, Span
 
 BASE_FORMATS = ("table", "json", "jsonl")
-EXPORT_FORMATS = ("bml", "greta-bml", "svg", "html")
+EXPORT_FORMATS = ("bml", "greta-bml", "svg", "html", "eaf")
 DEFAULT_OBJECTIVE = "profile"  # as mse.api.DEFAULT_OBJECTIVE (not imported: the CLI starts light)
 REALIZERS = ("generic", "greta", "asap")  # mse.export.realizers.REALIZERS (not imported: start-up time)
 _PIN = re.compile(r"^([A-Za-z_][A-Za-z0-9_]*)@(\d+(?:\.\d+)?)-(\d+(?:\.\d+)?)$")
@@ -38,7 +38,8 @@ def register(subparsers: Any) -> None:
     parser.add_argument("--seed", type=int, help="random seed (default: fresh; recorded in the output)")
     parser.add_argument("-n", "--count", type=int, help="number of timelines (seeds seed, seed+1, ...)")
     parser.add_argument("--format", choices=BASE_FORMATS + EXPORT_FORMATS, help="table on a terminal, else json")
-    parser.add_argument("-o", "--output", help="write to this file (atomically) instead of stdout")
+    parser.add_argument("-o", "--output", help="write to this file (atomically) instead of stdout; with --count and "
+                        "an export format, a folder (ending in '/') receives one file per timeline")
     parser.add_argument(
         "--solver",
         choices=("greedy", "cpsat", "csp"),
@@ -235,8 +236,54 @@ def _sample(model: Any, args: argparse.Namespace) -> int:
 
         timelines = animate_timelines([(t, model) for t in timelines], Path(args.animate), args.library)
     fmt = args.format or ("table" if sys.stdout.isatty() and not args.output else "json")
+    if fmt in EXPORT_FORMATS and args.output and _is_folder(args.output):
+        return _write_folder(timelines, fmt, args)
     emit(_render(timelines, fmt, args, many=args.count is not None), args.output)
     return 0
+
+
+def _is_folder(output: str) -> bool:
+    from pathlib import Path
+
+    return output.endswith(("/", "\\")) or Path(output).is_dir()
+
+
+def _write_folder(timelines: list[Any], fmt: str, args: argparse.Namespace) -> int:
+    """One file per timeline, ``<expression>-<n><suffix>`` (n from 1); all rendered first."""
+    from pathlib import Path
+
+    from mse.cli.cmd_export import report_unmapped_faces
+    from mse.export import SUFFIXES, export_notes, render
+    from mse.fileio import write_atomic
+
+    options = _export_options(args)
+    report_unmapped_faces(timelines, options, fmt)
+    pages = [render(t, fmt, options) for t in timelines]
+    for timeline in timelines:
+        print_diagnostics(export_notes(timeline, fmt, options, where=args.source or "<sample>"))
+    for number, (timeline, page) in enumerate(zip(timelines, pages, strict=True), 1):
+        target = Path(args.output) / f"{timeline.expression or 'timeline'}-{number}{SUFFIXES[fmt]}"
+        try:
+            write_atomic(target, page)
+        except OSError as error:
+            raise MseError([Diagnostic("E100", f"cannot write output: {error.strerror or error}",
+                                       Span(str(target)))]) from None
+    return 0
+
+
+def _export_options(args: argparse.Namespace) -> Any:
+    from pathlib import Path
+
+    from mse.export import ExportOptions
+
+    return ExportOptions(
+        character_id=args.character_id,
+        face_library=Path(args.face_library) if args.face_library else None,
+        bml_extensions=args.bml_extensions,
+        motion_base_dir=Path(args.animate) if args.animate else None,
+        realizer=args.realizer,
+        library_dir=Path(args.library_dir) if args.library_dir else None,
+    )
 
 
 def _render(timelines: list[Any], fmt: str, args: argparse.Namespace, *, many: bool) -> str:
@@ -252,20 +299,12 @@ def _render(timelines: list[Any], fmt: str, args: argparse.Namespace, *, many: b
         if many:
             return json.dumps([t.to_json() for t in timelines], indent=2, ensure_ascii=False) + "\n"
         return str(timelines[0].dumps()) + "\n"
-    from pathlib import Path
+    from mse.export import export_notes, render
 
-    from mse.export import ExportOptions, export_notes, render
-
-    options = ExportOptions(
-        character_id=args.character_id,
-        face_library=Path(args.face_library) if args.face_library else None,
-        bml_extensions=args.bml_extensions,
-        motion_base_dir=Path(args.animate) if args.animate else None,
-        realizer=args.realizer,
-        library_dir=Path(args.library_dir) if args.library_dir else None,
-    )
+    options = _export_options(args)
     if len(timelines) > 1:
-        raise MseError([Diagnostic("E100", f"--format {fmt} exports one timeline; drop --count", Span("<arguments>"))])
+        raise MseError([Diagnostic("E100", f"--format {fmt} exports one timeline; drop --count or give -o FOLDER/",
+                                   Span("<arguments>"))])
     from mse.cli.cmd_export import report_unmapped_faces
 
     report_unmapped_faces(timelines, options, fmt)

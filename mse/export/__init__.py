@@ -1,4 +1,4 @@
-"""Timelines out to realizers and people: BML 1.0, Greta BML, SVG, HTML.
+"""Timelines out to realizers and people: BML 1.0, Greta BML, SVG, HTML, ELAN (EAF 3.0).
 
 ``render(timeline, "bml")`` returns the text of one format.  Exporter modules are imported
 on first use, so ``import mse.export`` stays cheap for the command line.
@@ -24,13 +24,14 @@ _REGISTRY: dict[str, tuple[str, str]] = {
     "greta-bml": ("mse.export.greta_bml", "render_greta_bml"),
     "svg": ("mse.export.svg", "render_svg"),
     "html": ("mse.export.html", "render_html"),
+    "eaf": ("mse.export.eaf", "render_eaf"),
 }
 
 FORMAT_NAMES: tuple[str, ...] = tuple(_REGISTRY)
 DEFAULT_OPTIONS = ExportOptions()
 
 #: File suffix of each format (the CLI names files written into a folder with it).
-SUFFIXES: dict[str, str] = {"bml": ".bml", "greta-bml": ".xml", "svg": ".svg", "html": ".html"}
+SUFFIXES: dict[str, str] = {"bml": ".bml", "greta-bml": ".xml", "svg": ".svg", "html": ".html", "eaf": ".eaf"}
 
 
 def renderer(fmt: str) -> Renderer:

@@ -11,13 +11,13 @@ from __future__ import annotations
 from collections.abc import Iterable
 from pathlib import Path
 
-from mse.learn.corpus import Corpus, TierMapping
-from mse.learn.learn import Break, LearnOptions, LearnResult, learn_corpus
+from mse.learn.corpus import DEFAULT_MAPPING, Corpus, TierMapping
+from mse.learn.learn import DEFAULT_OPTIONS, Break, LearnOptions, LearnResult, learn_corpus
 
 __all__ = ["Break", "Corpus", "LearnOptions", "LearnResult", "TierMapping", "learn", "learn_corpus", "read_corpus"]
 
 
-def read_corpus(paths: Iterable[str | Path], mapping: TierMapping = TierMapping()) -> Corpus:
+def read_corpus(paths: Iterable[str | Path], mapping: TierMapping = DEFAULT_MAPPING) -> Corpus:
     """The corpus of the files (MseError with every problem on bad input)."""
     from mse.learn.read import read_corpus as read
 
@@ -25,8 +25,8 @@ def read_corpus(paths: Iterable[str | Path], mapping: TierMapping = TierMapping(
     return corpus
 
 
-def learn(paths: Iterable[str | Path], options: LearnOptions = LearnOptions(),
-          mapping: TierMapping = TierMapping()) -> LearnResult:
+def learn(paths: Iterable[str | Path], options: LearnOptions = DEFAULT_OPTIONS,
+          mapping: TierMapping = DEFAULT_MAPPING) -> LearnResult:
     """Learn a behaviour set from annotation files; reading notes (W503) come with the result."""
     from dataclasses import replace
 

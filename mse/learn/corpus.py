@@ -56,6 +56,9 @@ class TierMapping:
     only_listed: bool = False
 
 
+DEFAULT_MAPPING = TierMapping()
+
+
 @dataclass(frozen=True, slots=True)
 class SignalInfo:
     id: str
@@ -108,7 +111,7 @@ def modality_of(tier: str, mapping: TierMapping) -> str | None:
 
 
 def build_corpus(
-    raw: Sequence[RawSequence], mapping: TierMapping = TierMapping()
+    raw: Sequence[RawSequence], mapping: TierMapping = DEFAULT_MAPPING
 ) -> tuple[Corpus, list[Diagnostic]]:
     """Signals and sequences from raw annotations; notes (W503) for what was merged or left out."""
     notes: list[Diagnostic] = []

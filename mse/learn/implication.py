@@ -96,7 +96,7 @@ class ImplicationChecker:
             solver = make_solver(self.query_time, light=True)
             status = solver.solve(cp)
         finally:
-            cp.clear_objective()
+            cp.clear_objective()  # type: ignore[no-untyped-call]
         if status in (cp_model.OPTIMAL, cp_model.FEASIBLE):
             return float(solver.best_objective_bound)
         return None

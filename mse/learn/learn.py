@@ -21,7 +21,6 @@ from mse.learn.mine import MiningOptions, Rule, mine
 from mse.learn.signals import LearnedSignal, learn_signals
 from mse.learn.stats import corpus_arrays
 
-
 #: A learned offset is explained by the relations when the limit they allow is closer to it
 #: than this fraction of the observed range (docs/learn.md, "Offsets").
 EXPLAINED_FRACTION = 0.25
@@ -39,6 +38,9 @@ class LearnOptions:
     query_time: float = 1.0
     deep_lint: bool = True
     seed: int = 0
+
+
+DEFAULT_OPTIONS = LearnOptions()
 
 
 @dataclass(frozen=True)
@@ -86,7 +88,7 @@ def exclusive_modalities(corpus: Corpus, confidence: float) -> dict[str, str]:
     return found
 
 
-def learn_corpus(corpus: Corpus, options: LearnOptions = LearnOptions()) -> LearnResult:
+def learn_corpus(corpus: Corpus, options: LearnOptions = DEFAULT_OPTIONS) -> LearnResult:
     if not 0 < options.confidence <= 1:
         raise MseError([Diagnostic("E100", "--confidence must be in (0, 1]", Span("<arguments>"))])
     arrays = corpus_arrays(corpus)

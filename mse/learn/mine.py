@@ -31,7 +31,7 @@ from mse.ir import model as ir
 from mse.ir.schedule import to_ticks
 from mse.learn.corpus import Corpus
 from mse.learn.signals import ceil_to, floor_to
-from mse.learn.stats import Bools, CorpusArrays, Floats, SignalArrays
+from mse.learn.stats import Bools, CorpusArrays, Floats, Ints, SignalArrays
 
 #: An ``equal(x, y, tol)`` is written for two bounds around 0 when tol is at most this (s).
 EQUAL_MAX_TOLERANCE = 0.5
@@ -104,7 +104,7 @@ Rows = tuple[Floats, Floats, Floats, Floats]  # start_min, start_max, stop_min, 
 Holds = Callable[[Rows, Rows], Bools]
 
 
-def _rows(data: SignalArrays, index: np.ndarray) -> Rows:  # type: ignore[type-arg]
+def _rows(data: SignalArrays, index: Ints) -> Rows:
     return data.start_min[index], data.start_max[index], data.stop_min[index], data.stop_max[index]
 
 
@@ -256,7 +256,7 @@ class Miner:
         consider("bound", f"{y_edge}_{b}_by_{x_edge}_{a}", before, _upper(x_edge, y_edge, upper * 1000),
                  bound=info)
 
-    def _cross_pairs(self, sa: SignalArrays, sb: SignalArrays) -> tuple[np.ndarray, np.ndarray] | None:  # type: ignore[type-arg]
+    def _cross_pairs(self, sa: SignalArrays, sb: SignalArrays) -> tuple[Ints, Ints] | None:
         """Index pairs (sequence of a, another sequence of b) for the baseline."""
         first, second = np.flatnonzero(sa.present), np.flatnonzero(sb.present)
         if len(first) == 0 or len(second) == 0:
@@ -272,7 +272,7 @@ class Miner:
         left, right = np.concatenate(lefts), np.concatenate(rights)
         return (left, right) if len(left) else None
 
-    def _excludes_exact(self, a: str, b: str, both: np.ndarray) -> Bools:  # type: ignore[type-arg]
+    def _excludes_exact(self, a: str, b: str, both: Ints) -> Bools:
         sequences = self.corpus.sequences
         result = np.empty(len(both), dtype=bool)
         for position, index in enumerate(both):

@@ -12,7 +12,7 @@ from pathlib import Path
 
 from mse.diagnostics import Diagnostic, MseError, Span, has_errors
 from mse.ir.schedule import to_ticks
-from mse.learn.corpus import Annotation, Corpus, RawSequence, TierMapping, build_corpus
+from mse.learn.corpus import DEFAULT_MAPPING, Annotation, Corpus, RawSequence, TierMapping, build_corpus
 from mse.learn.read_eaf import read_eaf
 from mse.learn.read_table import read_table
 from mse.syntax.reader import decode_text, read_bytes
@@ -74,7 +74,7 @@ def read_timeline_sequences(path: Path, data: bytes) -> tuple[list[RawSequence],
     return sequences, []
 
 
-def read_corpus(paths: Iterable[str | Path], mapping: TierMapping = TierMapping()) -> tuple[Corpus, list[Diagnostic]]:
+def read_corpus(paths: Iterable[str | Path], mapping: TierMapping = DEFAULT_MAPPING) -> tuple[Corpus, list[Diagnostic]]:
     """The corpus of every input; raises MseError (every problem, with file:line) on bad input."""
     files, found = expand_inputs(paths)
     raw: list[RawSequence] = []
