@@ -14,6 +14,7 @@ signal (any length, any number of times): the rules say nothing about it.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Iterable, Sequence
 from dataclasses import replace
 from typing import Literal
@@ -71,35 +72,25 @@ class ImplicationChecker:
         assumptions = list(self.structural) + [self.enc.enable[f"constraint:{name}"] for name in by]
         return self._solve(assumptions)
 
-    def extreme(self, x: tuple[str, str], y: tuple[str, str], by: Iterable[str], *, largest: bool) -> float | None:
-        """The least (or largest) ``y - x`` in ms over timelines obeying ``by`` in which both
-        signals occur (``x``, ``y`` are (signal, edge); their first occurrences); None when
-        no such timeline exists or the solver cannot tell.  A proven bound of the optimum is
-        returned when the time runs out (never tighter than the true extreme)."""
-        from ortools.sat.python import cp_model
-
+    def reaches(self, x: tuple[str, str], y: tuple[str, str], by: Iterable[str], value: float, *,
+                largest: bool) -> str:
+        """Is there a timeline obeying ``by`` in which both signals occur and ``y - x``
+        (``x``, ``y`` are (signal, edge) of their first occurrences, in ms) is at most
+        ``value`` (at least, with ``largest``)?  'feasible' | 'infeasible' | 'unknown'."""
         first, second = self.enc.slots.get(x[0]), self.enc.slots.get(y[0])
         if not first or not second:
-            return None
+            return "unknown"
         left = first[0].start if x[1] == "start" else first[0].stop
         right = second[0].start if y[1] == "start" else second[0].stop
         cp = self.enc.cp
-        assumptions = list(self.structural) + [self.enc.enable[f"constraint:{name}"] for name in by]
-        assumptions += [first[0].present, second[0].present]
-        cp.clear_assumptions()
-        cp.add_assumptions([lit for lit in assumptions if lit is not True and lit is not False])
+        switch = cp.new_bool_var("")
+        limit = math.ceil(value) if largest else math.floor(value)
         if largest:
-            cp.maximize(right - left)
+            cp.add(right - left >= limit).only_enforce_if(switch)
         else:
-            cp.minimize(right - left)
-        try:
-            solver = make_solver(self.query_time, light=True)
-            status = solver.solve(cp)
-        finally:
-            cp.clear_objective()  # type: ignore[no-untyped-call]
-        if status in (cp_model.OPTIMAL, cp_model.FEASIBLE):
-            return float(solver.best_objective_bound)
-        return None
+            cp.add(right - left <= limit).only_enforce_if(switch)
+        assumptions = list(self.structural) + [self.enc.enable[f"constraint:{name}"] for name in by]
+        return self._solve([*assumptions, first[0].present, second[0].present, switch])
 
     def _solve(self, assumptions: list[Lit]) -> str:
         from ortools.sat.python import cp_model

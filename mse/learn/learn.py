@@ -136,29 +136,20 @@ def select_rules(base: ir.Model, candidates: list[Rule], duration: int,
     structure = [r.id for r in candidates if r.bound is None]
     alive = {r.id for r in candidates}
     threshold = math.log(1 / options.significance)
-    bounds = [r for r in candidates if r.bound is not None]
-
-    def gap(rule: Rule, by: list[str]) -> tuple[float, float | None]:
-        """How far the rule's offset is beyond what ``by`` allows, over what would explain it."""
-        info = rule.bound
-        assert info is not None
-        limit = checker.extreme((info.a, info.x_edge), (info.b, info.y_edge), by, largest=info.side == "upper")
-        if limit is None:
-            return math.inf, None
-        beyond = info.offset - limit if info.side == "lower" else limit - info.offset
-        return beyond / max(1.0, info.spacing * threshold, EXPLAINED_FRACTION * info.spread), limit
-
-    # Most surprising offsets first: each one accepted joins what explains the next ones.
-    bounds.sort(key=lambda r: -gap(r, structure)[0])
+    # Most significant offsets first: each one kept joins what explains the next ones.
+    bounds = sorted((r for r in candidates if r.bound is not None), key=lambda r: (r.p_value, -r.support, r.id))
     for rule in bounds:
-        ratio, limit = gap(rule, structure)
         info = rule.bound
         assert info is not None
-        if ratio < 1.0:
+        margin = max(1.0, info.spacing * threshold, EXPLAINED_FRACTION * info.spread)
+        # Not explained iff the other rules allow y - x beyond the offset by the margin.
+        beyond = info.offset - margin if info.side == "lower" else info.offset + margin
+        answer = checker.reaches((info.a, info.x_edge), (info.b, info.y_edge), structure, beyond,
+                                 largest=info.side == "upper")
+        if answer == "infeasible":
             alive.discard(rule.id)
-            allowed = "no limit" if limit is None else f"{limit / 1000:g} s"
-            dropped.append((rule, f"explained by the other rules: they allow {allowed}, "
-                                  f"the corpus reached {info.observed / 1000:g} s"))
+            dropped.append((rule, f"explained by the other rules: they keep it within {margin / 1000:g} s of "
+                                  f"the {info.observed / 1000:g} s the corpus reached"))
         else:
             structure.append(rule.id)
     order = sorted((r for r in candidates if r.id in alive), key=lambda r: (r.rank, r.support, -r.p_value, r.id))

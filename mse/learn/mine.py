@@ -120,6 +120,8 @@ def _tail(holds: int, support: int, baseline: float) -> float:
         return 1.0
     if baseline <= 0.0:
         return 0.0
+    if holds == support:  # the usual case at confidence 1: no need for scipy
+        return float(baseline**support)
     from scipy.stats import binom
 
     return float(binom.sf(holds - 1, support, baseline))
