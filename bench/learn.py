@@ -5,7 +5,9 @@ For every bundled set and every Greta set imported from ``$MSE_SHARED/greta`` (t
 ground truth:
 
 * ``gt⊨``: ground-truth constraints implied by the learned set (CP-SAT implication at the
-  sampled duration; "?" when the solver could not decide within its time limit);
+  sampled duration; "?" when the solver could not decide within its time limit), out of
+  those whose signals all occur in the corpus; ``uns``: the others (unseen signals: no
+  corpus can teach them);
 * ``¬gt``: learned constraints *not* implied by the ground truth;
 * ``occ``: mean absolute difference of per-signal occurrence rates between the corpus and N
   timelines sampled from the learned set (max in brackets);
@@ -132,10 +134,14 @@ def recovery(name: str, truth: ir.Model, count: int, duration: float, confidence
         result = learn_corpus(read, LearnOptions(name=name.replace(":", "_"), confidence=confidence, seed=seed))
         row["learn_s"] = time.perf_counter() - began
     ticks = round(duration * 1000)
-    gt = implied_count(result.model, [c.expr for c in truth.constraints], ticks)
+    seen = {signal.id for timeline in corpus for signal in timeline.signals}
+    # A constraint naming a signal the corpus never shows cannot be learned from it.
+    learnable = [c.expr for c in truth.constraints if ir.mentioned_signals(c.expr) <= seen]
+    gt = implied_count(result.model, learnable, ticks)
     spurious = implied_count(truth, [c.expr for c in result.model.constraints], ticks)
     row.update({
         "gt_constraints": len(truth.constraints),
+        "gt_learnable": len(learnable),
         "gt_implied": gt["yes"], "gt_undecided": gt["unknown"],
         "learned_constraints": len(result.model.constraints),
         "learned_not_implied": spurious["no"], "learned_undecided": spurious["unknown"],
@@ -183,7 +189,7 @@ def main() -> None:
               f"learn {timing['learn_s']:.2f} s, total {timing['total_s']:.2f} s "
               f"({timing['ratio']:.1f}x reading; target <= 30 s)", flush=True)
         rows.append({"speed": timing})
-    header = (f"{'set':22s} {'N':>5s} {'learn s':>7s} {'gt⊨':>9s} {'¬gt':>7s} {'occ (max)':>12s} "
+    header = (f"{'set':22s} {'N':>5s} {'learn s':>7s} {'gt⊨':>9s} {'uns':>3s} {'¬gt':>7s} {'occ (max)':>12s} "
               f"{'KS (max)':>12s} {'order':>6s} lint")
     print(header, flush=True)
     for name, truth in ground_truths(not args.no_greta):
@@ -198,7 +204,8 @@ def main() -> None:
             undecided = f"+{row['gt_undecided']}?" if row["gt_undecided"] else ""
             spurious = f"+{row['learned_undecided']}?" if row["learned_undecided"] else ""
             print(f"{name:22s} {count:5d} {row['learn_s']:7.1f} "
-                  f"{row['gt_implied']:>3d}/{row['gt_constraints']:<3d}{undecided:>3s} "
+                  f"{row['gt_implied']:>3d}/{row['gt_learnable']:<3d}{undecided:>3s} "
+                  f"{row['gt_constraints'] - row['gt_learnable']:>3d} "
                   f"{row['learned_not_implied']:>3d}/{row['learned_constraints']:<3d}{spurious} "
                   f"{row.get('occurrence_mean', float('nan')):5.3f} ({row.get('occurrence_max', float('nan')):.2f}) "
                   f"{row.get('ks_mean', float('nan')):5.3f} ({row.get('ks_max', float('nan')):.2f}) "

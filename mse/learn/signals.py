@@ -85,7 +85,7 @@ def learn_signals(corpus: Corpus, arrays: CorpusArrays, confidence: float) -> li
         low = float(np.quantile(lengths, tail)) if tail > 0 else float(lengths.min())
         high = float(np.quantile(lengths, 1 - tail)) if tail > 0 else float(lengths.max())
         min_duration = floor_to(low)
-        max_duration = max(ceil_to(high), min_duration + RESOLUTION)
+        max_duration = max(ceil_to(high), min_duration)
         most = int(data.count.max())
         repetitive = most > 1
         mean_start = float(data.relative_starts.mean())
