@@ -67,7 +67,7 @@ def parse(text: str) -> etree._Element:
 
 
 def test_format_names() -> None:
-    assert FORMAT_NAMES == ("bml", "greta-bml", "svg", "html")
+    assert FORMAT_NAMES == ("bml", "greta-bml", "svg", "html", "eaf")
 
 
 @pytest.mark.parametrize(
