@@ -1,9 +1,10 @@
 """Signals from a corpus: durations, probability profile, repetitivity (docs/learn.md).
 
-**Durations.**  ``min_duration``/``max_duration`` are the ``(1 - c) / 2`` and ``(1 + c) / 2``
-quantiles of the observed lengths (``c`` the confidence; with ``c = 1`` the shortest and
-the longest), rounded outward to :data:`RESOLUTION` seconds.  Below ``c = 1`` a single
-outlier does not stretch the range; the occurrences left outside are reported.
+**Durations.**  ``min_duration``/``max_duration`` are the shortest and longest observed
+lengths at confidence 1; below 1, Tukey's fences (the quartiles minus/plus 1.5 interquartile
+ranges, clipped to the observed range), so that an outlier (a mis-set annotation) does not
+stretch the range while the bulk is never cut; rounded outward to :data:`RESOLUTION` s.
+The occurrences left outside are reported.
 
 **Probabilities**, under the sampler's definition (``mse/ir/profile.py``): the profile is
 the line ``p(u) = p_start + (p_end - p_start) u`` over relative time ``u = t / D``.
@@ -31,10 +32,13 @@ import numpy as np
 
 from mse.ir.model import MotionLeaf, Signal
 from mse.learn.corpus import Corpus
-from mse.learn.stats import CorpusArrays
+from mse.learn.stats import CorpusArrays, Floats
 
 #: Durations and offsets are rounded (outward) to this many seconds.
 RESOLUTION = 0.05
+#: Below confidence 1, lengths beyond the quartiles by more than this many interquartile
+#: ranges are outliers (Tukey's fences).
+TUKEY_FENCE = 1.5
 
 
 @dataclass(frozen=True)
@@ -53,6 +57,17 @@ def floor_to(value: float, step: float = RESOLUTION) -> float:
 
 def ceil_to(value: float, step: float = RESOLUTION) -> float:
     return round(math.ceil(value / step - 1e-9) * step, 3)
+
+
+def duration_range(lengths: Floats, confidence: float) -> tuple[float, float]:
+    """All observed lengths at confidence 1; below, Tukey's fences (quartiles -/+ 1.5 times
+    the interquartile range) clipped to the observed range: outliers are cut, the bulk never."""
+    shortest, longest = float(lengths.min()), float(lengths.max())
+    if confidence >= 1.0 or len(lengths) < 4:
+        return shortest, longest
+    first, third = (float(q) for q in np.quantile(lengths, (0.25, 0.75)))
+    spread = TUKEY_FENCE * (third - first)
+    return max(shortest, first - spread), min(longest, third + spread)
 
 
 def profile_from(level: float, mean_start: float) -> tuple[float, float]:
@@ -81,9 +96,7 @@ def learn_signals(corpus: Corpus, arrays: CorpusArrays, confidence: float) -> li
         sequences = int(data.present.sum())
         total = int(data.count.sum())
         lengths = data.lengths / 1000.0
-        tail = (1.0 - confidence) / 2
-        low = float(np.quantile(lengths, tail)) if tail > 0 else float(lengths.min())
-        high = float(np.quantile(lengths, 1 - tail)) if tail > 0 else float(lengths.max())
+        low, high = duration_range(lengths, confidence)
         min_duration = floor_to(low)
         max_duration = max(ceil_to(high), min_duration)
         most = int(data.count.max())
