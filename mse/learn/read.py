@@ -74,16 +74,32 @@ def read_timeline_sequences(path: Path, data: bytes) -> tuple[list[RawSequence],
     return sequences, []
 
 
+#: Largest table or timeline file read (an ELAN file keeps the XML reader's 10 MB limit).
+MAX_CORPUS_BYTES = 128 * 1024 * 1024
+
+
+def _read(path: Path, kind: str) -> tuple[bytes | None, list[Diagnostic]]:
+    if kind == "eaf":
+        return read_bytes(path)
+    try:
+        size = path.stat().st_size
+        if size > MAX_CORPUS_BYTES:
+            return None, [Diagnostic("E104", f"file is {size} bytes; the limit is {MAX_CORPUS_BYTES}", Span(str(path)))]
+        return path.read_bytes(), []
+    except OSError as error:
+        return None, [Diagnostic("E100", f"cannot read file: {error.strerror or error}", Span(str(path)))]
+
+
 def read_corpus(paths: Iterable[str | Path], mapping: TierMapping = DEFAULT_MAPPING) -> tuple[Corpus, list[Diagnostic]]:
     """The corpus of every input; raises MseError (every problem, with file:line) on bad input."""
     files, found = expand_inputs(paths)
     raw: list[RawSequence] = []
     for path in files:
-        data, problems = read_bytes(path)
+        kind = SUFFIXES[path.suffix.lower()]
+        data, problems = _read(path, kind)
         found.extend(problems)
         if data is None:
             continue
-        kind = SUFFIXES[path.suffix.lower()]
         if kind == "eaf":
             sequence, problems = read_eaf(path, data)
             found.extend(problems)
