@@ -500,7 +500,16 @@ def learn(
 
     ``settings`` are fields of :class:`mse.learn.LearnOptions` (name, confidence,
     min_support, significance, calibrate...); the result has ``xml``, ``model``, ``rules``
-    with their evidence and ``breaks`` (corpus sequences the learned set rejects)."""
+    with their evidence and ``breaks`` (corpus sequences the learned set rejects).
+
+    >>> import tempfile
+    >>> from mse.timeline import dumps_jsonl
+    >>> corpus = Path(tempfile.mkdtemp()) / "relief.jsonl"
+    >>> _ = corpus.write_text(dumps_jsonl(sample(load("relief"), 10.0, seed=1, count=40)))
+    >>> result = learn([corpus], name="relief", confidence=1.0, calibrate=False, deep_lint=False)
+    >>> result.breaks, len(result.model.signals)
+    ([], 9)
+    """
     from dataclasses import replace
 
     from mse.learn import LearnOptions as Options
