@@ -23,7 +23,7 @@ from mse.learn.stats import corpus_arrays
 
 #: A learned offset is explained by the relations when the limit they allow is closer to it
 #: than this fraction of the observed range (docs/learn.md, "Offsets").
-EXPLAINED_FRACTION = 0.25
+EXPLAINED_FRACTION = 0.5
 
 
 @dataclass(frozen=True)
@@ -148,8 +148,8 @@ def select_rules(base: ir.Model, candidates: list[Rule], duration: int,
                                  largest=info.side == "upper")
         if answer == "infeasible":
             alive.discard(rule.id)
-            dropped.append((rule, f"explained by the other rules: they keep it within {margin / 1000:g} s of "
-                                  f"the {info.observed / 1000:g} s the corpus reached"))
+            dropped.append((rule, f"explained by the other rules: they never let it go {margin / 1000:g} s "
+                                  f"beyond the {info.observed / 1000:g} s the corpus reached"))
         else:
             structure.append(rule.id)
     order = sorted((r for r in candidates if r.id in alive), key=lambda r: (r.rank, r.support, -r.p_value, r.id))
