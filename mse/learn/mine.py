@@ -41,8 +41,8 @@ BASELINE_SHIFTS = 7
 SPACING_COUNT = 5
 
 #: Order in which redundant rules are looked for (first = dropped first when implied).
-RANK = {"needs": 0, "apart": 1, "excludes": 2, "bound": 3, "equal": 4, "rightincludes": 5,
-        "includes": 6, "precedes": 7, "exists": 8}
+RANK = {"needs": 0, "either": 1, "apart": 2, "excludes": 3, "bound": 4, "equal": 5, "rightincludes": 6,
+        "includes": 7, "precedes": 8, "exists": 9}
 
 
 @dataclass(frozen=True)
@@ -144,6 +144,7 @@ class Miner:
             self._presence(a, b)
             self._presence(b, a)
             self._apart(a, b)
+            self._either(a, b)
             self._temporal(a, b)
         return self.rules
 
@@ -197,6 +198,18 @@ class Miner:
         expected = float(first.mean() * second.mean() * self.n)
         self._accept("apart", f"{a}_without_{b}", expr, tested, ~other, rate,
                      f"together in {together} sequences, {expected:.1f} expected if independent")
+
+    def _either(self, a: str, b: str) -> None:
+        """``exists(a) or exists(b)``: at least one of them."""
+        first, second = self.arrays.signals[a].present, self.arrays.signals[b].present
+        rate = 1.0 - float((~first).mean()) * float((~second).mean())
+        if rate >= 1.0:
+            return
+        everywhere = np.ones(self.n, dtype=bool)
+        neither = int((~first & ~second).sum())
+        expected = float((~first).mean() * (~second).mean() * self.n)
+        self._accept("either", f"{a}_or_{b}", ir.Or((ir.Exists(a), ir.Exists(b))), everywhere, first | second,
+                     rate, f"neither in {neither} sequences, {expected:.1f} expected if independent")
 
     # -- temporal rules ---------------------------------------------------------------------
     def _temporal(self, a: str, b: str) -> None:
