@@ -1,8 +1,10 @@
-"""A single self-contained HTML page: the SVG timeline, a playhead and a stick-figure player.
+"""A single self-contained HTML page: the face player, the SVG timeline with a playhead,
+and a stick-figure player.
 
 Everything is inline (CSS, script, data); a Content-Security-Policy forbids any network
-access, so the page works offline and from ``file://``.  The stick-figure player appears
-when the timeline's signals carry generated motion (``signal.motion["file"]``, a BVH).
+access, so the page works offline and from ``file://``.  The face (:mod:`mse.export.face`)
+plays every timeline; the stick-figure player appears when the timeline's signals carry
+generated motion (``signal.motion["file"]``, a BVH).
 """
 
 from __future__ import annotations
@@ -55,7 +57,9 @@ def render_html(
 ) -> str:
     """The page; ``figure_clips`` overrides reading motion files named by the timeline."""
     from mse.export import figures
+    from mse.export.face.page import face_page
 
+    face = face_page(timeline, options)
     if figure_clips is None:
         figure_clips = figures.clips_from_timeline(timeline, options.motion_base_dir)
     title = options.title or provenance(timeline)
@@ -82,15 +86,20 @@ def render_html(
 <span id="clock" data-time="0">0.00 s</span>
 </div>
 <div id="layout">
+<div id="players">
+{face.markup}{player}</div>
 <div id="stage">
 {drawing}
 </div>
-{player}</div>
+</div>
 <div id="tooltip" role="tooltip" hidden></div>
-<footer>{len(timeline.signals)} occurrence(s). Hover a bar for its times; space or the button
-plays; click the timeline to move the playhead. Made by mse.</footer>
+<footer>{len(timeline.signals)} occurrence(s). Hover a bar for its lexeme and times; space or the
+button plays; click the timeline to move the playhead. Made by mse.</footer>
+<script type="application/json" id="mse-face">{script_json(face.data)}</script>
 <script>
 {_asset("viewer.js")}</script>
+<script>
+{face.script}</script>
 </body>
 </html>
 """

@@ -21,6 +21,8 @@ class ExportOptions:
     ``realizer`` is the profile BML is written for (``generic``, ``greta``, ``asap``; None:
     the format's default, see :mod:`mse.export.realizers`); ``library_dir`` is the folder of
     that realizer's libraries (Greta's BehaviorLexicon), read in place to check names.
+    ``head_library`` (Greta ``HeadGestures.xml``) and ``lexicon`` (the user's lexeme tables,
+    TOML, see docs/face.md) tell the face player what lexemes do.
     """
 
     character_id: str = "Agent"
@@ -34,3 +36,5 @@ class ExportOptions:
     figure_fps: int = 30
     realizer: str | None = None
     library_dir: Path | None = None
+    head_library: Path | None = None
+    lexicon: tuple[Path, ...] = ()

@@ -110,6 +110,20 @@
       bar.classList.toggle("active", on);
     });
     drawFigure(time);
+    keepInView(x);
+    // Other players on the page (the face) follow the same clock.
+    document.dispatchEvent(new CustomEvent("mse-time", { detail: { time: time } }));
+  }
+
+  // A long timeline is wider than the window: scroll it so that the playhead stays visible.
+  function keepInView(x) {
+    var stage = document.getElementById("stage");
+    if (!stage || stage.scrollWidth <= stage.clientWidth) { return; }
+    var box = svg.getBoundingClientRect();
+    var px = x * box.width / svg.viewBox.baseVal.width;
+    if (px < stage.scrollLeft + 40 || px > stage.scrollLeft + stage.clientWidth - 40) {
+      stage.scrollLeft = Math.max(0, px - stage.clientWidth / 3);
+    }
   }
 
   function frameStep(now) {

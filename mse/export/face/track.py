@@ -1,0 +1,188 @@
+"""A timeline as face channels over time: one key per occurrence, with onset/apex/offset.
+
+Each occurrence whose lexeme resolves (:mod:`mse.export.face.lexicon`) becomes a
+:class:`Key`; its weight over time is an envelope (0 at start and stop, a smoothstep up
+during ``attack``, 1 at the apex, a smoothstep down during ``release``), multiplied by an
+oscillation (nods, shakes) or replaced by pulses (blinks).  Channel values are the sum of
+weight x target over the keys, action units clamped to [0, 1], so overlapping expressions
+blend.  ``face.js`` computes the same from :meth:`Track.to_json`.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from mse.export.face.lexicon import Action, Resolver
+from mse.export.face.rig import FloatArray, Rig
+from mse.export.lexemes import modality_of, split_lexeme
+from mse.timeline import Timeline
+
+#: Default (attack, release) in seconds per modality; never more than 40 % of the occurrence.
+TIMING: Mapping[str, tuple[float, float]] = {
+    "face": (0.3, 0.3),
+    "gaze": (0.12, 0.12),
+    "head": (0.35, 0.35),
+    "torso": (0.6, 0.6),
+    "posture": (0.6, 0.6),
+}
+DEFAULT_TIMING = (0.3, 0.3)
+MAX_PHASE_SHARE = 0.4
+
+
+@dataclass(frozen=True)
+class Key:
+    """One occurrence's contribution: ``targets`` are (rig channel index, value)."""
+
+    signal: str
+    lexeme: str
+    start: float
+    stop: float
+    attack: float
+    release: float
+    targets: tuple[tuple[int, float], ...]
+    repeat: tuple[float, float] | None = None
+    oscillate: tuple[float, str] | None = None
+
+    def to_json(self) -> dict[str, Any]:
+        return {
+            "signal": self.signal,
+            "start": self.start,
+            "stop": self.stop,
+            "attack": self.attack,
+            "release": self.release,
+            "targets": [[c, v] for c, v in self.targets],
+            "repeat": list(self.repeat) if self.repeat else None,
+            "oscillate": list(self.oscillate) if self.oscillate else None,
+        }
+
+
+@dataclass(frozen=True)
+class Marker:
+    """An occurrence the face cannot show: drawn as a labelled marker while it is active."""
+
+    signal: str
+    lexeme: str
+    start: float
+    stop: float
+
+    @property
+    def label(self) -> str:
+        return f"{self.signal}: {self.lexeme}"
+
+
+@dataclass(frozen=True)
+class Track:
+    keys: tuple[Key, ...]
+    markers: tuple[Marker, ...]
+    notes: tuple[str, ...]  # one line per unmapped lexeme or undrawable action unit
+    clamped: tuple[int, ...]  # channels kept in [0, 1] (action units)
+    channel_count: int
+
+    def to_json(self) -> dict[str, Any]:
+        return {
+            "keys": [k.to_json() for k in self.keys],
+            "markers": [{"label": m.label, "start": m.start, "stop": m.stop} for m in self.markers],
+            "clamped": list(self.clamped),
+        }
+
+    def values(self, times: FloatArray) -> FloatArray:
+        """Channel values ``[len(times), channels]``."""
+        result = np.zeros((len(times), self.channel_count))
+        for key in self.keys:
+            weight = key_weight(key, times)
+            for channel, value in key.targets:
+                result[:, channel] += weight * value
+        if self.clamped:
+            index = list(self.clamped)
+            result[:, index] = np.clip(result[:, index], 0.0, 1.0)
+        return result
+
+    def active_markers(self, time: float) -> list[Marker]:
+        return [m for m in self.markers if m.start <= time < m.stop]
+
+
+def _smooth(u: FloatArray) -> FloatArray:
+    u = np.clip(u, 0.0, 1.0)
+    return u * u * (3.0 - 2.0 * u)
+
+
+def key_weight(key: Key, times: FloatArray) -> FloatArray:
+    """The key's weight at ``times`` (see the module docstring)."""
+    t = np.asarray(times, dtype=np.float64)
+    inside = (t > key.start) & (t < key.stop)
+    if key.repeat is not None:
+        every, length = key.repeat
+        span = key.stop - key.start
+        count = max(1, round(span / every))
+        slot = span / count
+        width = min(length, slot)
+        index = np.clip(np.floor((t - key.start) / slot), 0, count - 1)
+        centre = key.start + (index + 0.5) * slot
+        pulse = _smooth(1.0 - np.abs(t - centre) / (width / 2.0))
+        return np.where(inside, pulse, 0.0)
+    rise = _smooth((t - key.start) / key.attack) if key.attack > 0 else np.ones_like(t)
+    fall = _smooth((key.stop - t) / key.release) if key.release > 0 else np.ones_like(t)
+    weight = np.where(inside, np.minimum(rise, fall), 0.0)
+    if key.oscillate is not None:
+        period, shape = key.oscillate
+        phase = 2.0 * math.pi * (t - key.start) / period
+        weight = weight * (np.sin(phase) if shape == "sine" else (1.0 - np.cos(phase)) / 2.0)
+    return weight
+
+
+def _timing(action: Action, modality: str, span: float) -> tuple[float, float]:
+    attack, release = TIMING.get(modality, DEFAULT_TIMING)
+    attack = action.attack if action.attack is not None else attack
+    release = action.release if action.release is not None else release
+    limit = MAX_PHASE_SHARE * span
+    return min(attack, limit), min(release, limit)
+
+
+def build_track(timeline: Timeline, rig: Rig, resolver: Resolver) -> Track:
+    """Keys for every occurrence that resolves; markers and one note for those that do not."""
+    index = rig.channel_index
+    keys: list[Key] = []
+    markers: list[Marker] = []
+    notes: dict[str, str] = {}
+    for signal in timeline.signals:
+        modality = modality_of(signal.modality, split_lexeme(signal.lexeme))
+        action = resolver.resolve(signal.lexeme, modality)
+        if action is None:
+            if signal.motion is None:
+                markers.append(Marker(signal.id, signal.lexeme, signal.start, signal.stop))
+                notes.setdefault(
+                    signal.lexeme,
+                    f"lexeme {signal.lexeme!r} (signal {signal.id}) has no face, head, gaze or torso "
+                    "mapping: shown as a labelled marker (add it to a --lexicon table)",
+                )
+            continue
+        if action.unsupported:
+            units = ", ".join(f"AU{n}" for n in action.unsupported)
+            notes.setdefault(
+                f"{signal.lexeme}/units",
+                f"lexeme {signal.lexeme!r} ({action.source}) uses {units}, which the face does not draw",
+            )
+        targets: dict[int, float] = {}
+        for channel, value in action.targets:
+            targets[index[channel]] = targets.get(index[channel], 0.0) + value
+        attack, release = _timing(action, modality, signal.stop - signal.start)
+        keys.append(
+            Key(
+                signal.id,
+                signal.lexeme,
+                signal.start,
+                signal.stop,
+                round(attack, 4),
+                round(release, 4),
+                tuple((c, round(v, 4)) for c, v in sorted(targets.items())),
+                action.repeat,
+                action.oscillate,
+            )
+        )
+    clamped = tuple(i for i, name in enumerate(rig.channels) if name.startswith("AU"))
+    return Track(tuple(keys), tuple(markers), tuple(notes.values()), clamped, len(rig.channels))

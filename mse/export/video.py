@@ -1,0 +1,231 @@
+"""Timelines as video: MP4 (H.264), WebM (VP9), GIF, or a folder of PNG frames.
+
+Frames come from :class:`mse.export.face.frames.FramePainter` (face, body, timeline strip
+and playhead); MP4 and WebM are encoded with PyAV, GIF and PNG with Pillow.  Frame ``i``
+shows time ``i / fps``; a ``d`` s timeline gives ``round(d * fps)`` frames.  Output is
+written to a temporary file (or folder) beside the target and renamed at the end, so a
+reader never sees half a video and a failed render replaces nothing.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import os
+import shutil
+import tempfile
+from collections.abc import Iterator, Sequence
+from dataclasses import dataclass, field
+from fractions import Fraction
+from pathlib import Path
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from mse.diagnostics import Diagnostic, MseError, Span
+from mse.export.options import ExportOptions
+from mse.timeline import Timeline
+
+if TYPE_CHECKING:
+    from PIL import Image
+
+    from mse.export.face.frames import FramePainter
+    from mse.export.figures import FigureClip
+
+#: Video formats and the file suffix of each.
+VIDEO_FORMATS: dict[str, str] = {"mp4": ".mp4", "webm": ".webm", "gif": ".gif"}
+MAX_FRAMES = 100_000
+MAX_PIXELS = 3840 * 2160
+
+
+@dataclass(frozen=True)
+class VideoOptions:
+    """Frame size in pixels (even numbers for MP4/WebM), frame rate, and whether to draw the strip."""
+
+    size: tuple[int, int] = (960, 540)
+    fps: float = 25.0
+    strip: bool = True
+    quality: int = 20  # H.264 CRF (lower is better); VP9 uses quality + 12
+
+
+@dataclass(frozen=True)
+class RenderReport:
+    """What a render made: frame count and the notes to show once (unmapped lexemes...)."""
+
+    frames: int
+    fps: float
+    notes: tuple[str, ...] = field(default_factory=tuple)
+
+
+def _error(code: str, message: str, where: str) -> MseError:
+    return MseError([Diagnostic(code, message, Span(where))])
+
+
+def check_options(video: VideoOptions, fmt: str | None = None) -> None:
+    width, height = video.size
+    if not (16 <= width <= 7680 and 16 <= height <= 4320) or width * height > MAX_PIXELS:
+        raise _error("E100", f"frame size {width}x{height} must be between 16x16 and 3840x2160 pixels", "<arguments>")
+    if fmt in ("mp4", "webm") and (width % 2 or height % 2):
+        raise _error("E100", f"{fmt} needs an even frame size (got {width}x{height})", "<arguments>")
+    if not 1.0 <= video.fps <= 120.0:
+        raise _error("E100", f"frame rate {video.fps:g} must be between 1 and 120", "<arguments>")
+
+
+def frame_times(duration: float, fps: float) -> np.ndarray:
+    """The time shown by each frame: ``i / fps`` for ``i < round(duration * fps)``."""
+    count = max(1, round(duration * fps))
+    if count > MAX_FRAMES:
+        raise _error("E100", f"{count} frames is too many (at most {MAX_FRAMES}); lower --fps", "<arguments>")
+    return np.arange(count) / fps
+
+
+def painter(
+    timeline: Timeline,
+    options: ExportOptions,
+    video: VideoOptions,
+    clips: Sequence[FigureClip] | None = None,
+) -> FramePainter:
+    """The frame painter for a timeline (reads the lexeme sources and motion files)."""
+    from mse.export import figures
+    from mse.export.face.frames import FramePainter
+    from mse.export.face.page import face_track
+
+    track = face_track(timeline, options)
+    if clips is None:
+        clips = figures.clips_from_timeline(timeline, options.motion_base_dir)
+    return FramePainter(timeline, track, video.size, clips=clips, options=options, strip=video.strip)
+
+
+def iter_frames(frames: FramePainter, times: np.ndarray) -> Iterator[Image.Image]:
+    values = frames.track.values(times)
+    for index, time in enumerate(times):
+        yield frames.paint(float(time), values[index])
+
+
+def write_video(
+    timeline: Timeline,
+    path: Path,
+    fmt: str,
+    options: ExportOptions = ExportOptions(),
+    video: VideoOptions = VideoOptions(),
+    clips: Sequence[FigureClip] | None = None,
+) -> RenderReport:
+    """Render ``timeline`` to ``path`` as ``fmt`` (mp4, webm, gif)."""
+    if fmt not in VIDEO_FORMATS:
+        raise _error("E100", f"unknown video format {fmt!r} (known: {', '.join(VIDEO_FORMATS)})", "<export>")
+    check_options(video, fmt)
+    times = frame_times(timeline.duration, video.fps)
+    frames = painter(timeline, options, video, clips)
+    target = Path(path)
+    target.parent.mkdir(parents=True, exist_ok=True)
+    handle, temporary = tempfile.mkstemp(prefix=f".{target.name}.", suffix=VIDEO_FORMATS[fmt], dir=target.parent)
+    os.close(handle)
+    try:
+        if fmt == "gif":
+            samples = [frames.paint(float(t)) for t in times[:: max(1, len(times) // 6)]]
+            _write_gif(iter_frames(frames, times), Path(temporary), video.fps, samples)
+        else:
+            _encode(iter_frames(frames, times), Path(temporary), fmt, video)
+        os.chmod(temporary, 0o644)
+        os.replace(temporary, target)
+    except BaseException:
+        with contextlib.suppress(FileNotFoundError):
+            os.unlink(temporary)
+        raise
+    return RenderReport(len(times), video.fps, frames.track.notes)
+
+
+def write_frames(
+    timeline: Timeline,
+    folder: Path,
+    options: ExportOptions = ExportOptions(),
+    video: VideoOptions = VideoOptions(),
+    clips: Sequence[FigureClip] | None = None,
+) -> RenderReport:
+    """PNG frames ``frame_00001.png``... into ``folder`` (which must be new or empty)."""
+    check_options(video)
+    target = Path(folder)
+    if target.exists() and (not target.is_dir() or any(target.iterdir())):
+        raise _error("E100", "--frames needs a new or empty folder (nothing is overwritten)", str(target))
+    times = frame_times(timeline.duration, video.fps)
+    frames = painter(timeline, options, video, clips)
+    target.parent.mkdir(parents=True, exist_ok=True)
+    staging = Path(tempfile.mkdtemp(prefix=f".{target.name}.", dir=target.parent))
+    try:
+        digits = max(5, len(str(len(times))))
+        for index, image in enumerate(iter_frames(frames, times), start=1):
+            image.save(staging / f"frame_{index:0{digits}d}.png", compress_level=1)
+        if target.exists():
+            target.rmdir()
+        os.replace(staging, target)
+    except BaseException:
+        shutil.rmtree(staging, ignore_errors=True)
+        raise
+    return RenderReport(len(times), video.fps, frames.track.notes)
+
+
+def render_still(
+    timeline: Timeline,
+    time: float,
+    options: ExportOptions = ExportOptions(),
+    video: VideoOptions = VideoOptions(),
+    clips: Sequence[FigureClip] | None = None,
+) -> tuple[Image.Image, RenderReport]:
+    """One frame at ``time`` (seconds)."""
+    check_options(video)
+    frames = painter(timeline, options, video, clips)
+    return frames.paint(min(max(time, 0.0), timeline.duration)), RenderReport(1, video.fps, frames.track.notes)
+
+
+def _encode(images: Iterator[Image.Image], path: Path, fmt: str, video: VideoOptions) -> None:
+    import av
+
+    rate = Fraction(video.fps).limit_denominator(1001)
+    with av.open(str(path), mode="w", format="mp4" if fmt == "mp4" else "webm") as container:
+        if fmt == "mp4":
+            stream = container.add_stream("libx264", rate=rate)
+            stream.options = {"crf": str(video.quality), "preset": "veryfast", "tune": "animation"}
+        else:
+            stream = container.add_stream("libvpx-vp9", rate=rate)
+            stream.options = {
+                "crf": str(video.quality + 12),
+                "b:v": "0",
+                "deadline": "realtime",
+                "cpu-used": "8",
+                "row-mt": "1",
+            }
+        stream.width, stream.height = video.size
+        stream.pix_fmt = "yuv420p"
+        for image in images:
+            frame = av.VideoFrame.from_image(image)
+            for packet in stream.encode(frame):
+                container.mux(packet)
+        for packet in stream.encode(None):
+            container.mux(packet)
+
+
+def _write_gif(images: Iterator[Image.Image], path: Path, fps: float, samples: Sequence[Image.Image]) -> None:
+    """One palette for the whole clip (from sample frames), no dithering: small and stable."""
+    from PIL import Image
+
+    width, height = samples[0].size
+    sheet = Image.new("RGB", (width, height * len(samples)))
+    for index, sample in enumerate(samples):
+        sheet.paste(sample, (0, index * height))
+    palette = sheet.quantize(colors=255, method=Image.Quantize.MEDIANCUT)
+
+    def quantized() -> Iterator[Image.Image]:
+        for image in images:
+            yield image.quantize(palette=palette, dither=Image.Dither.NONE)
+
+    frames = quantized()
+    head = next(frames)
+    head.save(
+        path,
+        format="GIF",
+        save_all=True,
+        append_images=frames,
+        duration=round(1000.0 / fps),
+        loop=0,
+        optimize=False,
+        disposal=1,
+    )
