@@ -61,6 +61,7 @@ CODES: dict[str, str] = {
     "E211": "duplicate modality declaration",
     "E212": "invalid timeline",
     "E213": "invalid motion leaf",
+    "E214": "invalid lexeme table",
     # W3xx: static lint
     "W300": "no behaviour-set file found",
     "W301": "inactive signal (both probabilities are 0)",
@@ -84,6 +85,7 @@ CODES: dict[str, str] = {
     "W503": "annotation left out or merged",
     # W6xx: export
     "W601": "behaviour left out of the export (the realizer cannot play it)",
+    "W602": "lexeme not drawn by the face player",
 }
 
 

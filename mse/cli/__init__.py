@@ -21,6 +21,7 @@ COMMAND_MODULES: tuple[str, ...] = (
     "cmd_lint",
     "cmd_list",
     "cmd_export",
+    "cmd_render",
     "cmd_import_greta",
     "cmd_learn",
     "cmd_animate",

@@ -9,9 +9,10 @@ from __future__ import annotations
 import argparse
 import sys
 from pathlib import Path
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
-from mse.export import FORMAT_NAMES  # light: the exporters themselves load lazily
+from mse.cli.cmd_render import add_face_arguments
+from mse.export import FORMAT_NAMES, VIDEO_FORMATS  # light: the exporters themselves load lazily
 
 if TYPE_CHECKING:
     from mse.export import ExportOptions
@@ -28,7 +29,7 @@ def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) ->
     p.add_argument(
         "--format",
         "-f",
-        choices=FORMAT_NAMES,
+        choices=FORMAT_NAMES + VIDEO_FORMATS,
         help="output format (default: from the -o file's extension, e.g. t.svg -> svg, t.bml -> bml)",
     )
     p.add_argument(
@@ -49,6 +50,7 @@ def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) ->
         help="add <constraint> metadata for sync points that share a time",
     )
     p.add_argument("--character-id", default="Agent", help="BML characterId (default: Agent)")
+    add_face_arguments(p)
     p.add_argument(
         "--realizer",
         choices=("generic", "greta", "asap"),
@@ -87,6 +89,8 @@ def run(args: argparse.Namespace) -> int:
             motion_base_dir=base_dir,
             realizer=args.realizer,
             library_dir=args.library_dir,
+            head_library=args.head_library,
+            lexicon=tuple(args.lexicon),
         )
         to_folder = output is not None and (output.endswith(("/", "\\")) or Path(output).is_dir())
         if not to_folder:
@@ -96,6 +100,8 @@ def run(args: argparse.Namespace) -> int:
                     file=sys.stderr,
                 )
             timelines = timelines[:1]
+        if args.format in VIDEO_FORMATS:
+            return _videos(timelines, args.format, output, to_folder, where, options)
         # Render everything before writing anything: bad input leaves no partial output.
         pages = [render(t, args.format, options) for t in timelines]
         notes = [note for t in timelines for note in export_notes(t, args.format, options, where)]
@@ -175,3 +181,27 @@ def report_unmapped_faces(timelines: list[Timeline], options: ExportOptions, fmt
             f"{', '.join(missing)}",
             file=sys.stderr,
         )
+
+
+def _videos(timelines: list[Any], fmt: str, output: str | None, to_folder: bool, where: str, options: Any) -> int:
+    """Video formats are written by ``mse.export.video`` straight to their files."""
+    from mse.cli.cmd_render import print_notes
+    from mse.diagnostics import Diagnostic, MseError, Span
+    from mse.export import SUFFIXES
+    from mse.export.video import write_video
+
+    if output is None:
+        raise MseError([Diagnostic("E100", f"--format {fmt} writes a file: give -o FILE", Span("<arguments>"))])
+    stem = Path(where).stem if where != "<stdin>" else "timeline"
+    targets = (
+        [Path(output) / f"{stem}-{n}{SUFFIXES[fmt]}" for n in range(1, len(timelines) + 1)]
+        if to_folder
+        else [Path(output)]
+    )
+    notes: list[str] = []
+    for target, timeline in zip(targets, timelines, strict=True):
+        for note in write_video(timeline, target, fmt, options).notes:
+            if note not in notes:
+                notes.append(note)
+    print_notes(notes, where)
+    return 0

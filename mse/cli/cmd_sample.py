@@ -18,6 +18,7 @@ BASE_FORMATS = ("table", "json", "jsonl")
 EXPORT_FORMATS = ("bml", "greta-bml", "svg", "html", "eaf")
 DEFAULT_OBJECTIVE = "profile"  # as mse.api.DEFAULT_OBJECTIVE (not imported: the CLI starts light)
 REALIZERS = ("generic", "greta", "asap")  # mse.export.realizers.REALIZERS (not imported: start-up time)
+VIDEO_FORMATS = ("mp4", "webm", "gif")
 _PIN = re.compile(r"^([A-Za-z_][A-Za-z0-9_]*)@(\d+(?:\.\d+)?)-(\d+(?:\.\d+)?)$")
 
 
@@ -37,7 +38,7 @@ def register(subparsers: Any) -> None:
     parser.add_argument("-d", "--duration", type=float, default=10.0, help="timeline length in seconds (default 10)")
     parser.add_argument("--seed", type=int, help="random seed (default: fresh; recorded in the output)")
     parser.add_argument("-n", "--count", type=int, help="number of timelines (seeds seed, seed+1, ...)")
-    parser.add_argument("--format", choices=BASE_FORMATS + EXPORT_FORMATS, help="table on a terminal, else json")
+    parser.add_argument("--format", choices=BASE_FORMATS + EXPORT_FORMATS + VIDEO_FORMATS, help="table on a terminal, else json")
     parser.add_argument("-o", "--output", help="write to this file (atomically) instead of stdout; with --count and "
                         "an export format, a folder (ending in '/') receives one file per timeline")
     parser.add_argument(
@@ -87,6 +88,9 @@ def register(subparsers: Any) -> None:
         help="BML for this realizer (default: generic for bml, greta for greta-bml)",
     )
     out.add_argument("--library-dir", metavar="DIR", help="the realizer's libraries (Greta's BehaviorLexicon folder)")
+    from mse.cli.cmd_render import add_face_arguments
+
+    add_face_arguments(out)
     parser.set_defaults(handler=run)
 
 
@@ -236,6 +240,8 @@ def _sample(model: Any, args: argparse.Namespace) -> int:
 
         timelines = animate_timelines([(t, model) for t in timelines], Path(args.animate), args.library)
     fmt = args.format or ("table" if sys.stdout.isatty() and not args.output else "json")
+    if fmt in VIDEO_FORMATS:
+        return _video(timelines, fmt, args)
     if fmt in EXPORT_FORMATS and args.output and _is_folder(args.output):
         return _write_folder(timelines, fmt, args)
     emit(_render(timelines, fmt, args, many=args.count is not None), args.output)
@@ -271,6 +277,19 @@ def _write_folder(timelines: list[Any], fmt: str, args: argparse.Namespace) -> i
     return 0
 
 
+def _video(timelines: list[Any], fmt: str, args: argparse.Namespace) -> int:
+    from pathlib import Path
+
+    from mse.cli.cmd_render import print_notes
+    from mse.export.video import write_video
+
+    if not args.output or args.output == "-" or len(timelines) > 1:
+        message = f"--format {fmt} writes one timeline to a file: give -o FILE, no --count"
+        raise MseError([Diagnostic("E100", message, Span("<arguments>"))])
+    print_notes(write_video(timelines[0], Path(args.output), fmt, _export_options(args)).notes, args.output)
+    return 0
+
+
 def _export_options(args: argparse.Namespace) -> Any:
     from pathlib import Path
 
@@ -283,6 +302,8 @@ def _export_options(args: argparse.Namespace) -> Any:
         motion_base_dir=Path(args.animate) if args.animate else None,
         realizer=args.realizer,
         library_dir=Path(args.library_dir) if args.library_dir else None,
+        head_library=args.head_library,
+        lexicon=tuple(args.lexicon),
     )
 
 

@@ -14,7 +14,7 @@ from mse.diagnostics import Diagnostic, MseError, Span
 from mse.export.options import ExportOptions
 from mse.timeline import Timeline
 
-__all__ = ["FORMAT_NAMES", "ExportOptions", "export_notes", "render"]
+__all__ = ["FORMAT_NAMES", "VIDEO_FORMATS", "ExportOptions", "export_notes", "render"]
 
 Renderer = Callable[[Timeline, ExportOptions], str]
 
@@ -32,6 +32,10 @@ DEFAULT_OPTIONS = ExportOptions()
 
 #: File suffix of each format (the CLI names files written into a folder with it).
 SUFFIXES: dict[str, str] = {"bml": ".bml", "greta-bml": ".xml", "svg": ".svg", "html": ".html", "eaf": ".eaf"}
+
+#: Binary formats written to a file by ``mse.export.video.write_video`` (not ``render``).
+VIDEO_FORMATS: tuple[str, ...] = ("mp4", "webm", "gif")
+SUFFIXES.update({"mp4": ".mp4", "webm": ".webm", "gif": ".gif"})
 
 
 def renderer(fmt: str) -> Renderer:
@@ -55,7 +59,12 @@ def export_notes(
     timeline: Timeline, fmt: str, options: ExportOptions = DEFAULT_OPTIONS, where: str = "<export>"
 ) -> list[Diagnostic]:
     """Warnings about what ``render(timeline, fmt, options)`` leaves out (W601: a torso the
-    Greta profile cannot play); empty for formats and profiles that write every occurrence."""
+    Greta profile cannot play; W602: a lexeme the face player cannot show, in the viewer and
+    videos); empty for formats and profiles that write every occurrence."""
+    if fmt == "html" or fmt in VIDEO_FORMATS:
+        from mse.export.face.page import face_track
+
+        return [Diagnostic("W602", note, Span(where)) for note in face_track(timeline, options).notes]
     if fmt not in ("bml", "greta-bml"):
         return []
     from mse.export.realizers import realizer_for

@@ -196,7 +196,7 @@ def _encode(images: Iterator[Image.Image], path: Path, fmt: str, video: VideoOpt
         stream.width, stream.height = video.size
         stream.pix_fmt = "yuv420p"
         for image in images:
-            frame = av.VideoFrame.from_image(image)
+            frame = av.VideoFrame.from_image(image)  # type: ignore[no-untyped-call]
             for packet in stream.encode(frame):
                 container.mux(packet)
         for packet in stream.encode(None):

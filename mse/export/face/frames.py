@@ -19,13 +19,13 @@ import numpy as np
 from mse.export.bml import provenance
 from mse.export.face.raster import face_image
 from mse.export.face.rig import Rig, default_rig
-from mse.export.face.track import Track
+from mse.export.face.track import Track, key_weight
 from mse.export.options import ExportOptions
 from mse.export.svg import BAR_HEIGHT, LANE_COLOURS, OTHER_COLOUR, Layout, layout
 from mse.timeline import Timeline
 
 if TYPE_CHECKING:
-    from PIL import Image, ImageFont
+    from PIL import Image, ImageDraw, ImageFont
 
     from mse.export.figures import FigureClip
 
@@ -40,6 +40,7 @@ class FrameLayout:
     size: tuple[int, int]
     face_box: tuple[int, int, int, int]
     body_box: tuple[int, int, int, int] | None
+    info_box: tuple[int, int, int, int] | None
     strip_box: tuple[int, int, int, int]
 
 
@@ -57,14 +58,24 @@ def _text(font: object, text: str) -> str:
     return text if "DejaVu" in str(getattr(font, "path", "")) else text.replace("—", "-")
 
 
-def frame_layout(size: tuple[int, int], strip_height: int, with_body: bool) -> FrameLayout:
+def frame_layout(size: tuple[int, int], strip_height: int, with_body: bool, face_aspect: float) -> FrameLayout:
+    """Columns above the strip: the face, the body (with motion), then the list of what is
+    playing when there is room for it."""
     width, height = size
     strip_top = height - strip_height
     top = HEADER_HEIGHT
-    if not with_body:
-        return FrameLayout(size, (0, top, width, strip_top), None, (0, strip_top, width, height))
-    face_width = min(width // 2, round((strip_top - top) * 400 / 440) + 40)
-    return FrameLayout(size, (0, top, face_width, strip_top), (face_width, top, width, strip_top), (0, strip_top, width, height))
+    panel = strip_top - top
+    face_width = min(width if not with_body else width // 2, round(panel * face_aspect) + 24)
+    body_width = min(width - face_width, panel) if with_body else 0
+    rest = width - face_width - body_width
+    if rest < 220:  # no room for the list: the pictures share the width
+        face_width += rest if not with_body else rest // 2
+        body_width = width - face_width if with_body else 0
+        rest = 0
+    face = (0, top, face_width, strip_top)
+    body = (face_width, top, face_width + body_width, strip_top) if with_body else None
+    info = (width - rest, top, width, strip_top) if rest else None
+    return FrameLayout(size, face, body, info, (0, strip_top, width, height))
 
 
 class StripPainter:
@@ -209,7 +220,8 @@ class FramePainter:
         self.strip = StripPainter(timeline, width, round(height * STRIP_SHARE)) if strip else None
         strip_height = self.strip.height if self.strip else 0
         self.body = BodyPainter(clips, options.figure_fps) if clips else None
-        self.layout = frame_layout(size, strip_height, self.body is not None)
+        aspect = self.rig.view_box[0] / self.rig.view_box[1]
+        self.layout = frame_layout(size, strip_height, self.body is not None, aspect)
         base = Image.new("RGB", size, BACKGROUND)
         draw = ImageDraw.Draw(base)
         draw.rectangle(self.layout.face_box, fill=self.rig.background)
@@ -235,9 +247,17 @@ class FramePainter:
             self._last = (values.copy(), face_image(self.rig, values, self.face_size))
         frame.paste(self._last[1], self.face_at)
         draw = ImageDraw.Draw(frame)
-        left, top, _, _ = self.layout.face_box
-        for line, marker in enumerate(self.track.active_markers(time)):
-            draw.text((left + 8, top + 8 + 16 * line), f"• {marker.label}", fill="#8a3b12", font=self.small)
+        if self.layout.info_box is not None:
+            self._playing(draw, self.layout.info_box, time)
+        else:
+            left, top, _, _ = self.layout.face_box
+            for line, marker in enumerate(self.track.active_markers(time)):
+                draw.text(
+                    (left + 8, top + 8 + 16 * line),
+                    _text(self.small, f"• {marker.label}"),
+                    fill="#8a3b12",
+                    font=self.small,
+                )
         if self.body is not None and self.layout.body_box is not None:
             caption = self.body.paint(frame, self.layout.body_box, time)
             if caption:
@@ -248,3 +268,27 @@ class FramePainter:
         if self.strip is not None:
             self.strip.paint(frame, self.layout.strip_box[1], time)
         return frame
+
+    def _playing(self, draw: ImageDraw.ImageDraw, box: tuple[int, int, int, int], time: float) -> None:
+        """What plays now: one line per active occurrence, with its envelope as a bar
+        (markers: the lexemes the face does not draw)."""
+        left, top, right, bottom = box
+        draw.text((left + 8, top + 14), "playing", fill="#555555", font=self.small, anchor="ls")
+        rows: list[tuple[str, str, float | None]] = []
+        for key in self.track.keys:
+            if key.start <= time < key.stop:
+                level = float(abs(key_weight(key, np.array([time]))[0]))
+                rows.append((key.modality, f"{key.signal}  {key.lexeme}", level))
+        for marker in self.track.active_markers(time):
+            rows.append((marker.modality, f"{marker.signal}  {marker.lexeme}  (not drawn)", None))
+        y = top + 24
+        for modality, label, weight in rows:
+            if y + 18 > bottom:
+                break
+            colour = LANE_COLOURS.get(modality, OTHER_COLOUR)
+            draw.rectangle((left + 8, y + 3, left + 18, y + 13), fill=colour, outline="#333333")
+            draw.text((left + 24, y + 8), _text(self.small, label), fill="#222222", font=self.small, anchor="lm")
+            if weight is not None:
+                bar = (right - left - 40) * min(weight, 1.0)
+                draw.rectangle((left + 24, y + 15, left + 24 + bar, y + 17), fill=colour)
+            y += 22

@@ -4,8 +4,9 @@ Each ``<head id lexeme>`` holds key points with ``SagittalTilt`` (Forward/Backwa
 ``VerticalTorsion`` (Leftward/Rightward) and ``LateralRoll`` amounts ``min``..``max`` in
 Greta's symbolic units (a fraction of the anatomical maximum, which Greta keeps in
 ``HeadIntervals.xml``; we take :data:`MAX_DEGREES`).  The player uses the middle of the
-range.  An untyped key point is a held pose; stroke key points are movements: one goes
-there and back (``NOD``), two in opposite directions swing between them (``SHAKE``).  Lookups go by ``id`` and, for the first head of a
+range.  An untyped key point is a held pose; stroke key points are movements: one
+goes there and back (``NOD``), two in opposite directions swing between them
+(``SHAKE``).  Lookups go by ``id`` and, for the first head of a
 lexeme, by ``lexeme`` (``NOD``, ``embarrassment_signal_1``), in lower case.
 """
 

@@ -22,9 +22,17 @@ from mse.diagnostics import Diagnostic, MseError, Span
 from mse.export.lexemes import ActionUnit, FaceLibrary, Lexeme, load_face_library, modality_of, split_lexeme
 
 #: Action units the rig draws (with both sides); others are reported, not drawn.
-RIG_UNITS: frozenset[int] = frozenset({1, 2, 4, 5, 6, 7, 9, 10, 12, 13, 14, 15, 16, 17, 18, 20, 22, 23, 24, 25, 26, 27, 43})
+RIG_UNITS: frozenset[int] = frozenset(
+    {1, 2, 4, 5, 6, 7, 9, 10, 12, 13, 14, 15, 16, 17, 18, 20, 22, 23, 24, 25, 26, 27, 43}
+)
 #: Units drawn as another unit of the rig, scaled: blink, droop, slit, squint.
-UNIT_ALIASES: Mapping[int, tuple[int, float]] = {45: (43, 1.0), 41: (43, 0.3), 42: (43, 0.6), 44: (7, 1.0), 46: (43, 1.0)}
+UNIT_ALIASES: Mapping[int, tuple[int, float]] = {
+    45: (43, 1.0),
+    41: (43, 0.3),
+    42: (43, 0.6),
+    44: (7, 1.0),
+    46: (43, 1.0),
+}
 #: Head (51-58) and eye (61-64) units as rotations and gaze: channel, amount at intensity 1.
 UNIT_MOTIONS: Mapping[int, tuple[str, float]] = {
     51: ("head_yaw", 30.0),
@@ -179,7 +187,12 @@ def bundled_table() -> dict[str, Action]:
 
 
 # -- naming rules -------------------------------------------------------------------------
-_DIRECTIONS: Mapping[str, tuple[float, float]] = {"left": (1.0, 0.0), "right": (-1.0, 0.0), "up": (0.0, -1.0), "down": (0.0, 1.0)}
+_DIRECTIONS: Mapping[str, tuple[float, float]] = {
+    "left": (1.0, 0.0),
+    "right": (-1.0, 0.0),
+    "up": (0.0, -1.0),
+    "down": (0.0, 1.0),
+}
 
 
 def _direction(name: str) -> tuple[float, float] | None:

@@ -37,7 +37,9 @@ def face_track(timeline: Timeline, options: ExportOptions, rig: Rig | None = Non
 
 def face_svg(rig: Rig, track: Track, time: float = 0.0) -> Element:
     values = track.values(np.array([time]))[0]
-    children: list[Element] = [element("rect", {"width": rig.view_box[0], "height": rig.view_box[1], "fill": rig.background})]
+    children: list[Element] = [
+        element("rect", {"width": rig.view_box[0], "height": rig.view_box[1], "fill": rig.background})
+    ]
     for shape, (path, alpha) in zip(rig.shapes, shape_paths(rig, pose_points(rig, values), values), strict=True):
         attrs: dict[str, str | float | int | None] = {
             "class": "face-shape",

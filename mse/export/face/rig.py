@@ -253,7 +253,8 @@ def rotation(yaw: float, pitch: float, roll: float) -> FloatArray:
     r_yaw = np.array([[cy, 0.0, sy], [0.0, 1.0, 0.0], [-sy, 0.0, cy]])
     r_pitch = np.array([[1.0, 0.0, 0.0], [0.0, cp, sp], [0.0, -sp, cp]])
     r_roll = np.array([[cr, -sr, 0.0], [sr, cr, 0.0], [0.0, 0.0, 1.0]])
-    return r_yaw @ r_pitch @ r_roll
+    matrix: FloatArray = r_yaw @ r_pitch @ r_roll
+    return matrix
 
 
 def pose_points(rig: Rig, values: FloatArray) -> FloatArray:
@@ -327,7 +328,9 @@ def ellipse_path(centre: FloatArray, x_axis: FloatArray, y_axis: FloatArray) -> 
     a = x_axis - centre
     b = y_axis - centre
     quarters = [(a, b), (b, -a), (-a, -b), (-b, a)]
-    rows = np.array([np.concatenate([centre + u + _KAPPA * v, centre + v + _KAPPA * u, centre + v]) for u, v in quarters])
+    rows = np.array(
+        [np.concatenate([centre + u + _KAPPA * v, centre + v + _KAPPA * u, centre + v]) for u, v in quarters]
+    )
     body = _coordinates(rows).split(" ")
     parts = [f"M {_coordinates(centre + a)}"]
     for index in range(4):

@@ -40,6 +40,7 @@ class Key:
 
     signal: str
     lexeme: str
+    modality: str
     start: float
     stop: float
     attack: float
@@ -67,6 +68,7 @@ class Marker:
 
     signal: str
     lexeme: str
+    modality: str
     start: float
     stop: float
 
@@ -154,7 +156,7 @@ def build_track(timeline: Timeline, rig: Rig, resolver: Resolver) -> Track:
         action = resolver.resolve(signal.lexeme, modality)
         if action is None:
             if signal.motion is None:
-                markers.append(Marker(signal.id, signal.lexeme, signal.start, signal.stop))
+                markers.append(Marker(signal.id, signal.lexeme, modality, signal.start, signal.stop))
                 notes.setdefault(
                     signal.lexeme,
                     f"lexeme {signal.lexeme!r} (signal {signal.id}) has no face, head, gaze or torso "
@@ -175,6 +177,7 @@ def build_track(timeline: Timeline, rig: Rig, resolver: Resolver) -> Track:
             Key(
                 signal.id,
                 signal.lexeme,
+                modality,
                 signal.start,
                 signal.stop,
                 round(attack, 4),

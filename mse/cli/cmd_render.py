@@ -1,0 +1,130 @@
+"""``mse render TIMELINE -o clip.mp4``: the face (and body) playing a timeline, as a video.
+
+``-o`` takes ``.mp4``, ``.webm``, ``.gif`` or ``.png`` (one frame, at ``--at``);
+``--frames DIR`` writes every frame as PNG.  Lexemes resolve through ``--lexicon`` tables,
+``--face-library``/``--head-library`` (Greta) and the table shipped with mse
+(docs/face.md); each lexeme the face cannot show is reported once on standard error.
+"""
+
+from __future__ import annotations
+
+import argparse
+import re
+import sys
+from pathlib import Path
+
+_SIZE = re.compile(r"^(\d{1,5})x(\d{1,5})$")
+
+
+def _size(text: str) -> tuple[int, int]:
+    match = _SIZE.match(text.strip().lower())
+    if match is None:
+        raise argparse.ArgumentTypeError(f"{text!r} is not WIDTHxHEIGHT (e.g. 960x540)")
+    return int(match.group(1)), int(match.group(2))
+
+
+def add_face_arguments(parser: argparse.ArgumentParser | argparse._ArgumentGroup) -> None:
+    """Where lexemes come from (shared by render, export and sample)."""
+    parser.add_argument(
+        "--lexicon",
+        action="append",
+        type=Path,
+        default=[],
+        metavar="FILE",
+        help="your lexeme table (TOML, see docs/face.md); read before the bundled one; repeatable",
+    )
+    parser.add_argument("--head-library", type=Path, metavar="FILE", help="Greta HeadGestures.xml for head lexemes")
+
+
+def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
+    p = subparsers.add_parser(
+        "render",
+        help="render a timeline as a video of the face (and body): mp4, webm, gif, png frames",
+        description="Render a timeline (mse-timeline/1 JSON) as a video: the face, head, gaze and torso "
+        "(and the body, when the timeline has motion) with the timeline strip and playhead.",
+    )
+    p.add_argument("timeline", help="timeline JSON file ('-' reads standard input; the first timeline is used)")
+    p.add_argument("-o", "--output", type=Path, help="clip.mp4, clip.webm, clip.gif, or frame.png (one frame)")
+    p.add_argument("--frames", type=Path, metavar="DIR", help="write every frame as PNG into DIR (new or empty)")
+    p.add_argument("--size", type=_size, default=(960, 540), metavar="WxH", help="frame size (default 960x540)")
+    p.add_argument("--fps", type=float, default=25.0, help="frames per second (default 25)")
+    p.add_argument("--at", type=float, default=0.0, metavar="SECONDS", help="time of the frame for a .png output")
+    p.add_argument("--no-strip", action="store_true", help="leave out the timeline strip")
+    p.add_argument("--face-library", type=Path, metavar="FILE", help="Greta facelibrary.xml for face and gaze lexemes")
+    add_face_arguments(p)
+    p.add_argument(
+        "--motion-dir",
+        type=Path,
+        help="folder that motion file paths are relative to (default: the timeline's folder)",
+    )
+    p.set_defaults(handler=run)
+
+
+def video_format(path: Path) -> str | None:
+    suffix = path.suffix.lower().lstrip(".")
+    return suffix if suffix in ("mp4", "webm", "gif", "png") else None
+
+
+def print_notes(notes: tuple[str, ...] | list[str], where: str) -> None:
+    """Each lexeme the face cannot show, once (W602)."""
+    from mse.diagnostics import Diagnostic, Span
+
+    for note in notes:
+        print(Diagnostic("W602", note, Span(where)).render(), file=sys.stderr)
+
+
+def run(args: argparse.Namespace) -> int:
+    from mse.cli.common import print_error, read_timelines
+    from mse.diagnostics import Diagnostic, MseError, Span
+    from mse.export import ExportOptions
+    from mse.export.video import VideoOptions, render_still, write_frames, write_video
+    from mse.fileio import write_atomic
+
+    where = "<stdin>" if args.timeline == "-" else args.timeline
+    try:
+        if args.output is None and args.frames is None:
+            raise MseError(
+                [Diagnostic("E100", "give -o FILE (.mp4 .webm .gif .png) and/or --frames DIR", Span("<arguments>"))]
+            )
+        fmt = video_format(args.output) if args.output is not None else None
+        if args.output is not None and fmt is None:
+            message = f"cannot tell the format of {str(args.output)!r}: use .mp4, .webm, .gif or .png"
+            raise MseError([Diagnostic("E100", message, Span("<arguments>"))])
+        timelines = read_timelines(args.timeline)
+        if not timelines:
+            raise MseError([Diagnostic("E212", "no timeline in the input", Span(where))])
+        if len(timelines) > 1:
+            print(f"{where}: note: {len(timelines)} timelines, rendering the first", file=sys.stderr)
+        timeline = timelines[0]
+        base_dir = args.motion_dir
+        if base_dir is None and args.timeline != "-":
+            base_dir = Path(args.timeline).resolve().parent
+        options = ExportOptions(
+            face_library=args.face_library,
+            head_library=args.head_library,
+            lexicon=tuple(args.lexicon),
+            motion_base_dir=base_dir,
+        )
+        video = VideoOptions(size=args.size, fps=args.fps, strip=not args.no_strip)
+        notes: tuple[str, ...] = ()
+        if args.frames is not None:
+            notes = write_frames(timeline, args.frames, options, video).notes
+        if args.output is not None and fmt == "png":
+            import io
+
+            image, report = render_still(timeline, args.at, options, video)
+            buffer = io.BytesIO()
+            image.save(buffer, format="PNG")
+            write_atomic(args.output, buffer.getvalue())
+            notes = notes or report.notes
+        elif args.output is not None and fmt is not None:
+            notes = notes or write_video(timeline, args.output, fmt, options, video).notes
+    except MseError as error:
+        return print_error(error)
+    except OSError as error:
+        target = str(args.output or args.frames)
+        reason = error.strerror or str(error)
+        print(Diagnostic("E100", f"cannot write output: {reason}", Span(target)).render(), file=sys.stderr)
+        return 1
+    print_notes(notes, where)
+    return 0
