@@ -167,3 +167,177 @@ def test_playhead_and_stick_figure_advance(driver: Any, page: Path) -> None:
     paused_at = clock.get_attribute("data-time")
     browser.execute_script("return new Promise(r => setTimeout(r, 150));")
     assert clock.get_attribute("data-time") == paused_at
+
+
+# -- the face player ----------------------------------------------------------------------
+FACE_SIGNALS = (
+    ("smile", "face", "faceexp=smile", 1.0, 3.0),
+    ("head_left", "head", "head=head_left", 4.0, 6.0),
+    ("gaze_down", "gaze", "gaze=look_down", 7.0, 8.5),
+    ("blink", "face", "faceexp=blink", 9.0, 9.3),
+)
+NEUTRAL, SMILING, TURNED, LOOKING_DOWN, BLINKING = 0.5, 2.0, 5.0, 7.75, 9.15
+
+
+@pytest.fixture(scope="module")
+def face_timeline() -> Timeline:
+    from mse.timeline import TimelineSignal
+
+    return Timeline("face test", 10.0, tuple(TimelineSignal(*s) for s in FACE_SIGNALS), solver="hand-made")
+
+
+@pytest.fixture(scope="module")
+def face_page(tmp_path_factory: pytest.TempPathFactory, face_timeline: Timeline) -> Path:
+    path = tmp_path_factory.mktemp("face") / "face.html"
+    path.write_text(render_html(face_timeline, ExportOptions(), []), encoding="utf-8")
+    return path
+
+
+def _at(browser: Any, time: float) -> None:
+    browser.execute_script(
+        "const s = document.getElementById('scrub'); s.value = arguments[0];"
+        "s.dispatchEvent(new Event('input'));",
+        time,
+    )
+    assert float(browser.find_element("id", "face").get_attribute("data-time")) == pytest.approx(time, abs=1e-3)
+
+
+def _face_shot(browser: Any, time: float) -> np.ndarray:
+    import io
+
+    from PIL import Image
+
+    _at(browser, time)
+    png = browser.find_element("id", "face").screenshot_as_png
+    return np.asarray(Image.open(io.BytesIO(png)).convert("RGB")).astype(np.int16)
+
+
+def _box(browser: Any, *shapes: str) -> tuple[int, int, int, int]:
+    """Screen box (relative to the face SVG) round the named shapes, a little enlarged."""
+    script = (
+        "const svg = document.getElementById('face').getBoundingClientRect();"
+        "const boxes = arguments[0].map(id => document.querySelector(`path[data-shape='${id}']`)"
+        ".getBoundingClientRect());"
+        "return [Math.min(...boxes.map(b => b.left)) - svg.left, Math.min(...boxes.map(b => b.top)) - svg.top,"
+        " Math.max(...boxes.map(b => b.right)) - svg.left, Math.max(...boxes.map(b => b.bottom)) - svg.top];"
+    )
+    left, top, right, bottom = browser.execute_script(script, list(shapes))
+    return int(left) - 4, int(top) - 4, int(right) + 4, int(bottom) + 4
+
+
+def _region(image: np.ndarray, box: tuple[int, int, int, int]) -> np.ndarray:
+    left, top, right, bottom = box
+    return image[max(top, 0) : bottom, max(left, 0) : right]
+
+
+def _changed(a: np.ndarray, b: np.ndarray) -> int:
+    return int((np.abs(a - b).max(axis=2) > 40).sum())
+
+
+def test_face_is_drawn_and_not_blank(driver: Any, face_page: Path) -> None:
+    browser = _loaded(driver, face_page)
+    image = _face_shot(browser, NEUTRAL)
+    colours = len(np.unique(image.reshape(-1, 3), axis=0))
+    assert colours > 200
+    background = np.array([0xE9, 0xEE, 0xF2])
+    assert (np.abs(image - background).max(axis=2) > 20).mean() > 0.3  # a face, not an empty panel
+
+
+def test_smile_changes_the_mouth(driver: Any, face_page: Path) -> None:
+    browser = _loaded(driver, face_page)
+    _at(browser, NEUTRAL)
+    mouth = _box(browser, "lip.upper", "lip.lower")
+    neutral, smiling = _face_shot(browser, NEUTRAL), _face_shot(browser, SMILING)
+    assert _changed(_region(neutral, mouth), _region(smiling, mouth)) > 100
+    eyes_far_from_mouth = _box(browser, "brow.L", "brow.R")
+    assert _changed(_region(neutral, eyes_far_from_mouth), _region(smiling, eyes_far_from_mouth)) < 60
+    assert _changed(_face_shot(browser, 1.5), _face_shot(browser, 2.5)) == 0  # the apex holds
+
+
+def test_head_left_turns_the_head(driver: Any, face_page: Path) -> None:
+    browser = _loaded(driver, face_page)
+    _at(browser, NEUTRAL)
+    nose_before = _box(browser, "nose")
+    neutral = _face_shot(browser, NEUTRAL)
+    turned = _face_shot(browser, TURNED)
+    nose_after = _box(browser, "nose")
+    # The agent's left is the viewer's right: the nose moves right.
+    assert (nose_after[0] + nose_after[2]) / 2 - (nose_before[0] + nose_before[2]) / 2 > 8
+    head = _box(browser, "face")
+    assert _changed(_region(neutral, head), _region(turned, head)) > 2000
+
+
+def test_gaze_down_moves_the_eyes(driver: Any, face_page: Path) -> None:
+    browser = _loaded(driver, face_page)
+    _at(browser, NEUTRAL)
+    iris_before = _box(browser, "iris.L", "iris.R")
+    eyes = _box(browser, "sclera.L", "sclera.R")
+    neutral = _face_shot(browser, NEUTRAL)
+    down = _face_shot(browser, LOOKING_DOWN)
+    iris_after = _box(browser, "iris.L", "iris.R")
+    assert iris_after[1] - iris_before[1] > 2  # the irises move down
+    assert abs(iris_after[0] - iris_before[0]) <= 1  # ... not sideways
+    assert _changed(_region(neutral, eyes), _region(down, eyes)) > 80
+
+
+def test_blink_closes_the_lids(driver: Any, face_page: Path) -> None:
+    browser = _loaded(driver, face_page)
+    _at(browser, NEUTRAL)
+    eyes = _box(browser, "sclera.L", "sclera.R")
+
+    def iris_pixels(image: np.ndarray) -> int:
+        region = _region(image, eyes)
+        blue = (region[..., 2] > region[..., 0] + 40) & (region[..., 2] > 120)
+        white = region.min(axis=2) > 235
+        return int(blue.sum() + white.sum())
+
+    assert iris_pixels(_face_shot(browser, NEUTRAL)) > 150
+    assert iris_pixels(_face_shot(browser, BLINKING)) < 10
+
+
+def test_page_and_video_draw_the_same_face(driver: Any, face_page: Path, face_timeline: Timeline) -> None:
+    """face.js and the numpy evaluator give the same paths; the SVG and the aggdraw frame
+    look the same (anti-aliasing differs only at edges)."""
+    import re
+
+    from mse.export.face.page import face_track
+    from mse.export.face.raster import face_image
+    from mse.export.face.rig import default_rig, pose_points, shape_paths
+
+    browser = _loaded(driver, face_page)
+    rig = default_rig()
+    track = face_track(face_timeline, ExportOptions())
+    shots = {}
+    for time in (NEUTRAL, 1.15, SMILING, 4.2, TURNED, LOOKING_DOWN, BLINKING):
+        page_paths = browser.execute_script("return window.mseFace.paths(arguments[0]);", time)
+        values = track.values(np.array([time]))[0]
+        python_paths = shape_paths(rig, pose_points(rig, values), values)
+        assert len(page_paths) == len(python_paths)
+        for (page_d, page_alpha), (python_d, python_alpha) in zip(page_paths, python_paths, strict=True):
+            page_numbers = [float(n) for n in re.findall(r"-?\d+\.\d+", page_d)]
+            python_numbers = [float(n) for n in re.findall(r"-?\d+\.\d+", python_d)]
+            assert len(page_numbers) == len(python_numbers)
+            assert np.allclose(page_numbers, python_numbers, atol=0.011)
+            assert page_alpha == pytest.approx(python_alpha, abs=1e-9)
+        shot = _face_shot(browser, time)
+        height, width = shot.shape[:2]
+        frame = np.asarray(face_image(rig, values, (width, height))).astype(np.int16)
+        shots[time] = (shot, frame)
+        # Anti-aliasing differs a little along edges (Skia and AGG), nothing else.
+        assert float(np.abs(shot - frame).mean()) < 3.0, time
+        assert _changed(shot, frame) < 0.01 * width * height, time
+    # Each screenshot is recognised among the frames: its own moment is the nearest by far.
+    for time, (shot, frame) in shots.items():
+        own = _coarse_distance(shot, frame)
+        others = [_coarse_distance(shot, other) for t, (_, other) in shots.items() if t != time]
+        assert own < 35 and own < min(others) / 1.5, (time, own, others)
+
+
+def _coarse_distance(a: np.ndarray, b: np.ndarray) -> float:
+    """Largest difference of 4x4-pixel means: blind to anti-aliasing, not to shapes."""
+    height, width = (a.shape[0] // 4) * 4, (a.shape[1] // 4) * 4
+
+    def coarse(image: np.ndarray) -> np.ndarray:
+        return image[:height, :width].reshape(height // 4, 4, width // 4, 4, 3).mean(axis=(1, 3))
+
+    return float(np.abs(coarse(a) - coarse(b)).max())

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import itertools
 import json
 import re
 from pathlib import Path
@@ -36,8 +37,10 @@ def test_svg_has_one_bar_per_occurrence_and_lanes(embarrassment: Timeline) -> No
     assert titles == ["embarrassment — 10 s — solver hand-made — seed none"]
     ticks = [t.text for t in root.iter(f"{SVG}text") if t.get("class") == "tick-label"]
     assert ticks[0] == "0 s" and ticks[-1] == "10 s"
-    labels = [t.text or "" for t in root.iter(f"{SVG}text") if t.get("class") == "label"]
-    assert "embarrassment_signal_6" in labels
+    labels = [t.text or "" for t in root.iter(f"{SVG}text") if (t.get("class") or "").startswith("label")]
+    assert sorted(labels) == sorted(s.id for s in embarrassment.signals)  # the author's ids
+    tooltips = [t.text or "" for t in root.iter(f"{SVG}title")]
+    assert any("embarrassment_signal_6" in t for t in tooltips)  # the lexeme on hover
 
 
 def test_overlapping_occurrences_stack_in_sub_rows() -> None:
@@ -117,3 +120,67 @@ def test_real_bvh_clip_in_the_viewer(bandai_dir: Path) -> None:
     assert len(clip["joints"]) == len(clip["parents"]) == 22
     assert len(clip["frames"]) == 61  # 2 s at 30 fps, plus the last frame
     assert len(clip["frames"][0]) == 2 * 22
+
+
+def _sampled(duration: float, seed: int) -> Timeline:
+    from mse.api import load, sample
+
+    result = sample(load("embarrassment"), duration, seed=seed)
+    assert isinstance(result, Timeline)
+    return result
+
+
+@pytest.mark.parametrize("duration", [10.0, 30.0, 60.0])
+def test_long_timelines_keep_every_label_whole_and_apart(duration: float) -> None:
+    """At 30 s and 60 s every bar has its whole id, and no label touches another one."""
+    from mse.export.svg import LABEL_PAD, label_width
+
+    for seed in (1, 2, 3):
+        timeline = _sampled(duration, seed)
+        geometry = layout(timeline)
+        assert {bar.label for bar in geometry.bars} == {s.id for s in timeline.signals}
+        rows: dict[float, list[tuple[float, float]]] = {}
+        for bar in geometry.bars:
+            assert "…" not in bar.label
+            left = bar.x if bar.label_inside else bar.x + bar.width + 3
+            right = left + label_width(bar.label)
+            if bar.label_inside:
+                assert right + LABEL_PAD / 2 <= bar.x + bar.width + 1e-6
+            rows.setdefault(bar.y, []).append((bar.x, max(right, bar.x + bar.width)))
+        for row in rows.values():
+            row.sort()
+            for (_, end), (next_start, _) in itertools.pairwise(row):
+                assert end <= next_start + 1e-6  # a bar or its label never runs into the next bar
+        assert geometry.width >= 960
+        root = etree.fromstring(render(timeline, "svg").encode("utf-8"))
+        assert int(root.get("width") or 0) == geometry.width
+
+
+def test_drawing_widens_with_duration_and_ticks_stay_apart() -> None:
+    from mse.export.svg import MIN_TICK_SPACING
+
+    short, long = layout(_sampled(10.0, 1)), layout(_sampled(60.0, 1))
+    assert long.width > short.width
+    assert long.tick_step * long.scale >= MIN_TICK_SPACING
+    assert short.tick_step == 1.0
+
+
+def test_html_shows_the_title_once(embarrassment: Timeline) -> None:
+    page = render(embarrassment, "html")
+    title = "embarrassment — 10 s — solver hand-made — seed none"
+    visible = re.sub(r"<title>.*?</title>", "", page, flags=re.S)
+    assert visible.count(title) == 1  # the <h1>; the drawing inside the page has none
+    assert 'id="face"' in page and 'id="mse-face"' in page
+
+
+def test_text_table_labels_never_run_together() -> None:
+    from mse.cli.table import render_table
+
+    for seed in range(1, 6):
+        timeline = _sampled(30.0, seed)
+        table = render_table(timeline)
+        lane_lines = table.split("\n\n")[0].splitlines()[3:]
+        ids = {s.id for s in timeline.signals}
+        for line in lane_lines:
+            for token in line[10:].split():
+                assert token.rstrip("=") in ids, (token, line)

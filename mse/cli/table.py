@@ -39,16 +39,21 @@ def render_table(timeline: Timeline, *, width: int = WIDTH) -> str:
     lines.append(" " * (name_width + 2) + labels)
     lines.append(" " * (name_width + 2) + ticks)
     for modality in lanes:
+        # A bar writes its whole id (then '=' up to its end) and keeps one blank column
+        # after it; a bar that would touch the previous one in a row goes to the next row.
         rows: list[list[str]] = []
         for signal in (s for s in timeline.signals if (s.modality or "?") == modality):
             first = min(width - 1, int(signal.start * scale))
             last = max(first + 1, min(width, round(signal.stop * scale)))
-            text = signal.id[: last - first]
-            row = next((r for r in rows if all(c == " " for c in r[first:last])), None)
+            text = signal.id.ljust(last - first, "=")
+            end = first + len(text)
+            row = next((r for r in rows if all(c == " " for c in r[max(0, first - 1) : end + 1])), None)
             if row is None:
                 row = [" "] * width
                 rows.append(row)
-            row[first:last] = list(text.ljust(last - first, "="))
+            if len(row) < end + 1:
+                row.extend(" " * (end + 1 - len(row)))
+            row[first:end] = list(text)
         for index, row in enumerate(rows or [[" "] * width]):
             name = modality if index == 0 else ""
             lines.append(f"{name:>{name_width}}  " + "".join(row).rstrip())

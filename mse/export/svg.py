@@ -152,7 +152,8 @@ def layout(timeline: Timeline, *, title: bool = True) -> Layout:
             end = x + width if inside else x + width + 3 + label_width(text)
             placed.append((b, x, width, text, inside, end))
             right = max(right, end)
-        rows = _rows([(x, end + LABEL_GAP) for _, x, _, _, _, end in placed])
+        # An outside label needs room before the next bar; touching bars may share a row.
+        rows = _rows([(x, end if inside else end + LABEL_GAP) for _, x, _, _, inside, end in placed])
         row_count = max(rows, default=0) + 1
         height = 2 * LANE_PAD + row_count * BAR_HEIGHT + (row_count - 1) * ROW_GAP
         for (b, x, width, text, inside, _), row in zip(placed, rows, strict=True):

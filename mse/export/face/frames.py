@@ -281,6 +281,9 @@ class FramePainter:
                 rows.append((key.modality, f"{key.signal}  {key.lexeme}", level))
         for marker in self.track.active_markers(time):
             rows.append((marker.modality, f"{marker.signal}  {marker.lexeme}  (not drawn)", None))
+        for body in self.track.bodies:
+            if body.start <= time < body.stop:
+                rows.append((body.modality, f"{body.signal}  {body.lexeme}  (body)", None))
         y = top + 24
         for modality, label, weight in rows:
             if y + 18 > bottom:

@@ -15,7 +15,7 @@ from __future__ import annotations
 from pathlib import Path
 
 from mse.diagnostics import Diagnostic, MseError, Span
-from mse.export.face.lexicon import Action
+from mse.export.face.actions import Action
 
 #: Degrees of Greta's symbolic 1.0 per axis (our assumption; HeadIntervals.xml is not public).
 MAX_DEGREES = {"SagittalTilt": 40.0, "VerticalTorsion": 70.0, "LateralRoll": 35.0}

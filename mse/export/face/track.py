@@ -17,7 +17,8 @@ from typing import Any
 
 import numpy as np
 
-from mse.export.face.lexicon import Action, Resolver
+from mse.export.face.actions import Action
+from mse.export.face.lexicon import Resolver
 from mse.export.face.rig import FloatArray, Rig
 from mse.export.lexemes import modality_of, split_lexeme
 from mse.timeline import Timeline
@@ -84,6 +85,7 @@ class Track:
     notes: tuple[str, ...]  # one line per unmapped lexeme or undrawable action unit
     clamped: tuple[int, ...]  # channels kept in [0, 1] (action units)
     channel_count: int
+    bodies: tuple[Marker, ...] = ()  # occurrences shown by the body (motion) only
 
     def to_json(self) -> dict[str, Any]:
         return {
@@ -150,12 +152,15 @@ def build_track(timeline: Timeline, rig: Rig, resolver: Resolver) -> Track:
     index = rig.channel_index
     keys: list[Key] = []
     markers: list[Marker] = []
+    bodies: list[Marker] = []
     notes: dict[str, str] = {}
     for signal in timeline.signals:
         modality = modality_of(signal.modality, split_lexeme(signal.lexeme))
         action = resolver.resolve(signal.lexeme, modality)
         if action is None:
-            if signal.motion is None:
+            if signal.motion is not None:
+                bodies.append(Marker(signal.id, signal.lexeme, modality, signal.start, signal.stop))
+            else:
                 markers.append(Marker(signal.id, signal.lexeme, modality, signal.start, signal.stop))
                 notes.setdefault(
                     signal.lexeme,
@@ -188,4 +193,4 @@ def build_track(timeline: Timeline, rig: Rig, resolver: Resolver) -> Track:
             )
         )
     clamped = tuple(i for i, name in enumerate(rig.channels) if name.startswith("AU"))
-    return Track(tuple(keys), tuple(markers), tuple(notes.values()), clamped, len(rig.channels))
+    return Track(tuple(keys), tuple(markers), tuple(notes.values()), clamped, len(rig.channels), tuple(bodies))
