@@ -40,11 +40,11 @@ def test_default_phases_never_exceed_forty_percent_of_a_short_occurrence() -> No
 
 def test_overlapping_expressions_blend_and_clamp() -> None:
     track = _track(
-        TimelineSignal("a", "face", "faceexp=smile", 0.0, 4.0),
+        TimelineSignal("a", "face", "faceexp=slight_smile", 0.0, 4.0),
         TimelineSignal("b", "face", "faceexp=laugh", 2.0, 6.0),
     )
     au12 = _channel(track, "AU12:L", [1.0, 3.0, 5.0])
-    assert au12[0] == pytest.approx(0.9) and au12[1] == 1.0 and au12[2] == 1.0  # 0.9 + 1.0 clamped
+    assert au12[0] == pytest.approx(0.55) and au12[1] == 1.0 and au12[2] == 1.0  # 0.55 + 1.0 clamped
     jaw = _channel(track, "AU26:L", [1.0, 2.1, 3.0])
     assert jaw[0] == 0.0 < jaw[1] < jaw[2]  # the laugh's onset blends in
 
@@ -73,11 +73,13 @@ def test_unmapped_lexemes_are_markers_reported_once() -> None:
         TimelineSignal("w", "gesture", "gesture=wave_hello", 2.0, 3.0),
         TimelineSignal("h", "gesture", "gesture=hand_on_mouth", 1.0, 2.0, motion={"file": "h.bvh"}),
         TimelineSignal("f", "face", "faceexp=AU33", 0.0, 1.0),
+        TimelineSignal("b", "torso", "torso=bend", 4.0, 5.0, motion={"action": "bend"}),  # not animated
     )
-    assert [m.signal for m in track.markers] == ["w", "w"]
+    assert [m.signal for m in track.markers] == ["w", "w", "b"]
     assert [b.signal for b in track.bodies] == ["h"]  # the body shows it: no marker, no note
-    assert len(track.notes) == 2
-    assert sorted("AU33" in note for note in track.notes) == [False, True]  # timeline order
+    assert len(track.notes) == 3
+    assert any("--animate" in note for note in track.notes)
+    assert sorted("AU33" in note for note in track.notes) == [False, False, True]
     assert [m.label for m in track.active_markers(2.5)] == ["w: gesture=wave_hello"]
     assert track.active_markers(1.5) == []
 

@@ -85,7 +85,7 @@ class Track:
     notes: tuple[str, ...]  # one line per unmapped lexeme or undrawable action unit
     clamped: tuple[int, ...]  # channels kept in [0, 1] (action units)
     channel_count: int
-    bodies: tuple[Marker, ...] = ()  # occurrences shown by the body (motion) only
+    bodies: tuple[Marker, ...] = ()  # occurrences shown by the body only (a motion file)
 
     def to_json(self) -> dict[str, Any]:
         return {
@@ -158,14 +158,15 @@ def build_track(timeline: Timeline, rig: Rig, resolver: Resolver) -> Track:
         modality = modality_of(signal.modality, split_lexeme(signal.lexeme))
         action = resolver.resolve(signal.lexeme, modality)
         if action is None:
-            if signal.motion is not None:
+            if signal.motion is not None and signal.motion.get("file"):
                 bodies.append(Marker(signal.id, signal.lexeme, modality, signal.start, signal.stop))
             else:
                 markers.append(Marker(signal.id, signal.lexeme, modality, signal.start, signal.stop))
+                hint = "generate its motion with --animate, or add it" if signal.motion is not None else "add it"
                 notes.setdefault(
                     signal.lexeme,
                     f"lexeme {signal.lexeme!r} (signal {signal.id}) has no face, head, gaze or torso "
-                    "mapping: shown as a labelled marker (add it to a --lexicon table)",
+                    f"mapping: shown as a labelled marker ({hint} to a --lexicon table)",
                 )
             continue
         if action.unsupported:
