@@ -286,7 +286,8 @@ def _video(timelines: list[Any], fmt: str, args: argparse.Namespace) -> int:
     if not args.output or args.output == "-" or len(timelines) > 1:
         message = f"--format {fmt} writes one timeline to a file: give -o FILE, no --count"
         raise MseError([Diagnostic("E100", message, Span("<arguments>"))])
-    print_notes(write_video(timelines[0], Path(args.output), fmt, _export_options(args)).notes, args.output)
+    where = args.source or timelines[0].expression or "<sample>"
+    print_notes(write_video(timelines[0], Path(args.output), fmt, _export_options(args)).notes, where)
     return 0
 
 
