@@ -200,8 +200,12 @@ def _videos(timelines: list[Any], fmt: str, output: str | None, to_folder: bool,
     )
     notes: list[str] = []
     for target, timeline in zip(targets, timelines, strict=True):
-        for note in write_video(timeline, target, fmt, options).notes:
-            if note not in notes:
-                notes.append(note)
+        try:
+            report = write_video(timeline, target, fmt, options)
+        except OSError as error:
+            reason = error.strerror or str(error)
+            print(Diagnostic("E100", f"cannot write output: {reason}", Span(str(target))).render(), file=sys.stderr)
+            return 1
+        notes += [note for note in report.notes if note not in notes]
     print_notes(notes, where)
     return 0
