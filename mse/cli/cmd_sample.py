@@ -287,7 +287,12 @@ def _video(timelines: list[Any], fmt: str, args: argparse.Namespace) -> int:
         message = f"--format {fmt} writes one timeline to a file: give -o FILE, no --count"
         raise MseError([Diagnostic("E100", message, Span("<arguments>"))])
     where = args.source or timelines[0].expression or "<sample>"
-    print_notes(write_video(timelines[0], Path(args.output), fmt, _export_options(args)).notes, where)
+    try:
+        report = write_video(timelines[0], Path(args.output), fmt, _export_options(args))
+    except OSError as error:
+        reason = error.strerror or str(error)
+        raise MseError([Diagnostic("E100", f"cannot write output: {reason}", Span(args.output))]) from None
+    print_notes(report.notes, where)
     return 0
 
 
