@@ -31,7 +31,8 @@ def add_face_arguments(parser: argparse.ArgumentParser | argparse._ArgumentGroup
         type=Path,
         default=[],
         metavar="FILE",
-        help="your lexeme table (TOML, see docs/face.md); read before the bundled one; repeatable",
+        help="your lexeme table (TOML, the layout of mse/export/face/lexicon.toml); read before the bundled one; "
+        "repeatable",
     )
     parser.add_argument("--head-library", type=Path, metavar="FILE", help="Greta HeadGestures.xml for head lexemes")
 
