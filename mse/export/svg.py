@@ -244,10 +244,18 @@ def svg_element(timeline: Timeline, options: ExportOptions, *, interactive: bool
                 },
             )
         )
-        label_y = round(lane.y + lane.height / 2 + 4, 2)
-        children.append(element("text", {"x": 10, "y": label_y, "class": "lane-label"}, lane.modality))
     children.extend(_ruler(geometry, timeline.duration))
     children.extend(_bar(bar, interactive) for bar in geometry.bars)
+    # Lane names last, on their lane's colour: the viewer keeps this group in view when a long
+    # timeline scrolls sideways (bars pass under it).
+    names: list[Element] = []
+    for index, lane in enumerate(geometry.lanes):
+        lane_class = "lane odd" if index % 2 else "lane"
+        box = {"x": 0, "y": round(lane.y, 2), "width": LABEL_WIDTH - 4, "height": lane.height, "class": lane_class}
+        names.append(element("rect", box))
+        label_y = round(lane.y + lane.height / 2 + 4, 2)
+        names.append(element("text", {"x": 10, "y": label_y, "class": "lane-label"}, lane.modality))
+    children.append(element("g", {"id": "lane-names"} if interactive else {}, *names))
     attrs: dict[str, str | float | int | None] = {
         "xmlns": SVG_NAMESPACE,
         "width": geometry.width,

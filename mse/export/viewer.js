@@ -115,7 +115,18 @@
     document.dispatchEvent(new CustomEvent("mse-time", { detail: { time: time } }));
   }
 
-  // A long timeline is wider than the window: scroll it so that the playhead stays visible.
+  // A long timeline is wider than the window: the lane names stay at the left edge ...
+  var stageBox = document.getElementById("stage");
+  var laneNames = document.getElementById("lane-names");
+  if (stageBox && laneNames) {
+    stageBox.addEventListener("scroll", function () {
+      var box = svg.getBoundingClientRect();
+      var units = stageBox.scrollLeft * svg.viewBox.baseVal.width / box.width;
+      laneNames.setAttribute("transform", "translate(" + units.toFixed(1) + " 0)");
+    });
+  }
+
+  // ... and it scrolls so that the playhead stays visible.
   function keepInView(x) {
     var stage = document.getElementById("stage");
     if (!stage || stage.scrollWidth <= stage.clientWidth) { return; }
