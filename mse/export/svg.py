@@ -251,7 +251,8 @@ def svg_element(timeline: Timeline, options: ExportOptions, *, interactive: bool
     names: list[Element] = []
     for index, lane in enumerate(geometry.lanes):
         lane_class = "lane odd" if index % 2 else "lane"
-        box = {"x": 0, "y": round(lane.y, 2), "width": LABEL_WIDTH - 4, "height": lane.height, "class": lane_class}
+        box: dict[str, str | float | int | None] = {"x": 0, "y": round(lane.y, 2), "width": LABEL_WIDTH - 4}
+        box.update({"height": lane.height, "class": lane_class})
         names.append(element("rect", box))
         label_y = round(lane.y + lane.height / 2 + 4, 2)
         names.append(element("text", {"x": 10, "y": label_y, "class": "lane-label"}, lane.modality))
