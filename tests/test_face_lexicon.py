@@ -76,7 +76,9 @@ def test_user_tables_come_first_and_later_files_win(tmp_path: Path) -> None:
 @pytest.mark.parametrize(
     ("text", "fragment"),
     [
-        ("[x]\nau = { AU12 = 'high' }\n", "must be a number"),
+        ("[x]\nau = { AU12 = 'high' }\n", "must be a finite number"),
+        ("[x]\nhead = { yaw = nan }\n", "must be a finite number"),
+        ("[x]\ngaze = { x = 1e9 }\n", "out of range"),
         ("[x]\nau = { smile = 1 }\n", "must look like AU12"),
         ("[x]\nhead = { nod = 1 }\n", "is not one of"),
         ("[x]\ncolour = 'red'\n", "unknown key"),

@@ -9,6 +9,7 @@ direction words (``look_up_left``, ``head_down_right``) for gaze and head signal
 
 from __future__ import annotations
 
+import math
 import re
 import tomllib
 from collections.abc import Iterable, Mapping
@@ -49,8 +50,10 @@ def _fail(where: str, message: str) -> MseError:
 
 
 def _number(value: Any, where: str, what: str) -> float:
-    if isinstance(value, bool) or not isinstance(value, int | float):
-        raise _fail(where, f"{what} must be a number")
+    if isinstance(value, bool) or not isinstance(value, int | float) or not math.isfinite(value):
+        raise _fail(where, f"{what} must be a finite number")
+    if abs(value) > 1000:
+        raise _fail(where, f"{what} = {value} is out of range (at most 1000 in size)")
     return float(value)
 
 
