@@ -119,6 +119,8 @@ def key_weight(key: Key, times: FloatArray) -> FloatArray:
     """The key's weight at ``times`` (see the module docstring)."""
     t = np.asarray(times, dtype=np.float64)
     inside = (t > key.start) & (t < key.stop)
+    if key.stop <= key.start:
+        return np.zeros_like(t)
     if key.repeat is not None:
         every, length = key.repeat
         span = key.stop - key.start
