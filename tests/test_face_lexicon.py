@@ -146,3 +146,15 @@ def test_bad_head_library_is_a_diagnostic(tmp_path: Path) -> None:
     with pytest.raises(MseError) as error:
         load_head_gestures(tmp_path / "missing.xml")
     assert error.value.diagnostics[0].code == "E100"
+
+
+@pytest.mark.shared
+def test_library_dir_gives_the_face_player_gretas_libraries(greta_dir: Path) -> None:
+    from mse.export import ExportOptions
+    from mse.export.face import sources_of
+
+    sources = sources_of(ExportOptions(library_dir=greta_dir))
+    assert sources.face_library == greta_dir / "facelibrary.xml"
+    assert sources.head_library == greta_dir / "HeadGestures.xml"
+    mine = Path("mine.xml")
+    assert sources_of(ExportOptions(library_dir=greta_dir, face_library=mine)).face_library == mine

@@ -148,7 +148,7 @@ def test_unmapped_lexemes_are_reported_once(tmp_path: Path, capsys: pytest.Captu
     path.write_text(Timeline("t", 1.0, signals).dumps(), encoding="utf-8")
     assert _render(str(path), "-o", str(tmp_path / "t.gif"), "--size", "160x90", "--fps", "5") == 0
     err = capsys.readouterr().err
-    assert err.count("W503") == 1 and "wave_hello" in err
+    assert err.count("W602") == 1 and "wave_hello" in err
 
 
 def test_sample_and_export_write_videos(tmp_path: Path, timeline_file: Path) -> None:

@@ -38,7 +38,9 @@ def register(subparsers: Any) -> None:
     parser.add_argument("-d", "--duration", type=float, default=10.0, help="timeline length in seconds (default 10)")
     parser.add_argument("--seed", type=int, help="random seed (default: fresh; recorded in the output)")
     parser.add_argument("-n", "--count", type=int, help="number of timelines (seeds seed, seed+1, ...)")
-    parser.add_argument("--format", choices=BASE_FORMATS + EXPORT_FORMATS + VIDEO_FORMATS, help="table on a terminal, else json")
+    parser.add_argument(
+        "--format", choices=BASE_FORMATS + EXPORT_FORMATS + VIDEO_FORMATS, help="table on a terminal, else json"
+    )
     parser.add_argument("-o", "--output", help="write to this file (atomically) instead of stdout; with --count and "
                         "an export format, a folder (ending in '/') receives one file per timeline")
     parser.add_argument(

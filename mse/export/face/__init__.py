@@ -18,5 +18,14 @@ __all__ = ["FaceSources", "Resolver", "sources_of"]
 
 
 def sources_of(options: ExportOptions) -> FaceSources:
-    """The lexeme sources named by export options."""
-    return FaceSources(tuple(options.lexicon), options.face_library, options.head_library)
+    """The lexeme sources named by export options; Greta's libraries default to the ones in
+    ``library_dir`` (its BehaviorLexicon folder, ``--library-dir``) when that folder has them."""
+    from mse.export.realizer_libraries import FACE_LIBRARY_FILE, HEAD_GESTURES_FILE
+
+    face, head = options.face_library, options.head_library
+    if options.library_dir is not None:
+        if face is None and (options.library_dir / FACE_LIBRARY_FILE).is_file():
+            face = options.library_dir / FACE_LIBRARY_FILE
+        if head is None and (options.library_dir / HEAD_GESTURES_FILE).is_file():
+            head = options.library_dir / HEAD_GESTURES_FILE
+    return FaceSources(tuple(options.lexicon), face, head)
