@@ -160,3 +160,31 @@ def test_sample_and_export_write_videos(tmp_path: Path, timeline_file: Path) -> 
     assert main(["export", str(timeline_file), "--format", "gif", "-o", str(gif)]) == 0
     assert gif.stat().st_size > 0
     assert json.loads(timeline_file.read_text(encoding="utf-8"))["duration"] == 4.0
+
+
+def test_the_body_plays_beside_the_face_when_the_timeline_has_motion(tmp_path: Path) -> None:
+    from PIL import Image
+
+    from mse.export.figures import FigureClip
+    from mse.export.video import write_frames
+
+    frames = 30
+    positions = np.zeros((frames, 3, 3))
+    positions[:, 1, 1] = 100.0  # a neck above the hips
+    positions[:, 2, 0] = np.linspace(-40.0, 40.0, frames)  # a hand sweeping sideways
+    positions[:, 2, 1] = 80.0
+    signals = (*SIGNALS, TimelineSignal("wave", "gesture", "gesture=wave", 1.0, 2.0, motion={"file": "w.bvh"}))
+    timeline = Timeline("test", 4.0, signals)
+    clip = FigureClip("wave", "gesture=wave", 1.0, 2.0, 30.0, ("hips", "neck", "hand"), (-1, 0, 1), positions)
+    video = VideoOptions(size=SIZE, fps=FPS)
+    report = write_frames(timeline, tmp_path / "f", ExportOptions(), video, clips=[clip])
+    assert report.frames == 40 and report.notes == ()  # the body shows the gesture: no W602
+    layout = painter(timeline, ExportOptions(), video, clips=[clip]).layout
+    assert layout.body_box is not None
+    left, top, right, bottom = layout.body_box
+    body = [
+        np.asarray(Image.open(tmp_path / "f" / f"frame_{i:05d}.png").convert("RGB"))[top:bottom, left:right]
+        for i in (5, 12, 18)
+    ]
+    assert not np.array_equal(body[1], body[2])  # the hand moves while the clip plays
+    assert not np.array_equal(body[0], body[1])  # grey rest pose before it
