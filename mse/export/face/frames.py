@@ -3,8 +3,9 @@ strip with its playhead.
 
 The strip is drawn once from the SVG exporter's layout (:func:`mse.export.svg.layout`: the
 same lanes, bars and labels) and cropped per frame; a timeline wider than the frame scrolls
-so that the playhead stays in view.  The face is :func:`mse.export.face.raster.draw_face`;
-the body is the stick figure of :mod:`mse.export.figures` (the viewer's player).
+so that the playhead stays in view.  The face is :func:`mse.export.face.raster.face_image`
+(redrawn only when its channels change); the body is the stick figure of
+:func:`mse.export.figures.payload` (the viewer's player).
 """
 
 from __future__ import annotations
