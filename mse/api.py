@@ -108,7 +108,10 @@ def load(path_or_name: str | Path, *, cache: bool = False) -> Model:
     """
     path = resolve_path(path_or_name)
     if path.suffix == ".json":
-        return loads_ir(path.read_text(encoding="utf-8"), path=str(path))
+        from mse.fileio import decode_utf8, read_input
+
+        text = decode_utf8(read_input(path, what="compiled IR file"), str(path), what="compiled IR file")
+        return loads_ir(text, path=str(path))
     if cache:
         from mse.model_cache import load_cached
 
@@ -137,9 +140,11 @@ def loads(data: bytes | str, *, path: str = "<string>") -> Model:
     Traceback (most recent call last):
     mse.diagnostics.MseError: x.xml:1:12: E101 ...
     """
-    raw = data.encode("utf-8") if isinstance(data, str) else data
+    raw = data.encode("utf-8", errors="surrogateescape") if isinstance(data, str) else data
     if raw.lstrip().startswith(b"{"):
-        return loads_ir(raw.decode("utf-8", errors="replace"), path=path)
+        from mse.fileio import decode_utf8
+
+        return loads_ir(decode_utf8(raw, path, what="compiled IR"), path=path)
     model, diagnostics = compile_source(path, raw)
     if model is None:
         raise MseError(diagnostics)
@@ -154,15 +159,10 @@ def loads_ir(text: str, *, path: str = "<stdin>") -> Model:
     >>> loads_ir(model_dumps(load("relief"))).name
     'relief'
     """
+    from mse.fileio import parse_json
     from mse.ir.canonical import model_from_json
 
-    try:
-        obj = json.loads(text)
-    except json.JSONDecodeError as error:
-        raise MseError(
-            [Diagnostic("E100", f"invalid JSON: {error.msg}", Span(path, error.lineno, error.colno))]
-        ) from None
-    return model_from_json(obj, path=path)
+    return model_from_json(parse_json(text, path), path=path)
 
 
 def check(model: Model, timeline: Timeline) -> list[Violation]:
@@ -241,10 +241,14 @@ def lint(
     mse.diagnostics.MseError: <arguments>: E100 select 'W9' matches no rule code (codes: ...)
     """
     from mse.ir.lint import lint_model
+    from mse.limits import solve_duration_problem
 
     selected = _code_prefixes(select, "select")
     ignored = _code_prefixes(ignore, "ignore")
     entries = [paths] if isinstance(paths, str | Path) else list(paths)
+    problem = solve_duration_problem(duration)
+    if problem is not None:
+        raise MseError([Diagnostic("E100", f"lint duration {problem}", Span("<arguments>"))])
     found: list[Diagnostic] = []
     libraries = None
     if realizer is not None:

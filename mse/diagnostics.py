@@ -42,6 +42,7 @@ CODES: dict[str, str] = {
     "E102": "XML schema violation",
     "E103": "forbidden XML construct (DTD entities, external entities)",
     "E104": "file too large",
+    "E105": "output cannot be written (unwritable or refused target)",
     "E110": "constraint expression syntax error",
     "E111": "constraint expression nested too deeply",
     "E112": "invalid number",
@@ -62,6 +63,7 @@ CODES: dict[str, str] = {
     "E212": "invalid timeline",
     "E213": "invalid motion leaf",
     "E214": "invalid lexeme table",
+    "E215": "time outside the supported range",
     # W3xx: static lint
     "W300": "no behaviour-set file found",
     "W301": "inactive signal (both probabilities are 0)",
@@ -72,6 +74,9 @@ CODES: dict[str, str] = {
     "W306": "lexeme class contradicts the modality",
     "W307": "unknown modality",
     "W308": "lexeme the realizer cannot resolve",
+    "W310": "motion action unknown to the starter library",
+    "W311": "max_occurrences without repetitivity=\"1\"",
+    "W312": "exclusive modality that no signal uses",
     # W4xx: solver-backed lint
     "W401": "no consistent timeline",
     "W402": "dead signal",

@@ -1,35 +1,416 @@
-"""Output files written atomically (a reader never sees a half-written file), and the cache
-folder."""
+"""The one place where mse reads input files and writes output files.
+
+Reading (:func:`read_input`): regular files only (or ``-`` for standard input), never more
+than a size limit, so ``/dev/zero``, a FIFO without a writer or a 300 MB stdin cannot grow
+memory or hang.  :func:`decode_utf8` and :func:`parse_json` turn bad bytes, deep nesting,
+huge integers and NaN/Infinity into located diagnostics.
+
+Writing (:func:`write_atomic`, :func:`staged_folder`), by kind of target (docs/security.md):
+
+- a regular file (or a missing one): written to a temporary file in the same folder, then
+  renamed over the target, so a reader never sees half a file; an existing file keeps its
+  permission bits (and owner, where allowed);
+- a character device or a FIFO (``/dev/null``, ``/dev/stdout``, a named pipe): written
+  through, never replaced;
+- a symbolic link: followed to its target, which is then treated as above, unless the link
+  sits in a sticky world-writable folder (``/tmp``) and belongs to someone else (the kernel's
+  ``protected_symlinks`` rule) or dangles: refused;
+- a directory, a block device, a socket, a read-only file, or any path that is also an input
+  of the command: refused.
+
+Every failure is an :class:`~mse.diagnostics.MseError` (``path: E105 message``); the
+temporary file is removed on any error, on Ctrl-C and on SIGTERM (see
+:func:`install_termination_handler`).
+"""
 
 from __future__ import annotations
 
 import contextlib
+import json
 import os
+import shutil
+import signal
+import stat
+import sys
 import tempfile
+from collections.abc import Iterable, Iterator, Sequence
 from pathlib import Path
+from typing import Any, BinaryIO
+
+from mse.diagnostics import Diagnostic, MseError, Span
+from mse.limits import MAX_INPUT_BYTES, MAX_JSON_DEPTH, MAX_JSON_INT_DIGITS
+
+PathLike = str | os.PathLike[str]
+_SIGNALS = tuple(s for s in (signal.SIGTERM, signal.SIGINT, getattr(signal, "SIGHUP", None)) if s is not None)
 
 
-def write_atomic(path: str | os.PathLike[str], data: str | bytes) -> None:
-    """Write ``data`` to ``path`` through a temporary file in the same folder, then rename."""
-    target = Path(path)
-    target.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp_name = tempfile.mkstemp(prefix=f".{target.name}.", suffix=".tmp", dir=target.parent)
+class Terminated(BaseException):
+    """SIGTERM (or SIGHUP) arrived; raised so that clean-up code runs before exiting."""
+
+    def __init__(self, signum: int) -> None:
+        super().__init__(signum)
+        self.signum = signum
+
+
+def _terminate(signum: int, _frame: object) -> None:
+    raise Terminated(signum)
+
+
+def install_termination_handler() -> None:
+    """Make SIGTERM and SIGHUP raise :class:`Terminated` (command-line use only), so that
+    temporary files are removed before the process exits."""
+    for signum in (signal.SIGTERM, getattr(signal, "SIGHUP", None)):
+        if signum is not None:
+            signal.signal(signum, _terminate)
+
+
+@contextlib.contextmanager
+def _signals_blocked() -> Iterator[None]:
+    """Hold back termination signals while a temporary file is created and registered for
+    clean-up (they are delivered right after, inside the ``try`` that removes it)."""
+    if not hasattr(signal, "pthread_sigmask"):  # pragma: no cover - not on Linux
+        yield
+        return
+    previous = signal.pthread_sigmask(signal.SIG_BLOCK, _SIGNALS)
     try:
+        yield
+    finally:
+        signal.pthread_sigmask(signal.SIG_SETMASK, previous)
+
+
+# -- reading --------------------------------------------------------------------------------
+def _fail(code: str, message: str, path: str, line: int = 0, col: int = 0) -> MseError:
+    return MseError([Diagnostic(code, message, Span(path, line, col))])
+
+
+def _kind(mode: int) -> str:
+    if stat.S_ISDIR(mode):
+        return "a directory"
+    if stat.S_ISCHR(mode):
+        return "a character device"
+    if stat.S_ISBLK(mode):
+        return "a block device"
+    if stat.S_ISFIFO(mode):
+        return "a FIFO"
+    if stat.S_ISSOCK(mode):
+        return "a socket"
+    return "not a regular file"
+
+
+def read_capped(stream: BinaryIO, limit: int, name: str) -> bytes:
+    """At most ``limit`` bytes from ``stream``; E104 when it holds more."""
+    data = stream.read(limit + 1)
+    if len(data) > limit:
+        raise _fail("E104", f"input is larger than the limit of {limit} bytes", name)
+    return data
+
+
+def read_input(path: PathLike, *, limit: int = MAX_INPUT_BYTES, what: str = "file") -> bytes:
+    """The bytes of the regular file ``path`` (``-``: standard input), at most ``limit``.
+
+    Missing, unreadable, non-regular (devices, FIFOs, directories) -> E100; larger than the
+    limit -> E104.  Never blocks on a FIFO and never reads more than ``limit + 1`` bytes."""
+    name = os.fspath(path)
+    if name == "-":
+        return read_capped(sys.stdin.buffer, limit, "<stdin>")
+    try:
+        # O_NONBLOCK: opening a FIFO without a writer must not hang (it is refused below).
+        fd = os.open(name, os.O_RDONLY | os.O_NONBLOCK | getattr(os, "O_CLOEXEC", 0))
+    except OSError as error:
+        raise _fail("E100", f"cannot read {what}: {error.strerror or error}", name) from None
+    try:
+        info = os.fstat(fd)
+        if not stat.S_ISREG(info.st_mode):
+            hint = "" if stat.S_ISDIR(info.st_mode) else "; give a regular file, or '-' for standard input"
+            raise _fail("E100", f"cannot read {what}: is {_kind(info.st_mode)}{hint}", name)
+        if info.st_size > limit:
+            raise _fail("E104", f"{what} is {info.st_size} bytes; the limit is {limit}", name)
+        chunks: list[bytes] = []
+        total = 0
+        while total <= limit:
+            chunk = os.read(fd, min(1 << 20, limit + 1 - total))
+            if not chunk:
+                break
+            chunks.append(chunk)
+            total += len(chunk)
+        if total > limit:  # the file grew while it was read
+            raise _fail("E104", f"{what} is larger than the limit of {limit} bytes", name)
+        return b"".join(chunks)
+    except OSError as error:
+        raise _fail("E100", f"cannot read {what}: {error.strerror or error}", name) from None
+    finally:
+        os.close(fd)
+
+
+def decode_utf8(data: bytes, name: str, *, code: str = "E100", what: str = "file") -> str:
+    """``data`` as UTF-8 text (a leading BOM dropped); bad bytes -> ``code`` at line:col."""
+    try:
+        text = data.decode("utf-8")
+    except UnicodeDecodeError as error:
+        start = error.start
+        line = data.count(b"\n", 0, start) + 1
+        col = start - (data.rfind(b"\n", 0, start) + 1) + 1
+        raise _fail(code, f"{what} is not valid UTF-8 (byte 0x{data[start]:02x})", name, line, col) from None
+    return text[1:] if text.startswith("\ufeff") else text
+
+
+class _JsonLimit(ValueError):
+    pass
+
+
+def _json_int(text: str) -> int:
+    if len(text.lstrip("-")) > MAX_JSON_INT_DIGITS:
+        raise _JsonLimit(f"an integer of {len(text.lstrip('-'))} digits (the limit is {MAX_JSON_INT_DIGITS})")
+    return int(text)
+
+
+def _json_float(text: str) -> float:
+    value = float(text)
+    if value in (float("inf"), float("-inf")):
+        raise _JsonLimit(f"the number {text[:40]} is out of range")
+    return value
+
+
+def _json_constant(text: str) -> Any:
+    raise _JsonLimit(f"{text} is not a JSON number")
+
+
+def json_depth(obj: Any) -> int:
+    """Nesting depth of decoded JSON (scalars 0), without recursion."""
+    deepest = 0
+    stack: list[tuple[Any, int]] = [(obj, 0)]
+    while stack:
+        node, depth = stack.pop()
+        if isinstance(node, dict):
+            node = list(node.values())
+        if isinstance(node, list):
+            depth += 1
+            deepest = max(deepest, depth)
+            if depth > MAX_JSON_DEPTH:
+                return depth
+            stack.extend((child, depth) for child in node if isinstance(child, dict | list))
+    return deepest
+
+
+def parse_json(text: str, name: str, *, code: str = "E100", line: int | None = None) -> Any:
+    """Decode JSON text; syntax errors, nesting deeper than MAX_JSON_DEPTH, integers of
+    more than MAX_JSON_INT_DIGITS digits and NaN/Infinity -> ``code`` with a position.
+    ``line``: the 1-based line of ``text`` in its file (one line of a JSON-lines file)."""
+    first = line or 1
+    try:
+        obj = json.loads(text, parse_int=_json_int, parse_float=_json_float, parse_constant=_json_constant)
+    except json.JSONDecodeError as error:
+        raise _fail(code, f"invalid JSON: {error.msg}", name, error.lineno + first - 1, error.colno) from None
+    except RecursionError:
+        raise _fail(code, f"JSON nested more than {MAX_JSON_DEPTH} levels deep", name, line or 0) from None
+    except ValueError as error:  # _JsonLimit, and any other limit of the json module
+        raise _fail(code, f"invalid JSON: {error}", name, line or 0) from None
+    if json_depth(obj) > MAX_JSON_DEPTH:
+        raise _fail(code, f"JSON nested more than {MAX_JSON_DEPTH} levels deep", name, line or 0)
+    return obj
+
+
+def read_json(path: PathLike, *, limit: int = MAX_INPUT_BYTES, what: str = "file", code: str = "E100") -> Any:
+    """A JSON file read with :func:`read_input`, :func:`decode_utf8` and :func:`parse_json`."""
+    name = os.fspath(path)
+    text = decode_utf8(read_input(path, limit=limit, what=what), name, code=code, what=what)
+    return parse_json(text, name, code=code)
+
+
+# -- writing --------------------------------------------------------------------------------
+def _write_error(path: str, message: str) -> MseError:
+    return _fail("E105", message, path)
+
+
+def _same_file(a: os.stat_result, b: os.stat_result) -> bool:
+    return (a.st_dev, a.st_ino) == (b.st_dev, b.st_ino)
+
+
+def refuse_inputs(path: PathLike, inputs: Iterable[PathLike]) -> None:
+    """E105 when ``path`` names the same file as one of ``inputs`` (for writers that do
+    not go through :func:`write_atomic` with ``inputs``, check first)."""
+    name = os.fspath(path)
+    try:
+        target = os.stat(name)
+    except OSError:
+        return
+    _refuse_inputs(name, target, inputs)
+
+
+def _refuse_inputs(name: str, target: os.stat_result | None, inputs: Iterable[PathLike]) -> None:
+    if target is None:
+        return
+    for source in inputs:
+        source_name = os.fspath(source)
+        if source_name == "-":
+            continue
+        with contextlib.suppress(OSError):
+            if _same_file(os.stat(source_name), target):
+                raise _write_error(name, f"refusing to overwrite an input of this command ({source_name})")
+
+
+def _may_follow(link: str, link_info: os.stat_result) -> bool:
+    """The kernel's ``protected_symlinks`` rule: in a sticky world-writable folder (``/tmp``)
+    follow only links of our own or of the folder's owner."""
+    try:
+        folder = os.stat(os.path.dirname(os.path.abspath(link)))
+    except OSError:
+        return False
+    shared = bool(folder.st_mode & stat.S_ISVTX) and bool(folder.st_mode & stat.S_IWOTH)
+    return not shared or link_info.st_uid in (os.geteuid(), folder.st_uid)
+
+
+def _write_through(name: str, payload: bytes) -> None:
+    """Write into an existing character device or FIFO without replacing it."""
+    try:
+        fd = os.open(name, os.O_WRONLY | os.O_NONBLOCK | getattr(os, "O_CLOEXEC", 0))
+    except OSError as error:
+        import errno
+
+        reason = "nothing reads this FIFO" if error.errno == errno.ENXIO else (error.strerror or str(error))
+        raise _write_error(name, f"cannot write output: {reason}") from None
+    try:
+        os.set_blocking(fd, True)
+        view = memoryview(payload)
+        while view:
+            written = os.write(fd, view)
+            view = view[written:]
+    except OSError as error:
+        raise _write_error(name, f"cannot write output: {error.strerror or error}") from None
+    finally:
+        os.close(fd)
+
+
+def _resolve_target(name: str) -> tuple[str, os.stat_result | None]:
+    """The path to write and what is there now (None: nothing); refuses what must not be
+    replaced or written."""
+    try:
+        info = os.lstat(name)
+    except FileNotFoundError:
+        return name, None
+    except OSError as error:
+        raise _write_error(name, f"cannot write output: {error.strerror or error}") from None
+    if stat.S_ISLNK(info.st_mode):
+        if not _may_follow(name, info):
+            raise _write_error(name, "refusing to follow a symbolic link owned by another user in a shared folder")
+        try:
+            info = os.stat(name)
+        except OSError:
+            raise _write_error(name, "refusing to write through a dangling symbolic link") from None
+        if stat.S_ISREG(info.st_mode):
+            name = os.path.realpath(name)
+    mode = info.st_mode
+    if stat.S_ISREG(mode):
+        if not os.access(name, os.W_OK):
+            raise _write_error(name, "cannot write output: the file is read-only")
+        return name, info
+    if stat.S_ISCHR(mode) or stat.S_ISFIFO(mode):
+        return name, info
+    raise _write_error(name, f"cannot write output: is {_kind(mode)}")
+
+
+def write_atomic(path: PathLike, data: str | bytes, *, inputs: Iterable[PathLike] = (), durable: bool = True) -> None:
+    """Write ``data`` to ``path`` (see the module docstring for each kind of target).
+
+    ``inputs`` are the files the command read: writing over one of them is refused.
+    ``durable``: flush the data to disk before the rename (off for caches)."""
+    name = os.fspath(path)
+    payload = data.encode("utf-8", errors="surrogateescape") if isinstance(data, str) else data
+    target, existing = _resolve_target(name)
+    _refuse_inputs(name, existing, inputs)
+    if existing is not None and not stat.S_ISREG(existing.st_mode):
+        _write_through(target, payload)
+        return
+    folder = os.path.dirname(os.path.abspath(target))
+    try:
+        os.makedirs(folder, exist_ok=True)
+    except OSError as error:
+        raise _write_error(name, f"cannot create the output folder: {error.strerror or error}") from None
+    base = os.path.basename(target)
+    tmp_name = ""
+    try:
+        with _signals_blocked():
+            try:
+                fd, tmp_name = tempfile.mkstemp(prefix=f".{base[:100]}.", suffix=".tmp", dir=folder)
+            except OSError as error:
+                reason = error.strerror or str(error)
+                raise _write_error(name, f"cannot write output: cannot create a file in {folder}: {reason}") from None
         with os.fdopen(fd, "wb") as handle:
-            handle.write(data.encode("utf-8") if isinstance(data, str) else data)
-        # mkstemp creates the file 0600; give it the mode a plain open() would have.
-        os.chmod(tmp_name, 0o666 & ~_umask())
+            handle.write(payload)
+            handle.flush()
+            if existing is not None:
+                os.fchmod(handle.fileno(), stat.S_IMODE(existing.st_mode) & 0o777)
+                if (existing.st_uid, existing.st_gid) != (os.geteuid(), os.getegid()):
+                    with contextlib.suppress(OSError):
+                        os.fchown(handle.fileno(), existing.st_uid, existing.st_gid)
+            else:  # mkstemp makes 0600; a new file gets what a plain open() would give
+                os.fchmod(handle.fileno(), 0o666 & ~_umask())
+            if durable:
+                os.fsync(handle.fileno())
         os.replace(tmp_name, target)
-    except BaseException:
-        with contextlib.suppress(FileNotFoundError):
-            os.unlink(tmp_name)
-        raise
+        tmp_name = ""
+    except OSError as error:
+        raise _write_error(name, f"cannot write output: {error.strerror or error}") from None
+    finally:
+        if tmp_name:
+            with contextlib.suppress(OSError):
+                os.unlink(tmp_name)
+
+
+_UMASK: int | None = None
 
 
 def _umask() -> int:
-    current = os.umask(0)
-    os.umask(current)
-    return current
+    global _UMASK
+    if _UMASK is None:  # os.umask can only be read by setting it: do it once per process
+        _UMASK = os.umask(0o022)
+        os.umask(_UMASK)
+    return _UMASK
+
+
+@contextlib.contextmanager
+def staged_folder(out: PathLike, *, inputs: Sequence[PathLike] = ()) -> Iterator[Path]:
+    """A temporary folder beside ``out`` to write a set of files into; on success its files
+    move into ``out`` (created if missing), on any error or signal it is removed and ``out``
+    is left as it was.  ``out`` must not be a file nor an input of the command."""
+    name = os.fspath(out)
+    target = Path(name)
+    if target.exists() and not target.is_dir():
+        raise _write_error(name, "cannot write output: exists and is not a folder")
+    for source in inputs:
+        source_name = os.fspath(source)
+        with contextlib.suppress(OSError):
+            if source_name != "-" and target.exists() and _same_file(os.stat(source_name), os.stat(name)):
+                raise _write_error(name, f"refusing to write into an input of this command ({source_name})")
+    parent = target.resolve().parent
+    try:
+        parent.mkdir(parents=True, exist_ok=True)
+    except OSError as error:
+        raise _write_error(name, f"cannot create the output folder: {error.strerror or error}") from None
+    staging = ""
+    try:
+        with _signals_blocked():
+            staging = tempfile.mkdtemp(prefix=f".{target.name[:100]}.", suffix=".tmp", dir=parent)
+        yield Path(staging)
+        _move_into(Path(staging), target, inputs)
+    except OSError as error:
+        raise _write_error(name, f"cannot write output: {error.strerror or error}") from None
+    finally:
+        if staging:
+            shutil.rmtree(staging, ignore_errors=True)
+
+
+def _move_into(staging: Path, target: Path, inputs: Iterable[PathLike]) -> None:
+    os.chmod(staging, 0o777 & ~_umask())
+    if not target.exists():
+        os.rename(staging, target)  # one atomic step when the folder is new
+        return
+    for entry in sorted(staging.rglob("*")):
+        destination = target / entry.relative_to(staging)
+        if entry.is_dir():
+            destination.mkdir(exist_ok=True)
+        else:
+            write_atomic(destination, entry.read_bytes(), inputs=inputs, durable=False)
 
 
 def user_cache_dir(kind: str) -> Path:
@@ -40,3 +421,25 @@ def user_cache_dir(kind: str) -> Path:
         return Path(configured) / kind
     base = os.environ.get("XDG_CACHE_HOME") or str(Path.home() / ".cache")
     return Path(base) / "mse" / kind
+
+
+def private_folder(folder: Path) -> bool:
+    """True when ``folder`` exists (it is created 0700 if missing), belongs to this user,
+    nobody else may write into it, and every folder above it belongs to this user or root
+    and is not writable by others (or is sticky, like ``/tmp``): a cache that someone else
+    could swap or edit is never trusted."""
+    try:
+        folder.mkdir(parents=True, exist_ok=True, mode=0o700)
+        info = os.stat(folder)
+        owner = os.geteuid()
+        if not stat.S_ISDIR(info.st_mode) or info.st_uid != owner or info.st_mode & (stat.S_IWGRP | stat.S_IWOTH):
+            return False
+        for ancestor in folder.resolve().parents:
+            above = os.stat(ancestor)
+            if above.st_uid not in (owner, 0):
+                return False
+            if above.st_mode & (stat.S_IWGRP | stat.S_IWOTH) and not above.st_mode & stat.S_ISVTX:
+                return False
+    except OSError:
+        return False
+    return True

@@ -24,6 +24,7 @@ from typing import Any, TypeGuard
 
 from mse.diagnostics import Diagnostic, MseError, Span
 from mse.ir.schedule import Occurrence, Schedule, to_seconds, to_ticks
+from mse.limits import MAX_SECONDS, MIN_DURATION_SECONDS, time_problem, xml_char_problem
 
 FORMAT = "mse-timeline/1"
 _KNOWN_KEYS = {"format", "expression", "duration", "solver", "seed", "signals"}
@@ -122,8 +123,8 @@ class Timeline:
         if fmt != FORMAT:
             raise fail(f"unsupported timeline format {fmt!r} (expected {FORMAT!r})")
         duration = obj.get("duration")
-        if not _is_number(duration) or not 0 < float(duration) < 1e7:
-            raise fail("'duration' must be a positive number of seconds")
+        if not _is_number(duration) or not MIN_DURATION_SECONDS <= float(duration) <= MAX_SECONDS:
+            raise fail(f"'duration' must be a number of seconds in [{MIN_DURATION_SECONDS:g}, {MAX_SECONDS:g}]")
         raw_signals = obj.get("signals", [])
         if not isinstance(raw_signals, list):
             raise fail("'signals' must be a list")
@@ -134,6 +135,14 @@ class Timeline:
             sid, start, stop = entry.get("id"), entry.get("start"), entry.get("stop")
             if not isinstance(sid, str) or not _is_number(start) or not _is_number(stop):
                 raise fail(f"signals[{position}] needs a string 'id' and numeric 'start' and 'stop'")
+            for key, time in (("start", start), ("stop", stop)):
+                problem = time_problem(float(time))
+                if problem is not None:
+                    raise fail(f"signals[{position}].{key} {problem}")
+            for key in ("id", "modality", "lexeme"):
+                problem = xml_char_problem(str(entry.get(key, "")))
+                if problem is not None:
+                    raise fail(f"signals[{position}].{key} {problem}")
             motion = entry.get("motion")
             signals.append(
                 TimelineSignal(
@@ -186,24 +195,28 @@ def from_schedule(
 
 
 def loads_many(text: str, *, path: str = "<timeline>") -> list[Timeline]:
-    """Read one timeline, a JSON array of them, or JSON lines."""
-    stripped = text.strip()
-    if not stripped:
+    """Read one timeline, a JSON array of them, or JSON lines (lines end at "\n" only:
+    U+2028 or U+0085 inside a string are not line ends)."""
+    from mse.fileio import parse_json
+
+    if not text.strip():
         raise MseError([Diagnostic("E212", "no timeline in the input", Span(path))])
     try:
-        decoded = json.loads(stripped)
-    except json.JSONDecodeError as first_error:
+        decoded = parse_json(text, path, code="E212")
+    except MseError as whole_error:
+        lines = text.split("\n")
+        if sum(1 for line in lines if line.strip()) < 2:
+            raise whole_error from None
         timelines: list[Timeline] = []
-        for number, line in enumerate(stripped.splitlines()):
+        for number, line in enumerate(lines):
             if not line.strip():
                 continue
             try:
-                decoded_line = json.loads(line)
-            except json.JSONDecodeError as error:
-                span = Span(path, number + 1, error.colno)
-                if number == 0:
-                    span = Span(path, first_error.lineno, first_error.colno)
-                raise MseError([Diagnostic("E212", f"invalid JSON: {error.msg}", span)]) from None
+                decoded_line = parse_json(line, path, code="E212", line=number + 1)
+            except MseError:
+                if not timelines:  # one document over several lines: its own error is the one
+                    raise whole_error from None
+                raise
             timelines.append(Timeline.from_json(decoded_line, path=path, index=number))
         return timelines
     if isinstance(decoded, list):

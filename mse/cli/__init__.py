@@ -56,16 +56,23 @@ def main(argv: Sequence[str] | None = None) -> int:
     if handler is None:
         parser.print_help(sys.stderr)
         return 2
+    from mse.fileio import Terminated
+
     try:
         return int(handler(args))
     except KeyboardInterrupt:
         return 130
+    except Terminated as signal_received:  # temporary files were removed on the way out
+        return 128 + signal_received.signum
     except BrokenPipeError:
         return 0
 
 
 def console_main() -> None:
     """Entry point of the ``mse`` console script."""
+    from mse.fileio import install_termination_handler
+
+    install_termination_handler()
     code = main()
     with contextlib.suppress(BrokenPipeError):
         sys.stdout.flush()

@@ -34,5 +34,8 @@ def run(args: argparse.Namespace) -> int:
     print_diagnostics(diagnostics)
     if model is None:
         return 1
-    emit(model_dumps(model) + "\n", args.output)
+    try:
+        emit(model_dumps(model) + "\n", args.output, inputs=[path])
+    except MseError as error:
+        return print_error(error)
     return 0

@@ -121,15 +121,13 @@ def run(args: argparse.Namespace) -> int:
         if to_folder
         else [Path(output)]
     )
+    inputs = [p for p in (args.timeline, args.face_library) if p]
     for target, page in zip(targets, pages, strict=True):
         try:
-            write_atomic(target, page)
-        except OSError as error:
-            reason = error.strerror or str(error)
-            print(
-                Diagnostic("E100", f"cannot write output: {reason}", Span(str(target))).render(),
-                file=sys.stderr,
-            )
+            write_atomic(target, page, inputs=inputs)
+        except MseError as error:
+            for diagnostic in error.diagnostics:
+                print(diagnostic.render(), file=sys.stderr)
             return 1
     return 0
 

@@ -37,7 +37,7 @@ def register(subparsers: Any) -> None:
 
 def run(args: argparse.Namespace) -> int:
     from mse.diagnostics import MseError
-    from mse.fileio import write_atomic
+    from mse.fileio import staged_folder, write_atomic
     from mse.syntax.greta import import_greta_legacy_report, import_greta_report
 
     files: list[str] = list(args.files)
@@ -59,14 +59,17 @@ def run(args: argparse.Namespace) -> int:
     for diagnostic in report.diagnostics:
         print(diagnostic.render(), file=sys.stderr)
     output = Path(args.output)
+    inputs = [*files, *([args.legacy] if args.legacy else [])]
     try:
+        with staged_folder(output, inputs=inputs) as staging:  # every file, or none
+            for expression in report.expressions:
+                write_atomic(staging / f"{expression.name}.xml", expression.xml)
         for expression in report.expressions:
-            target = output / f"{expression.name}.xml"
-            write_atomic(target, expression.xml)
-            print(f"{target}: {expression.signal_count} signals, "
+            print(f"{output / f'{expression.name}.xml'}: {expression.signal_count} signals, "
                   f"{expression.constraint_count} constraints, "
                   f"{len(expression.diagnostics)} warnings")
-    except OSError as error:
-        print(f"{output}: E100 cannot write: {error.strerror or error}", file=sys.stderr)
+    except MseError as error:
+        for diagnostic in error.diagnostics:
+            print(diagnostic.render(), file=sys.stderr)
         return 1
     return 0

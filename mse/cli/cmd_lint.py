@@ -50,7 +50,8 @@ def register(subparsers: Any) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from mse.api import lint
+    from mse.api import expand_paths, lint
+    from mse.cli.common import print_error
     from mse.cli.lint_formats import FORMATTERS
     from mse.diagnostics import MseError
 
@@ -65,13 +66,16 @@ def run(args: argparse.Namespace) -> int:
             realizer=args.realizer,
             library_dir=args.library_dir,
         )
-    except MseError as error:  # a usage error: --select/--ignore naming no rule
+    except MseError as error:  # a usage error: --select/--ignore naming no rule, a bad --duration
         print_diagnostics(error.diagnostics)
         return 2
-    if args.format == "text" and not args.output:
-        print_diagnostics(diagnostics, sys.stdout)
-    else:
-        emit(FORMATTERS[args.format](diagnostics), args.output)
+    try:
+        if args.format == "text" and not args.output:
+            print_diagnostics(diagnostics, sys.stdout)
+        else:
+            emit(FORMATTERS[args.format](diagnostics), args.output, inputs=[*args.paths, *expand_paths(args.paths)])
+    except MseError as error:  # -o cannot be written (E105)
+        return print_error(error)
     errors = sum(d.is_error for d in diagnostics)
     warnings = len(diagnostics) - errors
     if args.format == "text":

@@ -13,13 +13,14 @@ from typing import Any
 
 from mse.cli.common import emit, print_diagnostics, print_error, read_stdin_bytes
 from mse.diagnostics import Diagnostic, MseError, Span
+from mse.limits import MAX_SECONDS, solve_duration_problem
 
 BASE_FORMATS = ("table", "json", "jsonl")
 EXPORT_FORMATS = ("bml", "greta-bml", "svg", "html", "eaf")
 DEFAULT_OBJECTIVE = "profile"  # as mse.api.DEFAULT_OBJECTIVE (not imported: the CLI starts light)
 REALIZERS = ("generic", "greta", "asap")  # mse.export.realizers.REALIZERS (not imported: start-up time)
 VIDEO_FORMATS = ("mp4", "webm", "gif")
-_PIN = re.compile(r"^([A-Za-z_][A-Za-z0-9_]*)@(\d+(?:\.\d+)?)-(\d+(?:\.\d+)?)$")
+_PIN = re.compile(r"([A-Za-z_][A-Za-z0-9_]*)@([0-9]{1,12}(?:\.[0-9]{1,12})?)-([0-9]{1,12}(?:\.[0-9]{1,12})?)")
 
 
 def _names(value: str) -> list[str]:
@@ -157,11 +158,15 @@ def _pins(values: list[str]) -> tuple[Any, ...]:
 
     pins = []
     for value in values:
-        match = _PIN.match(value)
+        match = _PIN.fullmatch(value)
         if not match:
             message = f"--pin {value!r} must look like SIGNAL@START-STOP, e.g. smile@4.0-6.0"
             raise MseError([Diagnostic("E100", message, Span("<arguments>"))])
-        pins.append(Pin(match.group(1), float(match.group(2)), float(match.group(3))))
+        start, stop = float(match.group(2)), float(match.group(3))
+        if not (start <= MAX_SECONDS and stop <= MAX_SECONDS):
+            message = f"--pin {value!r}: times must be at most {MAX_SECONDS:g} s"
+            raise MseError([Diagnostic("E214", message, Span("<arguments>"))])
+        pins.append(Pin(match.group(1), start, stop))
     return tuple(pins)
 
 
@@ -185,8 +190,12 @@ def _options(args: argparse.Namespace) -> dict[str, Any]:
 
 def _validate(args: argparse.Namespace) -> None:
     problems = []
-    if not 0 < args.duration <= 3600:
-        problems.append("--duration must be in (0, 3600] seconds")
+    for option, value in (("--duration", args.duration), ("--slot", args.slot)):
+        problem = solve_duration_problem(value) if value is not None else None
+        if problem is not None:
+            problems.append(f"{option} {problem}")
+    if not 0 < args.time_limit <= 86400 or not 0 < args.grid <= 3600:
+        problems.append("--time-limit must be in (0, 86400] s and --grid in (0, 3600] s")
     if args.count is not None and not 1 <= args.count <= 1_000_000:
         problems.append("--count must be between 1 and 1000000")
     if args.realtime and not args.stream:

@@ -6,11 +6,11 @@ from __future__ import annotations
 import os
 import sys
 from collections.abc import Iterable
-from pathlib import Path
 from typing import TYPE_CHECKING, TextIO
 
-from mse.diagnostics import Diagnostic, MseError, Span
-from mse.fileio import write_atomic
+from mse.diagnostics import Diagnostic, MseError
+from mse.fileio import decode_utf8, read_capped, read_input, write_atomic
+from mse.limits import MAX_INPUT_BYTES
 
 if TYPE_CHECKING:
     from mse.timeline import Timeline
@@ -41,10 +41,11 @@ def print_error(error: MseError) -> int:
     return 1
 
 
-def emit(text: str, output: str | None) -> None:
-    """Write ``text`` to ``output`` atomically, or to stdout when no output is given."""
+def emit(text: str, output: str | None, *, inputs: Iterable[str | os.PathLike[str]] = ()) -> None:
+    """Write ``text`` to ``output`` (:func:`mse.fileio.write_atomic`: never over one of the
+    command's ``inputs``; failures raise MseError E105), or to stdout when no output is given."""
     if output and output != "-":
-        write_atomic(output, text)
+        write_atomic(output, text, inputs=inputs)
     else:
         sys.stdout.write(text)
         if text and not text.endswith("\n"):
@@ -53,19 +54,15 @@ def emit(text: str, output: str | None) -> None:
 
 
 def read_stdin_bytes() -> bytes:
-    return sys.stdin.buffer.read()
+    """Standard input, at most MAX_INPUT_BYTES (E104 beyond)."""
+    return read_capped(sys.stdin.buffer, MAX_INPUT_BYTES, "<stdin>")
 
 
 def read_timelines(name: str) -> list[Timeline]:
     """The timelines in file ``name`` ('-': stdin): one, a JSON array, or JSON lines.
-    Unreadable or malformed input raises MseError (E100, E212)."""
+    Unreadable or malformed input raises MseError (E100, E104, E212)."""
     from mse.timeline import loads_many
 
-    if name == "-":
-        return loads_many(sys.stdin.read(), path="<stdin>")
-    try:
-        text = Path(name).read_text(encoding="utf-8")
-    except (OSError, UnicodeDecodeError) as error:
-        reason = getattr(error, "strerror", None) or str(error)
-        raise MseError([Diagnostic("E100", f"cannot read timeline: {reason}", Span(name))]) from None
-    return loads_many(text, path=name)
+    where = "<stdin>" if name == "-" else name
+    data = read_input(name, what="timeline")
+    return loads_many(decode_utf8(data, where, code="E212", what="timeline"), path=where)

@@ -10,6 +10,7 @@ from collections.abc import Callable
 from mse.diagnostics import Diagnostic, Span
 from mse.ir import model as ir
 from mse.ir.schedule import to_ticks
+from mse.limits import parse_double, parse_integer, time_problem, xml_char_problem
 from mse.syntax import ast
 
 IDENTIFIER = re.compile(r"[A-Za-z_][A-Za-z0-9_]*\Z")
@@ -37,17 +38,29 @@ class _Checker:
         attribute = attributes.get(key)
         if attribute is None:
             return default
-        try:
-            value = float(attribute.value.strip())
-        except ValueError:
-            self.error("E204", f"{key}={attribute.value!r} is not a number", attribute.span)
+        parsed = parse_double(attribute.value)
+        if parsed is None:
+            special = attribute.value.strip().lower().lstrip("+-") in ("nan", "inf", "infinity")
+            reason = "must be a finite number" if special else "is not a number"
+            self.error("E204", f"{key}={attribute.value[:60]!r} {reason}", attribute.span)
             return default
+        value = parsed
         if not math.isfinite(value):
-            self.error("E204", f"{key}={attribute.value!r} must be a finite number", attribute.span)
+            self.error("E204", f"{key}={attribute.value[:60]!r} must be a finite number", attribute.span)
             return default
         if (minimum is not None and value < minimum) or (maximum is not None and value > maximum):
             bounds = f"in [{minimum:g}, {maximum:g}]" if maximum is not None else f">= {minimum:g}"
-            self.error(code, f"{key}={attribute.value} must be {bounds}", attribute.span)
+            self.error(code, f"{key}={attribute.value[:60]} must be {bounds}", attribute.span)
+            return default
+        return value
+
+    def seconds(self, attributes: dict[str, ast.Attribute], key: str, default: float) -> float:
+        """A duration attribute: a number in [0, MAX_SECONDS] (E204, E214)."""
+        value = self.number(attributes, key, default, minimum=0.0)
+        attribute = attributes.get(key)
+        problem = time_problem(value, minimum=0.0) if attribute is not None and math.isfinite(value) else None
+        if attribute is not None and problem is not None:
+            self.error("E214", f"{key}={attribute.value[:60]} {problem}", attribute.span)
             return default
         return value
 
@@ -55,11 +68,15 @@ class _Checker:
         attribute = attributes.get(key)
         if attribute is None:
             return default
-        text = attribute.value.strip()
-        if not re.fullmatch(r"[+-]?\d+", text) or int(text) < minimum:
-            self.error(code, f"{key}={attribute.value!r} must be a whole number >= {minimum}", attribute.span)
+        value = parse_integer(attribute.value)
+        if value is None or value < minimum:
+            self.error(
+                code,
+                f"{key}={attribute.value[:60]!r} must be a whole number >= {minimum} (at most 9 digits)",
+                attribute.span,
+            )
             return default
-        return int(text)
+        return value
 
 
 def build_model(document: ast.Document) -> tuple[ir.Model | None, list[Diagnostic]]:
@@ -69,6 +86,9 @@ def build_model(document: ast.Document) -> tuple[ir.Model | None, list[Diagnosti
     modalities = _modalities(document, checker)
     signals = _signals(document, checker)
     constraints = _constraints(document, {s.id for s in signals}, checker)
+    problem = xml_char_problem(document.description)
+    if problem is not None:
+        checker.error("E204", f"description {problem}", document.span)
     if checker.diagnostics:
         return None, checker.diagnostics
     return (
@@ -129,8 +149,8 @@ def _signals(document: ast.Document, checker: _Checker) -> list[ir.Signal]:
                 "E201", f"duplicate signal id {signal_id!r} (first declared at line {first.line})", id_attribute.span
             )
         seen.setdefault(signal_id, id_attribute.span)
-        minimum = checker.number(attributes, "min_duration", 0.0, minimum=0.0)
-        maximum_value = checker.number(attributes, "max_duration", math.inf, minimum=0.0)
+        minimum = checker.seconds(attributes, "min_duration", 0.0)
+        maximum_value = checker.seconds(attributes, "max_duration", math.inf)
         maximum = None if math.isinf(maximum_value) else maximum_value
         if maximum is not None and minimum > maximum:
             span = attributes["min_duration"].span
@@ -149,6 +169,10 @@ def _signals(document: ast.Document, checker: _Checker) -> list[ir.Signal]:
         if modality and not IDENTIFIER.match(modality):
             checker.error("E210", f"modality {modality!r} is not an identifier", attributes["modality"].span)
         lexeme = attributes["lexeme"].value.strip() if "lexeme" in attributes else signal_id
+        problem = xml_char_problem(lexeme)
+        if problem is not None:  # only compiled IR (JSON) can carry these; exports could not
+            checker.error("E204", f"lexeme {problem}", attributes.get("lexeme", id_attribute).span)
+            lexeme = signal_id
         result.append(
             ir.Signal(
                 id=signal_id,
@@ -185,6 +209,10 @@ def _motion(declaration: ast.MotionDecl | None, checker: _Checker) -> ir.MotionL
     action = attributes.get("action", ast.Attribute("", declaration.span))
     if not IDENTIFIER.match(action.value):
         checker.error("E213", f"motion action {action.value!r} is not an identifier", action.span)
+    for key, value in attributes.items():
+        problem = xml_char_problem(key + value.value)
+        if problem is not None:
+            checker.error("E213", f"motion attribute {key[:40]!r} {problem}", value.span)
     method = attributes["method"].value if "method" in attributes else "lma-hmm"
     if method not in ("lma-hmm", "hsmm"):
         checker.error("E213", f"motion method {method!r} is not one of lma-hmm, hsmm", attributes["method"].span)
@@ -254,16 +282,45 @@ class _Resolver:
             )
         return name.text
 
+    def ticks(self, value: float, span: Span, what: str) -> int:
+        """Seconds to ms ticks, within the supported range (E214 otherwise)."""
+        problem = time_problem(value)
+        if problem is not None:
+            self.checker.error("E214", f"{what} {value:g} {problem} (constraint {self.constraint_id!r})", span)
+            return 0
+        return to_ticks(value)
+
     def term(self, node: ast.TermNode) -> ir.Term:
         if isinstance(node, ast.SignalTimeNode):
             edge: ir.Edge = "start" if node.edge == "start" else "stop"
-            return ir.SignalTime(self.signal(node.signal), edge, to_ticks(node.offset), node.span)
+            offset = self.ticks(node.offset, node.span, "offset")
+            return ir.SignalTime(self.signal(node.signal), edge, offset, node.span)
         if isinstance(node, ast.DurationNode):
-            return ir.DurationTime(to_ticks(node.offset), node.span)
-        return ir.Constant(to_ticks(node.value), node.span)
+            return ir.DurationTime(self.ticks(node.offset, node.span, "offset"), node.span)
+        return ir.Constant(self.ticks(node.value, node.span, "time"), node.span)
+
+    @staticmethod
+    def operands(node: ast.NotNode | ast.BinaryNode) -> list[ast.ExprNode]:
+        """The operands of ``node``; a chain of one connective (``a and b and c``, however
+        parenthesised) is one n-ary node, gathered without recursion."""
+        if isinstance(node, ast.NotNode):
+            return [node.operand]
+        if node.op == "implies":
+            return [node.left, node.right]
+        found: list[ast.ExprNode] = []
+        pending: list[ast.ExprNode] = [node]
+        while pending:
+            current = pending.pop()
+            if isinstance(current, ast.BinaryNode) and current.op == node.op:
+                pending.append(current.right)
+                pending.append(current.left)
+            else:
+                found.append(current)
+        return found
 
     def expr(self, node: ast.ExprNode) -> ir.Expr:
-        # Iterative post-order so that very long and/or chains do not recurse deeply.
+        # Iterative post-order, so that very long or deep expressions do not recurse, and
+        # each chain is built once (memory linear in the length of the expression).
         handlers: dict[type, Callable[[ast.ExprNode], ir.Expr]] = {
             ast.ExistsNode: self._exists,
             ast.RelationNode: self._relation,
@@ -273,16 +330,14 @@ class _Resolver:
         stack: list[tuple[ast.ExprNode, bool]] = [(node, False)]
         while stack:
             current, expanded = stack.pop()
-            if isinstance(current, ast.NotNode | ast.BinaryNode) and not expanded:
-                stack.append((current, True))
-                operands = [current.operand] if isinstance(current, ast.NotNode) else [current.right, current.left]
-                stack.extend((operand, False) for operand in operands)
-                continue
-            if isinstance(current, ast.NotNode):
-                results[id(current)] = ir.Not(results[id(current.operand)], current.span)
-            elif isinstance(current, ast.BinaryNode):
-                left, right = results[id(current.left)], results[id(current.right)]
-                results[id(current)] = _connective(current.op, left, right, current.span)
+            if isinstance(current, ast.NotNode | ast.BinaryNode):
+                operands = self.operands(current)
+                if not expanded:
+                    stack.append((current, True))
+                    stack.extend((operand, False) for operand in reversed(operands))
+                    continue
+                built = [results.pop(id(operand)) for operand in operands]
+                results[id(current)] = _connective(current, built)
             else:
                 results[id(current)] = handlers[type(current)](current)
         return results[id(node)]
@@ -310,20 +365,15 @@ class _Resolver:
                     "E208", f"tolerance {node.tolerance.value:g} must not be negative", node.tolerance.span
                 )
             else:
-                tolerance = to_ticks(node.tolerance.value)
+                tolerance = self.ticks(node.tolerance.value, node.tolerance.span, "tolerance")
         op: ir.CompareOp = {"<": "<", ">": ">", "=": "=", "<=": "<=", ">=": ">="}[node.op]  # type: ignore[assignment]
         return ir.Compare(op, self.term(node.left), self.term(node.right), tolerance, node.span)
 
 
-def _connective(op: str, left: ir.Expr, right: ir.Expr, span: Span) -> ir.Expr:
-    """and/or chains are flattened (``a and b and c`` is one And of three)."""
-    if op == "implies":
-        return ir.Implies(left, right, span)
-    kind = ir.And if op == "and" else ir.Or
-    operands: list[ir.Expr] = []
-    for side in (left, right):
-        if isinstance(side, kind):
-            operands.extend(side.operands)
-        else:
-            operands.append(side)
-    return kind(tuple(operands), span)
+def _connective(node: ast.NotNode | ast.BinaryNode, operands: list[ir.Expr]) -> ir.Expr:
+    if isinstance(node, ast.NotNode):
+        return ir.Not(operands[0], node.span)
+    if node.op == "implies":
+        return ir.Implies(operands[0], operands[1], node.span)
+    kind = ir.And if node.op == "and" else ir.Or
+    return kind(tuple(operands), node.span)

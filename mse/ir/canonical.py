@@ -8,14 +8,15 @@ diagnostics still point into the original XML file.
 from __future__ import annotations
 
 import json
-import re
 from collections.abc import Callable
 from typing import Any
 
 from mse.diagnostics import Diagnostic, MseError, Span
 from mse.ir import model as ir
 from mse.ir.build import build_model
+from mse.ir.decode import parse_source
 from mse.ir.printer import expr_text, seconds
+from mse.limits import MAX_CONSTRAINT_CHARS, MAX_CONSTRAINT_TEXT
 from mse.syntax import ast
 from mse.syntax.expression import parse_expression
 
@@ -97,16 +98,8 @@ def model_dumps(model: ir.Model) -> str:
     return json.dumps(model_to_json(model), indent=2, ensure_ascii=False)
 
 
-_SOURCE = re.compile(r"^(.*):(\d+):(\d+)$")
-
-
 def _span(value: object, fallback: Span) -> Span:
-    if isinstance(value, str):
-        match = _SOURCE.match(value)
-        if match:
-            return Span(match.group(1), int(match.group(2)), int(match.group(3)))
-        return Span(value)
-    return fallback
+    return parse_source(value) if isinstance(value, str) else fallback
 
 
 def _attribute_text(value: object) -> str:
@@ -129,6 +122,9 @@ def model_from_json(obj: Any, *, path: str = "<stdin>") -> ir.Model:
     where = Span(path)
     if not isinstance(obj, dict) or obj.get("format") != FORMAT:
         raise MseError([Diagnostic("E100", f'not compiled MSE IR (expected "format": "{FORMAT}")', where)])
+    for key in ("signals", "constraints", "modalities"):
+        if not isinstance(obj.get(key, []), list):
+            raise MseError([Diagnostic("E100", f"'{key}' must be a list", where)])
     signals: list[ast.SignalDecl] = []
     for entry in obj.get("signals") or []:
         if not isinstance(entry, dict):
@@ -148,11 +144,18 @@ def model_from_json(obj: Any, *, path: str = "<stdin>") -> ir.Model:
         signals.append(ast.SignalDecl(attributes, motion_decl, span))
     constraints: list[ast.ConstraintDecl] = []
     diagnostics: list[Diagnostic] = []
+    budget = MAX_CONSTRAINT_TEXT
     for entry in obj.get("constraints") or []:
         if not isinstance(entry, dict) or not isinstance(entry.get("text"), str):
             raise MseError([Diagnostic("E100", "each constraint must be an object with a 'text'", where)])
         span = _span(entry.get("source"), where)
         text = entry["text"]
+        budget -= len(text)
+        if len(text) > MAX_CONSTRAINT_CHARS or budget < 0:
+            what = f"constraint is longer than {MAX_CONSTRAINT_CHARS}"
+            if budget < 0:
+                what = f"constraints are longer than {MAX_CONSTRAINT_TEXT} together"
+            raise MseError([Diagnostic("E104", f"{what} characters", span)])
         expr, problems = parse_expression(text, _fixed(span))
         diagnostics.extend(problems)
         explicit = entry.get("explicit_id", True)

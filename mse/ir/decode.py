@@ -7,25 +7,33 @@ loads without importing lark or lxml.  Source spans are kept per signal and cons
 
 from __future__ import annotations
 
-import re
 from typing import Any
 
 from mse.diagnostics import Span
 from mse.ir import model as ir
 from mse.ir.schedule import to_ticks
 
-_SOURCE = re.compile(r"^(.*):(\d+):(\d+)$")
-
 
 class DecodeError(ValueError):
     """The JSON is not a model mse wrote (a stale or damaged cache entry)."""
 
 
+def parse_source(value: str) -> Span:
+    """``path:line:col`` (as :meth:`Span.render` writes it) back to a Span; anything else
+    is a path.  Split from the right, without a regular expression (linear on any input)."""
+    path, _, rest = value.rpartition(":")
+    path2, _, line = path.rpartition(":")
+    if path2 and _is_count(line) and _is_count(rest):
+        return Span(path2, int(line), int(rest))
+    return Span(value)
+
+
+def _is_count(text: str) -> bool:
+    return 0 < len(text) <= 9 and text.isascii() and text.isdigit()
+
+
 def _span(value: Any) -> Span:
-    match = _SOURCE.match(value) if isinstance(value, str) else None
-    if match:
-        return Span(match.group(1), int(match.group(2)), int(match.group(3)))
-    return Span(str(value))
+    return parse_source(value) if isinstance(value, str) else Span(str(value))
 
 
 def _term(node: dict[str, Any]) -> ir.Term:

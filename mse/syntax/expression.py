@@ -55,10 +55,10 @@ _TOKEN_LABELS = {
 
 @functools.cache
 def _parser() -> Lark:
+    """The LALR parser, built once per process (about 50 ms).  Never lark's ``cache=True``:
+    it unpickles a file from the shared temporary folder, which anyone can write."""
     grammar = (grammar_dir() / "constraints.lark").read_text(encoding="utf-8")
-    # cache=True keeps the LALR tables in a temporary file keyed by the grammar's hash, so
-    # that a command-line start does not rebuild them every time.
-    return Lark(grammar, parser="lalr", propagate_positions=True, maybe_placeholders=True, cache=True)
+    return Lark(grammar, parser="lalr", propagate_positions=True, maybe_placeholders=True)
 
 
 def _describe_expected(expected: set[str]) -> str:

@@ -1,26 +1,32 @@
 """Reading a native behaviour-set file: safe XML, the schema, and a positioned AST.
 
-Safety: no entity resolution, no DTD loading, no network; a DOCTYPE that declares
-entities is refused before parsing (an entity bomb fails at once), and files over 10 MB
-are refused.  All problems of a file are collected and returned together.
+Safety: files are read through :func:`mse.fileio.read_input` (regular files only, at most
+MAX_INPUT_BYTES); lxml parses without entity substitution, DTD loading or network, with
+libxml2's entity-amplification limits.  The decision on entities is taken on the *parsed*
+DOCTYPE: a document that declares any entity, or refers to one that is not predefined, is
+refused (E103).  Text content (constraints) is taken from the parsed tree; the raw text is
+only scanned, linearly, for positions.  All problems of a file are returned together.
 """
 
 from __future__ import annotations
 
+import codecs
 import functools
 import re
 from pathlib import Path
 
 from lxml import etree
 
-from mse.diagnostics import Diagnostic, Span
+from mse.diagnostics import Diagnostic, MseError, Span
+from mse.fileio import read_input
+from mse.limits import MAX_CONSTRAINT_CHARS, MAX_CONSTRAINT_TEXT, MAX_INPUT_BYTES
 from mse.resources import grammar_dir
 from mse.syntax import ast
 from mse.syntax.expression import parse_expression
 from mse.syntax.source import SourceText, StartTag
 
-MAX_FILE_BYTES = 10 * 1024 * 1024
-_ENTITY_DECLARATION = re.compile(r"<!DOCTYPE[^\[>]*\[[^\]]*<!ENTITY", re.DOTALL)
+MAX_FILE_BYTES = MAX_INPUT_BYTES
+MAX_CONSTRAINT_TEXT_PER_FILE = MAX_CONSTRAINT_TEXT
 
 
 @functools.cache
@@ -40,48 +46,68 @@ def safe_parser() -> etree.XMLParser:
 
 
 def read_bytes(path: str | Path) -> tuple[bytes | None, list[Diagnostic]]:
-    """The bytes of ``path``, or a diagnostic (missing, unreadable, too large)."""
-    name = str(path)
+    """The bytes of ``path``, or a diagnostic (missing, unreadable, not a regular file,
+    too large)."""
     try:
-        target = Path(path)
-        if target.is_dir():
-            return None, [Diagnostic("E100", "is a directory, not a behaviour-set file", Span(name))]
-        size = target.stat().st_size
-        if size > MAX_FILE_BYTES:
-            return None, [Diagnostic("E104", f"file is {size} bytes; the limit is {MAX_FILE_BYTES}", Span(name))]
-        return target.read_bytes(), []
-    except OSError as error:
-        return None, [Diagnostic("E100", f"cannot read file: {error.strerror or error}", Span(name))]
+        return read_input(path, what="behaviour-set file"), []
+    except MseError as error:
+        return None, list(error.diagnostics)
 
 
-def decode_text(data: bytes) -> str:
-    text = data.decode("utf-8", errors="replace")
+def decode_text(data: bytes, encoding: str | None = None) -> str:
+    """The document's text in the encoding lxml detected (UTF-8 when unknown)."""
+    codec = "utf-8"
+    if encoding:
+        try:
+            codec = codecs.lookup(encoding).name
+        except LookupError:
+            codec = "utf-8"
+    if codec in ("utf-16-le", "utf-16-be") and data[:2] in (b"\xff\xfe", b"\xfe\xff"):
+        codec = "utf-16"  # the BOM decides, and is dropped
+    text = data.decode(codec, errors="replace")
     return text[1:] if text.startswith("\ufeff") else text
+
+
+def _entity_problem(root: etree._Element, source: SourceText) -> Diagnostic | None:
+    """E103 when the parsed document declares entities or refers to one that is not
+    predefined (possible when an external DTD, never loaded, is named)."""
+    dtd = root.getroottree().docinfo.internalDTD
+    declared = [entity.name for entity in dtd.iterentities()] if dtd is not None else []  # type: ignore[attr-defined]
+    if declared:
+        where = source.find("<!ENTITY") or source.find("<!DOCTYPE") or Span(source.path)
+        names = ", ".join(repr(str(name)) for name in declared[:3])
+        return Diagnostic("E103", f"DOCTYPE declares entities ({names}); entity declarations are refused", where)
+    for node in root.iter():
+        if isinstance(node, etree._Entity):
+            line = node.sourceline if isinstance(node.sourceline, int) else 0
+            return Diagnostic("E103", f"reference to an undeclared entity {node.text}", source.line_span(line))
+    if source.unknown_entities:
+        return Diagnostic("E103", "reference to an undeclared entity", source.span_at(source.unknown_entities[0]))
+    return None
 
 
 def parse_xml(data: bytes, path: str) -> tuple[etree._Element | None, SourceText, list[Diagnostic]]:
     """Well-formedness and safety; returns the root element and the raw-text index."""
-    text = decode_text(data)
-    source = SourceText(path, text)
     if len(data) > MAX_FILE_BYTES:
-        return None, source, [Diagnostic("E104", f"input is larger than {MAX_FILE_BYTES} bytes", Span(path))]
-    entity = _ENTITY_DECLARATION.search(text)
-    if entity:
-        return (
-            None,
-            source,
-            [
-                Diagnostic(
-                    "E103", "DOCTYPE declares entities; entity declarations are refused", source.span_at(entity.start())
-                )
-            ],
-        )
+        empty = SourceText(path, "")
+        return None, empty, [Diagnostic("E104", f"input is larger than {MAX_FILE_BYTES} bytes", Span(path))]
     try:
         root = etree.fromstring(data, safe_parser())
     except etree.XMLSyntaxError as error:
         line, column = error.position
-        message = re.sub(r", line \d+, column \d+$", "", str(error.msg or error))
-        return None, source, [Diagnostic("E101", message, Span(path, line, column))]
+        message = str(error.msg or error)
+        suffix = message.rfind(", line ")
+        if suffix >= 0 and ", column " in message[suffix:]:
+            message = message[:suffix]
+        if "amplification" in message or "entity reference loop" in message:  # an entity bomb
+            source = SourceText(path, decode_text(data))
+            where = source.find("<!ENTITY") or Span(path, line, column)
+            return None, source, [Diagnostic("E103", "entity declarations are refused (entity expansion bomb)", where)]
+        return None, SourceText(path, ""), [Diagnostic("E101", message.strip(), Span(path, line, column))]
+    source = SourceText(path, decode_text(data, root.getroottree().docinfo.encoding))
+    problem = _entity_problem(root, source)
+    if problem is not None:
+        return None, source, [problem]
     return root, source, []
 
 
@@ -192,9 +218,10 @@ def _build_document(root: etree._Element, locator: _Locator, path: str, diagnost
             motion = ast.MotionDecl(locator.attributes(motions[0]), locator.element(motions[0])) if motions else None
             signals.append(ast.SignalDecl(locator.attributes(element), motion, locator.element(element)))
     constraints: list[ast.ConstraintDecl] = []
+    budget = [MAX_CONSTRAINT_TEXT_PER_FILE]
     for container in _children(root, "constraints"):
         for element in _children(container, "constraint"):
-            constraints.append(_constraint(element, locator, diagnostics))
+            constraints.append(_constraint(element, locator, diagnostics, budget))
     return ast.Document(
         path=path,
         name=root_attributes.get("name"),
@@ -207,21 +234,37 @@ def _build_document(root: etree._Element, locator: _Locator, path: str, diagnost
     )
 
 
-def _constraint(element: etree._Element, locator: _Locator, diagnostics: list[Diagnostic]) -> ast.ConstraintDecl:
+def constraint_text(element: etree._Element) -> str:
+    """The character data of a constraint as XML defines it: its text and the text after
+    each comment or processing instruction inside it (those are not part of the text)."""
+    parts = [element.text or ""]
+    parts.extend(child.tail or "" for child in element)
+    return "".join(parts)
+
+
+def _constraint(
+    element: etree._Element, locator: _Locator, diagnostics: list[Diagnostic], budget: list[int]
+) -> ast.ConstraintDecl:
     attributes = locator.attributes(element)
     span = locator.element(element)
+    text = constraint_text(element)
+    if len(text) > MAX_CONSTRAINT_CHARS or len(text) > budget[0]:
+        limit = MAX_CONSTRAINT_CHARS if len(text) > MAX_CONSTRAINT_CHARS else MAX_CONSTRAINT_TEXT_PER_FILE
+        what = "constraint" if limit == MAX_CONSTRAINT_CHARS else "constraint text of the file"
+        diagnostics.append(Diagnostic("E104", f"{what} is longer than {limit} characters", span))
+        budget[0] = 0
+        return ast.ConstraintDecl(attributes.get("id"), "", None, span)
+    budget[0] -= len(text)
     tag = locator.tags.get(element)
-    if tag is not None:
-        decoded = locator.source.decode_content(tag)
-        text = decoded.text
+    decoded = locator.source.decode_content(tag) if tag is not None else None
+    if decoded is not None and decoded.text == text:
         offsets = decoded.raw_offsets
         end = decoded.end_offset
 
         def locate(offset: int) -> Span:
             raw = offsets[offset] if offset < len(offsets) else end
             return locator.source.span_at(raw)
-    else:
-        text = element.text or ""
+    else:  # the raw scan disagrees with the parsed tree: the tree decides, positions coarsen
 
         def locate(offset: int) -> Span:
             return span
