@@ -240,8 +240,9 @@ def lint(
     Traceback (most recent call last):
     mse.diagnostics.MseError: <arguments>: E100 select 'W9' matches no rule code (codes: ...)
     """
-    from mse.ir.lint import lint_model
+    from mse.ir.lint import STATIC_RULES, lint_model, unknown_motion_actions
     from mse.limits import solve_duration_problem
+    from mse.motion.base.starter_actions import ACTIONS as STARTER_ACTIONS
 
     selected = _code_prefixes(select, "select")
     ignored = _code_prefixes(ignore, "ignore")
@@ -249,6 +250,7 @@ def lint(
     problem = solve_duration_problem(duration)
     if problem is not None:
         raise MseError([Diagnostic("E100", f"lint duration {problem}", Span("<arguments>"))])
+    rules = (*STATIC_RULES, unknown_motion_actions(STARTER_ACTIONS))
     found: list[Diagnostic] = []
     libraries = None
     if realizer is not None:
@@ -271,7 +273,7 @@ def lint(
             found.extend(diagnostics)
             if model is None:
                 continue
-            found.extend(lint_model(model))
+            found.extend(lint_model(model, rules))
             if libraries is not None:
                 from mse.export.realizer_lint import lint_realizer
 
@@ -363,6 +365,11 @@ def _pins_option(value: object) -> tuple[Pin, ...]:
 
 
 def _request(duration: float, seed: int | None, count: int, **options: object) -> SolveRequest:
+    from mse.limits import MIN_DURATION_SECONDS, time_problem
+
+    problem = time_problem(float(duration), minimum=MIN_DURATION_SECONDS)
+    if problem is not None:
+        raise MseError([Diagnostic("E100", f"duration {duration!r} {problem}", Span("<arguments>"))])
     if seed is None:
         seed = random.SystemRandom().randrange(2**31)
     for key in ("require", "forbid"):

@@ -16,6 +16,7 @@ LAYERS: dict[str, int] = {
     "mse.diagnostics": 0,
     "mse.resources": 0,
     "mse.fileio": 0,
+    "mse.limits": 0,
     "mse.syntax": 1,
     "mse.ir": 2,
     "mse.solve": 3,

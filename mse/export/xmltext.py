@@ -8,9 +8,21 @@ from __future__ import annotations
 
 from collections.abc import Iterable, Mapping
 from dataclasses import dataclass, field
-from xml.sax.saxutils import escape, quoteattr
+from xml.sax.saxutils import escape as _escape
+from xml.sax.saxutils import quoteattr as _quoteattr
+
+from mse.limits import xml_safe
 
 Attributes = Mapping[str, str | float | int | None]
+
+
+def escape(text: str) -> str:
+    """Character data; characters XML cannot hold (controls, lone surrogates) become U+FFFD."""
+    return _escape(xml_safe(text))
+
+
+def quoteattr(text: str) -> str:
+    return _quoteattr(xml_safe(text))
 
 
 @dataclass(frozen=True)
@@ -47,7 +59,7 @@ def render(node: Element | Comment | str, indent: str = "  ", depth: int = 0) ->
     if isinstance(node, str):
         return pad + escape(node)
     if isinstance(node, Comment):
-        return f"{pad}<!-- {node.text.replace('--', '- -')} -->"
+        return f"{pad}<!-- {xml_safe(node.text).replace('--', '- -')} -->"
     opening = f"{pad}<{node.tag}{attribute_text(node.attributes)}"
     if not node.children:
         return opening + "/>"

@@ -5,7 +5,8 @@ Callers may pass their own tuple; solver-backed rules (W4xx) live in ``mse.solve
 
 from __future__ import annotations
 
-from collections.abc import Callable, Iterable, Iterator
+import difflib
+from collections.abc import Callable, Collection, Iterable, Iterator
 
 from mse.diagnostics import Diagnostic
 from mse.ir import model as ir
@@ -156,6 +157,50 @@ def unknown_modalities(model: ir.Model) -> Iterator[Diagnostic]:
             )
 
 
+def max_occurrences_without_repetition(model: ir.Model) -> Iterator[Diagnostic]:
+    for signal in model.signals:
+        if signal.max_occurrences is not None and signal.repetitivity != 1:
+            yield Diagnostic(
+                "W311",
+                f"signal {signal.id!r} sets max_occurrences={signal.max_occurrences} but not "
+                'repetitivity="1": it occurs at most once, so max_occurrences has no effect',
+                signal.span,
+            )
+
+
+def unused_exclusive_modalities(model: ir.Model) -> Iterator[Diagnostic]:
+    used = {signal.modality for signal in model.signals}
+    for modality in model.modalities:
+        if modality.exclusive and modality.name not in used:
+            yield Diagnostic(
+                "W312",
+                f"modality {modality.name!r} is declared exclusive but no signal uses it (a misspelling?)",
+                modality.span,
+            )
+
+
+def unknown_motion_actions(known: Collection[str]) -> Rule:
+    """A rule flagging motion leaves whose action is not in ``known`` (the starter library's
+    actions: without a ``--library`` that has them, ``animate`` fails on those leaves)."""
+    names = frozenset(known)
+    listed = ", ".join(sorted(names))
+
+    def rule(model: ir.Model) -> Iterator[Diagnostic]:
+        for signal in model.signals:
+            leaf = signal.motion
+            if leaf is not None and leaf.action not in names:
+                guess = difflib.get_close_matches(leaf.action, sorted(names), n=1)
+                hint = f" (did you mean {guess[0]!r}?)" if guess else ""
+                yield Diagnostic(
+                    "W310",
+                    f"motion action {leaf.action!r} of signal {signal.id!r} is unknown to the starter "
+                    f"library{hint}; animating it needs a --library that has it (starter: {listed})",
+                    leaf.span,
+                )
+
+    return rule
+
+
 STATIC_RULES: tuple[Rule, ...] = (
     inactive_signals,
     short_signals,
@@ -164,6 +209,8 @@ STATIC_RULES: tuple[Rule, ...] = (
     duplicate_constraints,
     lexeme_modality,
     unknown_modalities,
+    max_occurrences_without_repetition,
+    unused_exclusive_modalities,
 )
 
 

@@ -15,6 +15,7 @@ from pathlib import Path
 from lxml import etree
 
 from mse.diagnostics import Diagnostic, MseError, Span
+from mse.limits import parse_double, time_problem
 from mse.syntax.greta_expr import (
     Edge,
     GAnd,
@@ -96,7 +97,7 @@ def elements(parent: etree._Element, tag: str) -> list[etree._Element]:
 def native_id(greta_id: str) -> str | None:
     """Greta signal id N -> ``sN`` (Greta ids are integers; leading zeros do not count)."""
     text = greta_id.strip()
-    return f"s{int(text)}" if re.fullmatch(r"\d+", text) else None
+    return f"s{int(text)}" if re.fullmatch(r"[0-9]{1,18}", text) else None
 
 
 def format_number(value: float) -> str:
@@ -172,13 +173,14 @@ def read_signal(
         if text is None:
             continue
         where = file.attribute_span(element, greta_name)
-        try:
-            number = float(text)
-        except ValueError:
-            number = math.nan
+        parsed = parse_double(text)  # xs:double with ASCII digits, as native files
+        number = math.nan if parsed is None else parsed
         if not math.isfinite(number):
-            message = f"{greta_name}={text!r} is not a finite number"
+            message = f"{greta_name}={text[:60]!r} is not a finite number"
             errors.append(Diagnostic("E112", message, where))
+            continue
+        if native_name.endswith("_duration") and time_problem(number) is not None:
+            errors.append(Diagnostic("E214", f"{greta_name}={text[:60]!r} {time_problem(number)}", where))
             continue
         problem = _value_problem(native_name, number)
         if problem is not None:

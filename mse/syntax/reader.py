@@ -10,7 +10,6 @@ only scanned, linearly, for positions.  All problems of a file are returned toge
 
 from __future__ import annotations
 
-import codecs
 import functools
 import re
 from pathlib import Path
@@ -19,30 +18,21 @@ from lxml import etree
 
 from mse.diagnostics import Diagnostic, MseError, Span
 from mse.fileio import read_input
-from mse.limits import MAX_CONSTRAINT_CHARS, MAX_CONSTRAINT_TEXT, MAX_INPUT_BYTES
+from mse.limits import MAX_CONSTRAINT_CHARS, MAX_CONSTRAINT_TEXT
 from mse.resources import grammar_dir
 from mse.syntax import ast
 from mse.syntax.expression import parse_expression
+from mse.syntax.safexml import MAX_FILE_BYTES, decode_text, parse_xml, safe_parser
 from mse.syntax.source import SourceText, StartTag
 
-MAX_FILE_BYTES = MAX_INPUT_BYTES
+__all__ = ["MAX_FILE_BYTES", "decode_text", "parse_xml", "read_bytes", "read_document", "safe_parser"]
+
 MAX_CONSTRAINT_TEXT_PER_FILE = MAX_CONSTRAINT_TEXT
 
 
 @functools.cache
 def _schema() -> etree.XMLSchema:
     return etree.XMLSchema(etree.parse(str(grammar_dir() / "mse.xsd")))
-
-
-def safe_parser() -> etree.XMLParser:
-    return etree.XMLParser(
-        resolve_entities=False,
-        load_dtd=False,
-        dtd_validation=False,
-        no_network=True,
-        huge_tree=False,
-        remove_blank_text=False,
-    )
 
 
 def read_bytes(path: str | Path) -> tuple[bytes | None, list[Diagnostic]]:
@@ -52,63 +42,6 @@ def read_bytes(path: str | Path) -> tuple[bytes | None, list[Diagnostic]]:
         return read_input(path, what="behaviour-set file"), []
     except MseError as error:
         return None, list(error.diagnostics)
-
-
-def decode_text(data: bytes, encoding: str | None = None) -> str:
-    """The document's text in the encoding lxml detected (UTF-8 when unknown)."""
-    codec = "utf-8"
-    if encoding:
-        try:
-            codec = codecs.lookup(encoding).name
-        except LookupError:
-            codec = "utf-8"
-    if codec in ("utf-16-le", "utf-16-be") and data[:2] in (b"\xff\xfe", b"\xfe\xff"):
-        codec = "utf-16"  # the BOM decides, and is dropped
-    text = data.decode(codec, errors="replace")
-    return text[1:] if text.startswith("\ufeff") else text
-
-
-def _entity_problem(root: etree._Element, source: SourceText) -> Diagnostic | None:
-    """E103 when the parsed document declares entities or refers to one that is not
-    predefined (possible when an external DTD, never loaded, is named)."""
-    dtd = root.getroottree().docinfo.internalDTD
-    declared = [entity.name for entity in dtd.iterentities()] if dtd is not None else []  # type: ignore[attr-defined]
-    if declared:
-        where = source.find("<!ENTITY") or source.find("<!DOCTYPE") or Span(source.path)
-        names = ", ".join(repr(str(name)) for name in declared[:3])
-        return Diagnostic("E103", f"DOCTYPE declares entities ({names}); entity declarations are refused", where)
-    for node in root.iter():
-        if isinstance(node, etree._Entity):
-            line = node.sourceline if isinstance(node.sourceline, int) else 0
-            return Diagnostic("E103", f"reference to an undeclared entity {node.text}", source.line_span(line))
-    if source.unknown_entities:
-        return Diagnostic("E103", "reference to an undeclared entity", source.span_at(source.unknown_entities[0]))
-    return None
-
-
-def parse_xml(data: bytes, path: str) -> tuple[etree._Element | None, SourceText, list[Diagnostic]]:
-    """Well-formedness and safety; returns the root element and the raw-text index."""
-    if len(data) > MAX_FILE_BYTES:
-        empty = SourceText(path, "")
-        return None, empty, [Diagnostic("E104", f"input is larger than {MAX_FILE_BYTES} bytes", Span(path))]
-    try:
-        root = etree.fromstring(data, safe_parser())
-    except etree.XMLSyntaxError as error:
-        line, column = error.position
-        message = str(error.msg or error)
-        suffix = message.rfind(", line ")
-        if suffix >= 0 and ", column " in message[suffix:]:
-            message = message[:suffix]
-        if "amplification" in message or "entity reference loop" in message:  # an entity bomb
-            source = SourceText(path, decode_text(data))
-            where = source.find("<!ENTITY") or Span(path, line, column)
-            return None, source, [Diagnostic("E103", "entity declarations are refused (entity expansion bomb)", where)]
-        return None, SourceText(path, ""), [Diagnostic("E101", message.strip(), Span(path, line, column))]
-    source = SourceText(path, decode_text(data, root.getroottree().docinfo.encoding))
-    problem = _entity_problem(root, source)
-    if problem is not None:
-        return None, source, [problem]
-    return root, source, []
 
 
 def _line(element: etree._Element) -> int:
