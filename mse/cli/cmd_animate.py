@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 import sys
 import warnings
+from collections.abc import Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -61,7 +62,8 @@ def run(args: argparse.Namespace) -> int:
             model = load(args.expression) if args.expression else _recorded_expression(timeline, args.timeline)
             _check_signals(timeline, model, args.timeline)
             resolved.append((timeline, model))
-        animate_timelines(resolved, Path(args.output), args.library, overrides)
+        inputs = [p for p in (args.timeline, args.library, args.expression) if p]
+        animate_timelines(resolved, Path(args.output), args.library, overrides, inputs=inputs)
     except MseError as error:
         return print_error(error)
     return 0
@@ -128,10 +130,15 @@ def animate_timelines(
     out: Path,
     library_path: str | None,
     overrides: dict[str, str] | None = None,
+    *,
+    inputs: Sequence[str] = (),
 ) -> list[Timeline]:
     """Animate each timeline into ``out`` (``out/001``, ... when there are several), write
-    ``timeline.json`` beside the clips, print warnings on stderr; returns the timelines."""
-    from mse.fileio import write_atomic
+    ``timeline.json`` beside the clips, print warnings on stderr; returns the timelines.
+    Everything is written into a temporary folder first and moved into ``out`` only when
+    every timeline succeeded: an error leaves ``out`` as it was (never clips without
+    their timeline.json)."""
+    from mse.fileio import staged_folder, write_atomic
     from mse.motion.animate import animate
     from mse.motion.base.library import load_library
 
@@ -139,15 +146,18 @@ def animate_timelines(
     if overrides:
         _check_style_overrides(items, library, overrides)
     animated_all = []
-    with warnings.catch_warnings(record=True) as caught:
+    summaries = []
+    with warnings.catch_warnings(record=True) as caught, staged_folder(out, inputs=inputs) as staging:
         warnings.simplefilter("always")
         for index, (timeline, model) in enumerate(items):
-            folder = out if len(items) == 1 else out / f"{index + 1:03d}"
-            animated = animate(timeline, model, folder, library, emotion_styles=overrides or {})
-            write_atomic(folder / "timeline.json", animated.dumps() + "\n")
+            relative = Path() if len(items) == 1 else Path(f"{index + 1:03d}")
+            animated = animate(timeline, model, staging / relative, library, emotion_styles=overrides or {})
+            write_atomic(staging / relative / "timeline.json", animated.dumps() + "\n")
             count = sum(1 for s in animated.signals if s.motion and "file" in s.motion)
-            print(f"{folder}: {count} motion clip(s), timeline.bvh, lma.json", file=sys.stderr)
+            summaries.append(f"{out / relative}: {count} motion clip(s), timeline.bvh, lma.json")
             animated_all.append(animated)
+    for summary in summaries:
+        print(summary, file=sys.stderr)
     for warning in caught:
         print(f"warning: {warning.message}", file=sys.stderr)
     return animated_all

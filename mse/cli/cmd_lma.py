@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import math
 from typing import Any
 
 
@@ -22,7 +23,7 @@ def register(subparsers: Any) -> None:
 
 def run(args: argparse.Namespace) -> int:
     from mse.cli.common import emit, print_error
-    from mse.diagnostics import MseError
+    from mse.diagnostics import Diagnostic, MseError, Span
     from mse.motion.base.bvh import read_bvh
     from mse.motion.base.lma import format_text, lma_features
 
@@ -30,17 +31,31 @@ def run(args: argparse.Namespace) -> int:
     try:
         for path in args.clip:
             results[path] = lma_features(read_bvh(path), path=path)
+            if not _finite(results[path].to_json()):  # e.g. a skeleton of zero size
+                message = "the clip's LMA components are not finite numbers (degenerate skeleton?)"
+                raise MseError([Diagnostic("E100", message, Span(path))])
+        if args.format == "json":
+            if len(results) == 1:
+                payload: Any = next(iter(results.values())).to_json()
+            else:
+                payload = {path: features.to_json() for path, features in results.items()}
+            emit(json.dumps(payload, indent=2, allow_nan=False) + "\n", args.output, inputs=args.clip)
+        else:
+            blocks = [
+                (f"{path}\n" if len(results) > 1 else "") + format_text(features)
+                for path, features in results.items()
+            ]
+            emit("\n".join(blocks), args.output, inputs=args.clip)
     except MseError as error:
         return print_error(error)
-    if args.format == "json":
-        if len(results) == 1:
-            payload: Any = next(iter(results.values())).to_json()
-        else:
-            payload = {path: features.to_json() for path, features in results.items()}
-        emit(json.dumps(payload, indent=2) + "\n", args.output)
-    else:
-        blocks = [
-            (f"{path}\n" if len(results) > 1 else "") + format_text(features) for path, features in results.items()
-        ]
-        emit("\n".join(blocks), args.output)
     return 0
+
+
+def _finite(value: Any) -> bool:
+    if isinstance(value, float):
+        return math.isfinite(value)
+    if isinstance(value, dict):
+        return all(_finite(v) for v in value.values())
+    if isinstance(value, list | tuple):
+        return all(_finite(v) for v in value)
+    return True

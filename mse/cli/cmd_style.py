@@ -18,6 +18,8 @@ from typing import Any
 
 from mse.cli.common import print_error
 from mse.diagnostics import Diagnostic, MseError, Span
+from mse.fileio import refuse_inputs
+from mse.limits import MAX_MOTION_SECONDS, MAX_STEPS
 
 
 def register(subparsers: Any) -> None:
@@ -156,6 +158,10 @@ def run_adapt(args: argparse.Namespace) -> int:
 
     if args.takes < 0:
         return _fail(args.library, "--takes must be 0 (all) or more")
+    try:
+        refuse_inputs(args.output, [args.model])
+    except MseError as error:
+        return print_error(error)
 
     def step() -> str:
         average = load_model(args.model)
@@ -177,8 +183,16 @@ def run_synth(args: argparse.Namespace) -> int:
     from mse.motion.hsmm.synth import synthesize
 
     problem = _positive(args.duration, "--duration") or _positive(args.steps, "--steps")
+    if args.duration is not None and not args.duration <= MAX_MOTION_SECONDS:
+        problem = f"--duration must be in (0, {MAX_MOTION_SECONDS:g}] seconds"
+    if args.steps is not None and args.steps > MAX_STEPS:
+        problem = f"--steps must be between 1 and {MAX_STEPS}"
     if problem:
         return _fail(args.model, problem)
+    try:
+        refuse_inputs(args.output, [args.model])
+    except MseError as error:
+        return print_error(error)
 
     def step() -> str:
         model = load_model(args.model)

@@ -137,6 +137,7 @@ def animate(
     emotion_styles: Mapping[str, str] | None = None,
 ) -> Timeline:
     """Generate and write the motion of every motion-leaf occurrence (module docstring)."""
+    _check_limits(timeline, model)
     library = library or starter_library()
     out = Path(out_dir)
     emotion = timeline.expression or model.name
@@ -187,6 +188,30 @@ def animate(
         timeline.seed,
         extra,
     )
+
+
+def _check_limits(timeline: Timeline, model: Model) -> None:
+    """Refuse, before generating anything, a timeline or an occurrence too long to animate
+    (docs/security.md: memory and time grow with the frames)."""
+    from mse.diagnostics import Diagnostic, MseError
+    from mse.limits import MAX_ANIMATE_SECONDS, MAX_MOTION_SECONDS
+
+    if not timeline.duration <= MAX_ANIMATE_SECONDS:
+        message = f"a timeline of {timeline.duration:g} s is too long to animate (at most {MAX_ANIMATE_SECONDS:g} s)"
+        raise MseError([Diagnostic("E214", message, Span("<timeline>"))])
+    total = 0.0
+    for entry in timeline.signals:
+        declared = model.signal_by_id.get(entry.id)
+        if declared is None or declared.motion is None:
+            continue
+        total += max(entry.stop - entry.start, 0.0)
+        if entry.stop - entry.start > MAX_MOTION_SECONDS or total > MAX_ANIMATE_SECONDS:
+            message = (
+                f"occurrence of {entry.id!r} at {entry.start:g} s lasts {entry.stop - entry.start:g} s; "
+                f"a motion occurrence lasts at most {MAX_MOTION_SECONDS:g} s, and all of a "
+                f"timeline's together at most {MAX_ANIMATE_SECONDS:g} s"
+            )
+            raise MseError([Diagnostic("E214", message, declared.motion.span)])
 
 
 def _write_timeline_bvh(out: Path, duration: float, tracks: list[Track]) -> None:

@@ -32,13 +32,24 @@ from __future__ import annotations
 import os
 from dataclasses import dataclass
 from functools import cached_property
-from pathlib import Path
 
 import numpy as np
 
 from mse.diagnostics import Diagnostic, MseError, Span
-from mse.fileio import write_atomic
+from mse.fileio import read_input, write_atomic
+from mse.limits import (
+    MAX_BVH_BYTES,
+    MAX_CHANNEL_VALUE,
+    MAX_CHANNELS,
+    MAX_FRAME_TIME,
+    MAX_FRAMES,
+    MIN_FRAME_TIME,
+)
 from mse.motion.base.kinematics import FloatArray, euler_to_matrix, forward_kinematics
+
+#: Joints of one skeleton and their nesting (writing recurses once per level).
+MAX_JOINTS = 1000
+MAX_JOINT_DEPTH = 200
 
 POSITION_CHANNELS = ("Xposition", "Yposition", "Zposition")
 ROTATION_CHANNELS = ("Xrotation", "Yrotation", "Zrotation")
@@ -205,7 +216,7 @@ def _parse_hierarchy(lines: _Lines) -> Skeleton:
                 raise lines.error("expected OFFSET", number)
             offset = _floats(lines, tokens[1:], 3, number)
             number, tokens = lines.next()
-            if tokens[0] != "CHANNELS" or len(tokens) < 2 or not tokens[1].isdigit():
+            if tokens[0] != "CHANNELS" or len(tokens) < 2 or not _is_count(tokens[1]):
                 raise lines.error("expected 'CHANNELS n ...'", number)
             joint_channels = tuple(tokens[2:])
             if int(tokens[1]) != len(joint_channels):
@@ -216,6 +227,8 @@ def _parse_hierarchy(lines: _Lines) -> Skeleton:
                 raise lines.error(f"invalid channel list {' '.join(joint_channels)}", number)
             if len(rotations) not in (0, 3):
                 raise lines.error("a joint needs 0 or 3 rotation channels", number)
+            if len(names) >= MAX_JOINTS or len(stack) >= MAX_JOINT_DEPTH:
+                raise lines.error(f"more than {MAX_JOINTS} joints or {MAX_JOINT_DEPTH} levels of nesting", number)
             names.append(pending)
             parents.append(stack[-1] if stack else -1)
             offsets.append(offset)
@@ -266,16 +279,20 @@ def parse_bvh(text: str, path: str = "<bvh>") -> Motion:
     if tokens != ["MOTION"]:
         raise lines.error("expected MOTION", number)
     number, tokens = lines.next()
-    if len(tokens) != 2 or tokens[0] != "Frames:" or not tokens[1].isdigit():
+    if len(tokens) != 2 or tokens[0] != "Frames:" or not _is_count(tokens[1]):
         raise lines.error("expected 'Frames: n'", number)
     frame_count = int(tokens[1])
+    if not 1 <= frame_count <= MAX_FRAMES:
+        raise lines.error(f"'Frames: {frame_count}' must be between 1 and {MAX_FRAMES}", number)
     number, tokens = lines.next()
     if tokens[:2] != ["Frame", "Time:"]:
         raise lines.error("expected 'Frame Time: seconds'", number)
     (frame_time,) = _floats(lines, tokens[2:], 1, number)
-    if frame_time <= 0:
-        raise lines.error("frame time must be positive", number)
+    if not MIN_FRAME_TIME <= frame_time <= MAX_FRAME_TIME:
+        raise lines.error(f"frame time must be in [{MIN_FRAME_TIME:g}, {MAX_FRAME_TIME:g}] seconds", number)
     width = skeleton.channel_count
+    if width > MAX_CHANNELS:
+        raise lines.error(f"{width} channels; the limit is {MAX_CHANNELS}", number)
     numbers = [n + 1 for n in range(lines.position, len(lines.raw)) if lines.raw[n].strip()]
     if len(numbers) != frame_count:
         where = numbers[-1] if numbers else number
@@ -296,17 +313,21 @@ def parse_bvh(text: str, path: str = "<bvh>") -> Motion:
     if not np.all(np.isfinite(values)):
         bad = int(np.argwhere(~np.isfinite(values))[0][0])
         raise lines.error("non-finite value", numbers[bad])
+    if values.size and float(np.abs(values).max()) > MAX_CHANNEL_VALUE:
+        bad = int(np.argwhere(np.abs(values) > MAX_CHANNEL_VALUE)[0][0])
+        raise lines.error(f"a value beyond +-{MAX_CHANNEL_VALUE:g}", numbers[bad])
     return Motion(skeleton, frame_time, values)
+
+
+def _is_count(token: str) -> bool:
+    return token.isascii() and token.isdigit() and len(token) <= 9
 
 
 def read_bvh(path: str | os.PathLike[str]) -> Motion:
     """Read a BVH file; unreadable or malformed files raise MseError (E100)."""
     name = os.fspath(path)
-    try:
-        text = Path(name).read_text(encoding="utf-8", errors="replace")
-    except OSError as error:
-        raise MseError([Diagnostic("E100", f"cannot read BVH: {error.strerror}", Span(name))]) from None
-    return parse_bvh(text, name)
+    data = read_input(name, limit=MAX_BVH_BYTES, what="BVH")  # regular files only, size-capped
+    return parse_bvh(data.decode("utf-8", errors="replace"), name)
 
 
 # -- writing ------------------------------------------------------------------------------

@@ -22,18 +22,21 @@ Emotions of expressions map to style labels through :data:`EMOTION_STYLES` (see
 
 from __future__ import annotations
 
+import contextlib
 import csv
 import hashlib
-import json
+import io
 import os
 import re
-from collections.abc import Iterable, Mapping
+from collections.abc import Iterable, Iterator, Mapping
 from dataclasses import dataclass, field
 from functools import cached_property
 from pathlib import Path
 from typing import Any
 
 from mse.diagnostics import Diagnostic, MseError, Span
+from mse.fileio import decode_utf8, read_input, read_json
+from mse.limits import MAX_CSV_FIELD
 from mse.motion.base.bvh import Motion, read_bvh
 
 LIBRARY_FORMAT = "mse-motion-library/1"
@@ -175,8 +178,8 @@ def read_bandai(root: str | os.PathLike[str]) -> MotionLibrary:
     base = Path(root)
     data = base / "data" if (base / "data").is_dir() else base
     cfg = base / "cfg"
-    contents = [_label(x) for x in (cfg / "content_label.txt").read_text().splitlines() if x]
-    styles = [_label(x) for x in (cfg / "style_label.txt").read_text().splitlines() if x]
+    contents = [_label(x) for x in _read_text(cfg / "content_label.txt").split("\n") if x.strip()]
+    styles = [_label(x) for x in _read_text(cfg / "style_label.txt").split("\n") if x.strip()]
     clips = []
     for path in sorted(data.glob("dataset-1_*.bvh")):
         match = _BANDAI_NAME.match(path.stem)
@@ -185,10 +188,15 @@ def read_bandai(root: str | os.PathLike[str]) -> MotionLibrary:
         action, style = match.group("action"), match.group("style")
         sidecar = path.with_suffix(".json")
         if sidecar.is_file():
+            labels = read_json(sidecar, what="Bandai label sidecar")
             try:
-                labels = json.loads(sidecar.read_text())
-                action = contents[int(labels["content"])]
-                style = styles[int(labels["style"])]
+                content_index, style_index = labels["content"], labels["style"]
+                if not all(isinstance(i, int) and not isinstance(i, bool) for i in (content_index, style_index)):
+                    raise TypeError("'content' and 'style' must be whole numbers")
+                if content_index < 0 or style_index < 0:
+                    raise IndexError("negative label index")
+                action = contents[content_index]
+                style = styles[style_index]
             except (ValueError, KeyError, IndexError, TypeError) as error:
                 raise _error(f"invalid Bandai label sidecar: {error}", sidecar, 1) from None
         clips.append(Clip(path.stem, action, style, path.stem, str(path)))
@@ -197,12 +205,29 @@ def read_bandai(root: str | os.PathLike[str]) -> MotionLibrary:
     return MotionLibrary(base.name or str(base), tuple(clips))
 
 
+def _read_text(path: Path) -> str:
+    """A small text file of a library: regular, size-capped, UTF-8 (E100 otherwise)."""
+    name = os.fspath(path)
+    return decode_utf8(read_input(name, what="library file"), name, what="library file")
+
+
+@contextlib.contextmanager
+def _csv_field_limit() -> Iterator[None]:
+    previous = csv.field_size_limit(MAX_CSV_FIELD)
+    try:
+        yield
+    finally:
+        csv.field_size_limit(previous)
+
+
 def _clips_from_rows(rows: Iterable[tuple[int, Mapping[str, Any]]], index: Path) -> list[Clip]:
     clips = []
     for line, row in rows:
         missing = [k for k in ("file", "action", "style") if not isinstance(row.get(k), str)]
         if missing:
             raise _error(f"clip entry lacks {', '.join(missing)}", index, line)
+        if "\x00" in str(row["file"]):
+            raise _error("clip file name holds a NUL character", index, line)
         source = index.parent / str(row["file"])
         if not source.is_file():
             raise _error(f"clip file not found: {row['file']}", index, line)
@@ -217,15 +242,15 @@ def read_index(index: str | os.PathLike[str]) -> MotionLibrary:
     path = Path(index)
     overrides: dict[str, str] = {}
     if path.suffix == ".csv":
-        with path.open(newline="") as handle:
-            reader = csv.DictReader(handle)
-            rows = [(number + 2, row) for number, row in enumerate(reader)]
+        reader = csv.DictReader(io.StringIO(_read_text(path), newline=""))
+        try:
+            with _csv_field_limit():
+                rows = [(number + 2, row) for number, row in enumerate(reader)]
+        except csv.Error as error:
+            raise _error(f"invalid CSV: {error}", path, reader.line_num) from None
         clips = _clips_from_rows(rows, path)
     else:
-        try:
-            decoded = json.loads(path.read_text())
-        except json.JSONDecodeError as error:
-            raise _error(f"invalid JSON: {error.msg}", path, error.lineno) from None
+        decoded = read_json(path, what="library index")
         if not isinstance(decoded, dict) or not isinstance(decoded.get("clips"), list):
             raise _error("a library index is an object with a 'clips' list", path, 1)
         if decoded.get("format", LIBRARY_FORMAT) != LIBRARY_FORMAT:

@@ -12,12 +12,14 @@ import io
 import json
 import os
 import zipfile
+import zlib
 from typing import Any
 
 import numpy as np
 
 from mse.diagnostics import Diagnostic, MseError, Span
-from mse.fileio import write_atomic
+from mse.fileio import read_input, write_atomic
+from mse.limits import MAX_FRAME_TIME, MAX_MODEL_BYTES, MAX_MOTION_SECONDS, MIN_FRAME_TIME
 from mse.motion.base.bvh import Skeleton
 from mse.motion.hsmm.model import HsmmModel, UnitModel
 from mse.motion.hsmm.prep import Template
@@ -79,16 +81,55 @@ def _error(path: str, message: str) -> MseError:
     return MseError([Diagnostic("E100", message, Span(path))])
 
 
-def load_model(path: str | os.PathLike[str]) -> HsmmModel:
-    """Read a model file; missing or malformed files raise MseError (E100)."""
-    name = os.fspath(path)
+def _read_arrays(name: str) -> dict[str, Any]:
+    """The arrays of an archive: a regular file of at most MAX_MODEL_BYTES whose members
+    decompress to at most MAX_MODEL_BYTES together (no zip bomb); no pickle."""
+    data = read_input(name, limit=MAX_MODEL_BYTES, what="HSMM model")
     try:
-        with np.load(name, allow_pickle=False) as archive:
-            arrays = {key: archive[key] for key in archive.files}
-    except FileNotFoundError:
-        raise _error(name, "cannot read HSMM model: no such file") from None
-    except (OSError, ValueError, zipfile.BadZipFile):
-        raise _error(name, "cannot read HSMM model: not an mse-hsmm/1 archive") from None
+        with zipfile.ZipFile(io.BytesIO(data)) as archive:
+            if sum(member.file_size for member in archive.infolist()) > MAX_MODEL_BYTES:
+                raise _error(name, f"HSMM model expands beyond {MAX_MODEL_BYTES} bytes")
+        with np.load(io.BytesIO(data), allow_pickle=False) as arrays:
+            return {key: arrays[key] for key in arrays.files}
+    except (OSError, ValueError, EOFError, KeyError, NotImplementedError, zipfile.BadZipFile, zlib.error):
+        raise _error(name, "cannot read HSMM model: not an mse-hsmm/1 archive (damaged?)") from None
+
+
+def _check(model: HsmmModel) -> str | None:
+    """Why a decoded model cannot be used (sizes, frame time, finite numbers), or None."""
+    template = model.template
+    skeleton = template.skeleton
+    joints = len(skeleton.names)
+    if not MIN_FRAME_TIME <= template.frame_time <= MAX_FRAME_TIME:
+        return f"frame_time {template.frame_time!r} is outside [{MIN_FRAME_TIME:g}, {MAX_FRAME_TIME:g}] s"
+    if not model.units:
+        return "the model has no units"
+    if not (
+        len(skeleton.parents) == len(skeleton.channels) == len(skeleton.end_sites) == joints
+        and skeleton.offsets.shape == (joints, 3)
+        and all(-1 <= parent < index for index, parent in enumerate(skeleton.parents))
+    ):
+        return "the skeleton's names, parents, channels and offsets disagree"
+    contacts = (*template.contacts[0], *template.contacts[1])
+    if not all(0 <= j < joints for j in (template.root_joint, *template.rotated, *template.legs, *contacts)):
+        return "the template names a joint the skeleton lacks"
+    for unit_name, unit in model.units.items():
+        arrays = (unit.means, unit.variances, unit.duration_means, unit.duration_variances)
+        states = unit.duration_means.shape[0] if unit.duration_means.ndim == 1 else -1
+        if states < 1 or any(a.shape[:1] != (states,) for a in arrays) or unit.means.shape != unit.variances.shape:
+            return f"unit {unit_name!r} has inconsistent array shapes"
+        if not all(np.isfinite(a).all() for a in arrays) or (unit.variances <= 0).any():
+            return f"unit {unit_name!r} holds non-finite numbers or non-positive variances"
+        seconds = float(unit.duration_means.sum()) * template.frame_time
+        if (unit.duration_means < 0).any() or seconds > MAX_MOTION_SECONDS:
+            return f"unit {unit_name!r} has durations outside [0, {MAX_MOTION_SECONDS:g}] s"
+    return None
+
+
+def load_model(path: str | os.PathLike[str]) -> HsmmModel:
+    """Read a model file; missing, damaged or malformed files raise MseError (E100)."""
+    name = os.fspath(path)
+    arrays = _read_arrays(name)
     try:
         meta = json.loads(str(arrays["meta"]))
         if meta.get("format") != FORMAT:
@@ -124,7 +165,7 @@ def load_model(path: str | os.PathLike[str]) -> HsmmModel:
             )
             for unit in meta["units"]
         }
-        return HsmmModel(
+        model = HsmmModel(
             action=str(meta["action"]),
             style=str(meta["style"]),
             cyclic=bool(meta["cyclic"]),
@@ -136,5 +177,9 @@ def load_model(path: str | os.PathLike[str]) -> HsmmModel:
             first_leg=str(meta["first_leg"]),
             info=dict(meta.get("info", {})),
         )
-    except (KeyError, IndexError, TypeError, ValueError) as error:
+        problem = _check(model)
+    except (KeyError, IndexError, TypeError, ValueError, AttributeError) as error:
         raise _error(name, f"malformed HSMM model: {error!r}") from None
+    if problem is not None:
+        raise _error(name, f"malformed HSMM model: {problem}")
+    return model

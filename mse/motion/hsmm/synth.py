@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from mse.limits import MAX_MOTION_SECONDS, MAX_STEPS
 from mse.motion.base.bvh import Motion
 from mse.motion.base.kinematics import forward_kinematics, matrix_to_euler
 from mse.motion.hsmm.features import FloatArray
@@ -165,12 +166,18 @@ def synthesize(
 ) -> Motion:
     """A new clip: ``steps`` steps at natural speed, or exactly ``duration_s`` seconds."""
     frame_time = model.template.frame_time
+    if duration_s is not None and not 0 < duration_s <= MAX_MOTION_SECONDS:
+        raise ValueError(f"a clip lasts at most {MAX_MOTION_SECONDS:g} s, not {duration_s!r}")
+    if steps is not None and not 0 < steps <= MAX_STEPS:
+        raise ValueError(f"a clip has 1 to {MAX_STEPS} steps, not {steps!r}")
     if duration_s is not None:
         requested = max(1, round(duration_s / frame_time))
         names = plan_units(model, steps=steps, frames=requested)
     else:
         names = plan_units(model, steps=steps)
         requested = round(sum(float(model.unit(n).duration_means.sum()) for n in names))
+    if requested * frame_time > MAX_MOTION_SECONDS:
+        raise ValueError(f"{requested} frames would last more than {MAX_MOTION_SECONDS:g} s")
     # Short requests drop inner units until every state can have a frame.
     while len(names) > 1 and requested < model.states * len(names):
         names = names[:-2] + names[-1:] if len(names) > 2 else names[:1]
