@@ -118,6 +118,8 @@ def read_input(path: PathLike, *, limit: int = MAX_INPUT_BYTES, what: str = "fil
         fd = os.open(name, os.O_RDONLY | os.O_NONBLOCK | getattr(os, "O_CLOEXEC", 0))
     except OSError as error:
         raise _fail("E100", f"cannot read {what}: {error.strerror or error}", name) from None
+    except ValueError:  # a NUL character in the name
+        raise _fail("E100", f"cannot read {what}: the name holds a NUL character", repr(name)) from None
     try:
         info = os.fstat(fd)
         if not stat.S_ISREG(info.st_mode):
@@ -290,6 +292,8 @@ def _resolve_target(name: str) -> tuple[str, os.stat_result | None]:
         return name, None
     except OSError as error:
         raise _write_error(name, f"cannot write output: {error.strerror or error}") from None
+    except ValueError:  # a NUL character in the name
+        raise _write_error(repr(name), "cannot write output: the name holds a NUL character") from None
     if stat.S_ISLNK(info.st_mode):
         if not _may_follow(name, info):
             raise _write_error(name, "refusing to follow a symbolic link owned by another user in a shared folder")

@@ -53,7 +53,8 @@ def solve_duration_problem(value: float) -> str | None:
 # -- motion -------------------------------------------------------------------------------
 #: Longest motion generated for one occurrence or one ``style synth`` clip (seconds).
 MAX_MOTION_SECONDS = 600.0
-#: Longest timeline ``animate`` composes into timeline.bvh (seconds).
+#: Longest timeline ``animate`` composes into timeline.bvh, and the longest total of its
+#: motion occurrences (seconds): about 1.1 GB and 90 s on the CI machine at the limit.
 MAX_ANIMATE_SECONDS = 3600.0
 #: Steps of a cyclic ``style synth`` clip.
 MAX_STEPS = 1000

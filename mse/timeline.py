@@ -144,6 +144,10 @@ class Timeline:
                 if problem is not None:
                     raise fail(f"signals[{position}].{key} {problem}")
             motion = entry.get("motion")
+            if isinstance(motion, dict) and isinstance(motion.get("file"), str):
+                problem = xml_char_problem(motion["file"])
+                if problem is not None:
+                    raise fail(f"signals[{position}].motion.file {problem}")
             signals.append(
                 TimelineSignal(
                     id=sid,

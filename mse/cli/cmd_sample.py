@@ -249,7 +249,8 @@ def _sample(model: Any, args: argparse.Namespace) -> int:
 
         from mse.cli.cmd_animate import animate_timelines
 
-        timelines = animate_timelines([(t, model) for t in timelines], Path(args.animate), args.library)
+        inputs = [p for p in (args.source, args.library) if p]
+        timelines = animate_timelines([(t, model) for t in timelines], Path(args.animate), args.library, inputs=inputs)
     fmt = args.format or ("table" if sys.stdout.isatty() and not args.output else "json")
     if fmt in VIDEO_FORMATS:
         return _video(timelines, fmt, args)
