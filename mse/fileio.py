@@ -28,6 +28,7 @@ from __future__ import annotations
 import contextlib
 import json
 import os
+import re
 import shutil
 import signal
 import stat
@@ -177,20 +178,30 @@ def _json_constant(text: str) -> Any:
     raise _JsonLimit(f"{text} is not a JSON number")
 
 
+_SURROGATE = re.compile("[\ud800-\udfff]")
+
+
 def json_depth(obj: Any) -> int:
-    """Nesting depth of decoded JSON (scalars 0), without recursion."""
+    """Nesting depth of decoded JSON (scalars 0), without recursion; -1 when a string or a
+    key holds a lone surrogate (``"\\ud800"`` decodes to text no file can hold)."""
     deepest = 0
     stack: list[tuple[Any, int]] = [(obj, 0)]
     while stack:
         node, depth = stack.pop()
+        if isinstance(node, str):
+            if _SURROGATE.search(node):
+                return -1
+            continue
         if isinstance(node, dict):
+            if any(_SURROGATE.search(key) for key in node):
+                return -1
             node = list(node.values())
         if isinstance(node, list):
             depth += 1
             deepest = max(deepest, depth)
             if depth > MAX_JSON_DEPTH:
                 return depth
-            stack.extend((child, depth) for child in node if isinstance(child, dict | list))
+            stack.extend((child, depth) for child in node if isinstance(child, dict | list | str))
     return deepest
 
 
@@ -207,7 +218,10 @@ def parse_json(text: str, name: str, *, code: str = "E100", line: int | None = N
         raise _fail(code, f"JSON nested more than {MAX_JSON_DEPTH} levels deep", name, line or 0) from None
     except ValueError as error:  # _JsonLimit, and any other limit of the json module
         raise _fail(code, f"invalid JSON: {error}", name, line or 0) from None
-    if json_depth(obj) > MAX_JSON_DEPTH:
+    depth = json_depth(obj)
+    if depth < 0:
+        raise _fail(code, "invalid JSON: a string holds a lone surrogate (not a Unicode character)", name, line or 0)
+    if depth > MAX_JSON_DEPTH:
         raise _fail(code, f"JSON nested more than {MAX_JSON_DEPTH} levels deep", name, line or 0)
     return obj
 

@@ -158,6 +158,10 @@ class Timeline:
                     motion=dict(motion) if isinstance(motion, dict) else None,
                 )
             )
+        for key in ("expression", "solver"):
+            problem = xml_char_problem(str(obj.get(key, "")))
+            if problem is not None:
+                raise fail(f"'{key}' {problem}")
         seed = obj.get("seed")
         return Timeline(
             expression=str(obj.get("expression", "")),
