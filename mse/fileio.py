@@ -205,24 +205,59 @@ def json_depth(obj: Any) -> int:
     return deepest
 
 
+_JSON_TOKEN = re.compile(r'"(?:[^"\\]|\\.)*"|-?[0-9]+(?:\.[0-9]+)?(?:[eE][+-]?[0-9]+)?|NaN|-?Infinity|[\[\]{}]')
+
+
+def _json_problem_at(text: str) -> tuple[int, int]:
+    """Line and column of the first token that breaks a limit of :func:`parse_json` (too
+    deep, a huge or infinite number, NaN, a string with a lone surrogate); linear, and only
+    run once decoding has already failed.  (1, 1) when nothing is found."""
+    depth = 0
+    for token in _JSON_TOKEN.finditer(text):
+        found = token.group()
+        bad = False
+        if found in "[{":
+            depth += 1
+            bad = depth > MAX_JSON_DEPTH
+        elif found in "]}":
+            depth -= 1
+        elif found.startswith('"'):
+            with contextlib.suppress(ValueError):
+                bad = "\\u" in found and _SURROGATE.search(json.loads(found)) is not None
+        else:
+            digits = found.lstrip("-").split(".")[0].split("e")[0].split("E")[0]
+            bad = found in ("NaN", "Infinity", "-Infinity") or len(digits) > MAX_JSON_INT_DIGITS
+            bad = bad or float(found) in (float("inf"), float("-inf"))
+        if bad:
+            line = text.count("\n", 0, token.start()) + 1
+            return line, token.start() - (text.rfind("\n", 0, token.start()) + 1) + 1
+    return 1, 1
+
+
 def parse_json(text: str, name: str, *, code: str = "E100", line: int | None = None) -> Any:
     """Decode JSON text; syntax errors, nesting deeper than MAX_JSON_DEPTH, integers of
-    more than MAX_JSON_INT_DIGITS digits and NaN/Infinity -> ``code`` with a position.
+    more than MAX_JSON_INT_DIGITS digits, NaN/Infinity and strings holding a lone surrogate
+    -> ``code`` at the offending line:col.
     ``line``: the 1-based line of ``text`` in its file (one line of a JSON-lines file)."""
     first = line or 1
+
+    def fail(message: str) -> MseError:
+        at_line, col = _json_problem_at(text)
+        return _fail(code, message, name, at_line + first - 1, col)
+
     try:
         obj = json.loads(text, parse_int=_json_int, parse_float=_json_float, parse_constant=_json_constant)
     except json.JSONDecodeError as error:
         raise _fail(code, f"invalid JSON: {error.msg}", name, error.lineno + first - 1, error.colno) from None
     except RecursionError:
-        raise _fail(code, f"JSON nested more than {MAX_JSON_DEPTH} levels deep", name, line or 0) from None
+        raise fail(f"JSON nested more than {MAX_JSON_DEPTH} levels deep") from None
     except ValueError as error:  # _JsonLimit, and any other limit of the json module
-        raise _fail(code, f"invalid JSON: {error}", name, line or 0) from None
+        raise fail(f"invalid JSON: {error}") from None
     depth = json_depth(obj)
     if depth < 0:
-        raise _fail(code, "invalid JSON: a string holds a lone surrogate (not a Unicode character)", name, line or 0)
+        raise fail("invalid JSON: a string holds a lone surrogate (not a Unicode character)")
     if depth > MAX_JSON_DEPTH:
-        raise _fail(code, f"JSON nested more than {MAX_JSON_DEPTH} levels deep", name, line or 0)
+        raise fail(f"JSON nested more than {MAX_JSON_DEPTH} levels deep")
     return obj
 
 

@@ -105,12 +105,14 @@ class Timeline:
         return json.dumps(self.to_json(), indent=indent, ensure_ascii=False)
 
     @staticmethod
-    def from_json(obj: Any, *, path: str = "<timeline>", index: int | None = None) -> Timeline:
+    def from_json(obj: Any, *, path: str = "<timeline>", index: int | None = None, label: str = "") -> Timeline:
         """Build a timeline from decoded JSON; raises MseError (E212) when it is malformed."""
-        where = Span(path, (index + 1) if index is not None else 0, 1 if index is not None else 0)
+        # JSON lines: the entry's line; otherwise the document's start, the message naming
+        # the field (decoded JSON keeps no positions).
+        where = Span(path, (index + 1) if index is not None else 1, 1)
 
         def fail(message: str) -> MseError:
-            return MseError([Diagnostic("E212", message, where)])
+            return MseError([Diagnostic("E212", f"{label}{message}", where)])
 
         if not isinstance(obj, dict):
             raise fail("a timeline must be a JSON object")
@@ -228,7 +230,7 @@ def loads_many(text: str, *, path: str = "<timeline>") -> list[Timeline]:
             timelines.append(Timeline.from_json(decoded_line, path=path, index=number))
         return timelines
     if isinstance(decoded, list):
-        return [Timeline.from_json(item, path=path) for item in decoded]
+        return [Timeline.from_json(item, path=path, label=f"timeline [{n}]: ") for n, item in enumerate(decoded)]
     return [Timeline.from_json(decoded, path=path)]
 
 

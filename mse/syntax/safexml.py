@@ -32,16 +32,29 @@ def safe_parser() -> etree.XMLParser:
     )
 
 
+_BOMS = (
+    (codecs.BOM_UTF32_LE, "utf-32"),
+    (codecs.BOM_UTF32_BE, "utf-32"),
+    (codecs.BOM_UTF8, "utf-8-sig"),
+    (codecs.BOM_UTF16_LE, "utf-16"),
+    (codecs.BOM_UTF16_BE, "utf-16"),
+)
+
+
 def decode_text(data: bytes, encoding: str | None = None) -> str:
-    """The document's text in the encoding lxml detected (UTF-8 when unknown)."""
+    """The document's text: a byte-order mark decides, else the encoding lxml detected
+    (UTF-8 when unknown); undecodable bytes become U+FFFD (positions only)."""
     codec = "utf-8"
-    if encoding:
-        try:
-            codec = codecs.lookup(encoding).name
-        except LookupError:
-            codec = "utf-8"
-    if codec in ("utf-16-le", "utf-16-be") and data[:2] in (b"\xff\xfe", b"\xfe\xff"):
-        codec = "utf-16"  # the BOM decides, and is dropped
+    for bom, name in _BOMS:
+        if data.startswith(bom):
+            codec = name
+            break
+    else:
+        if encoding:
+            try:
+                codec = codecs.lookup(encoding).name
+            except LookupError:
+                codec = "utf-8"
     text = data.decode(codec, errors="replace")
     return text[1:] if text.startswith("\ufeff") else text
 
@@ -52,7 +65,7 @@ def _entity_problem(root: etree._Element, source: SourceText) -> Diagnostic | No
     dtd = root.getroottree().docinfo.internalDTD
     declared = [entity.name for entity in dtd.iterentities()] if dtd is not None else []  # type: ignore[attr-defined]
     if declared:
-        where = source.find("<!ENTITY") or source.find("<!DOCTYPE") or Span(source.path)
+        where = source.find("<!ENTITY") or source.find("<!DOCTYPE") or Span(source.path, 1, 1)
         names = ", ".join(repr(str(name)) for name in declared[:3])
         return Diagnostic("E103", f"DOCTYPE declares entities ({names}); entity declarations are refused", where)
     for node in root.iter():
