@@ -210,7 +210,7 @@ def loads_many(text: str, *, path: str = "<timeline>") -> list[Timeline]:
     from mse.fileio import parse_json
 
     if not text.strip():
-        raise MseError([Diagnostic("E212", "no timeline in the input", Span(path))])
+        raise MseError([Diagnostic("E212", "no timeline in the input", Span(path, 1, 1))])
     try:
         decoded = parse_json(text, path, code="E212")
     except MseError as whole_error:

@@ -85,7 +85,7 @@ def bounded(seconds: float) -> Iterator[Measure]:
         yield measure
     finally:
         signal.setitimer(signal.ITIMER_REAL, 0)
-        signal.signal(signal.SIGALRM, previous)
+        signal.signal(signal.SIGALRM, previous if previous is not None else signal.SIG_DFL)
         measure.seconds = time.perf_counter() - began
         measure.peak_rss_kib = peak_rss_kib()
 
