@@ -27,6 +27,12 @@ MAX_CSV_FIELD = 4096
 MAX_JSON_DEPTH = 500
 #: Digits of one JSON integer (Python refuses more than 4300 anyway).
 MAX_JSON_INT_DIGITS = 20
+#: Elements of one behaviour-set file, and signals (10x the largest sets the solvers are
+#: measured on; a 10 MB file of signals would otherwise take seconds per stage).
+MAX_ELEMENTS = 20_000
+MAX_SIGNALS = 2_000
+#: Elements of any other XML input (Greta files, face libraries).
+MAX_XML_ELEMENTS = 200_000
 #: Characters of one constraint expression (its text content).
 MAX_CONSTRAINT_CHARS = 100_000
 #: Characters of all constraints of one file together (parsing takes about 4 us each).

@@ -17,7 +17,7 @@ import pytest
 from mse.api import compile_source, load, loads, sample
 from mse.cli import main
 from mse.diagnostics import MseError
-from mse.limits import MAX_CONSTRAINT_CHARS
+from mse.limits import MAX_CONSTRAINT_CHARS, MAX_SIGNALS
 from mse.syntax.reader import MAX_FILE_BYTES
 
 FIXTURES = Path(__file__).parent / "fixtures" / "invalid"
@@ -369,3 +369,13 @@ def test_missing_file_and_directory_give_diagnostics(tmp_path: Path) -> None:
     for path in (tmp_path / "missing.xml", tmp_path):
         model, diagnostics = compile_source(path)
         assert model is None and diagnostics[0].code == "E100"
+
+
+def test_documents_with_too_many_elements_or_signals_are_refused_fast() -> None:
+    signal = '<signal id="s{}" modality="face" max_duration="3"/>'
+    many = "".join(signal.format(i) for i in range(MAX_SIGNALS + 1))
+    began = time.perf_counter()
+    assert _codes(f'<expression name="x"><signals>{many}</signals></expression>'.encode()) == ["E104"]
+    noise = "<x/>" * 1_000_000
+    assert _codes(f'<expression name="x">{noise}</expression>'.encode()) == ["E104"]
+    assert time.perf_counter() - began < 20

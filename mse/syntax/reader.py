@@ -18,7 +18,7 @@ from lxml import etree
 
 from mse.diagnostics import Diagnostic, MseError, Span
 from mse.fileio import read_input
-from mse.limits import MAX_CONSTRAINT_CHARS, MAX_CONSTRAINT_TEXT
+from mse.limits import MAX_CONSTRAINT_CHARS, MAX_CONSTRAINT_TEXT, MAX_ELEMENTS, MAX_SIGNALS
 from mse.resources import grammar_dir
 from mse.syntax import ast
 from mse.syntax.expression import parse_expression
@@ -112,9 +112,13 @@ def read_document(path: str | Path, data: bytes | None = None) -> tuple[ast.Docu
         data, problems = read_bytes(path)
         if data is None:
             return None, problems
-    root, source, problems = parse_xml(data, name)
+    root, source, problems = parse_xml(data, name, max_elements=MAX_ELEMENTS)
     if root is None:
         return None, problems
+    signals = _count(root, "count(/expression/signals/signal)")  # in C, before per-signal work
+    if signals > MAX_SIGNALS:
+        message = f"{signals} signals; the limit is {MAX_SIGNALS}"
+        return None, [Diagnostic("E104", message, source.line_span(_line(root)))]
     locator = _Locator(root, source)
     diagnostics = _schema_diagnostics(root, locator, name)
     if root.tag != "expression":
@@ -123,6 +127,11 @@ def read_document(path: str | Path, data: bytes | None = None) -> tuple[ast.Docu
         ]
     document = _build_document(root, locator, name, diagnostics)
     return document, diagnostics
+
+
+def _count(root: etree._Element, xpath: str) -> int:
+    found = root.xpath(xpath)
+    return int(found) if isinstance(found, float) else 0
 
 
 def _children(element: etree._Element, tag: str) -> list[etree._Element]:
@@ -184,8 +193,9 @@ def _constraint(
     if len(text) > MAX_CONSTRAINT_CHARS or len(text) > budget[0]:
         limit = MAX_CONSTRAINT_CHARS if len(text) > MAX_CONSTRAINT_CHARS else MAX_CONSTRAINT_TEXT_PER_FILE
         what = "constraint" if limit == MAX_CONSTRAINT_CHARS else "constraint text of the file"
-        diagnostics.append(Diagnostic("E104", f"{what} is longer than {limit} characters", span))
-        budget[0] = 0
+        if budget[0] >= 0:  # once per file
+            diagnostics.append(Diagnostic("E104", f"{what} is longer than {limit} characters", span))
+        budget[0] = -1
         return ast.ConstraintDecl(attributes.get("id"), "", None, span)
     budget[0] -= len(text)
     tag = locator.tags.get(element)

@@ -15,7 +15,7 @@ import codecs
 from lxml import etree
 
 from mse.diagnostics import Diagnostic, Span
-from mse.limits import MAX_INPUT_BYTES
+from mse.limits import MAX_INPUT_BYTES, MAX_XML_ELEMENTS
 from mse.syntax.source import SourceText
 
 MAX_FILE_BYTES = MAX_INPUT_BYTES
@@ -77,8 +77,11 @@ def _entity_problem(root: etree._Element, source: SourceText) -> Diagnostic | No
     return None
 
 
-def parse_xml(data: bytes, path: str) -> tuple[etree._Element | None, SourceText, list[Diagnostic]]:
-    """Well-formedness and safety; returns the root element and the raw-text index."""
+def parse_xml(
+    data: bytes, path: str, *, max_elements: int = MAX_XML_ELEMENTS
+) -> tuple[etree._Element | None, SourceText, list[Diagnostic]]:
+    """Well-formedness and safety; returns the root element and the raw-text index.
+    More than ``max_elements`` elements is E104 (counted in C, before any Python work)."""
     if len(data) > MAX_FILE_BYTES:
         empty = SourceText(path, "")
         return None, empty, [Diagnostic("E104", f"input is larger than {MAX_FILE_BYTES} bytes", Span(path))]
@@ -95,6 +98,11 @@ def parse_xml(data: bytes, path: str) -> tuple[etree._Element | None, SourceText
             where = source.find("<!ENTITY") or Span(path, line, column)
             return None, source, [Diagnostic("E103", "entity declarations are refused (entity expansion bomb)", where)]
         return None, SourceText(path, ""), [Diagnostic("E101", message.strip(), Span(path, line, column))]
+    count = root.xpath("count(//*)")
+    if isinstance(count, float) and count > max_elements:
+        line = root.sourceline if isinstance(root.sourceline, int) else 1
+        message = f"{int(count)} elements; the limit is {max_elements}"
+        return None, SourceText(path, ""), [Diagnostic("E104", message, Span(path, line, 1))]
     source = SourceText(path, decode_text(data, root.getroottree().docinfo.encoding))
     problem = _entity_problem(root, source)
     if problem is not None:

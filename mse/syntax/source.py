@@ -25,6 +25,7 @@ _DOCTYPE_TOKEN = re.compile(r"[\"'\[\]>]|<!--|<\?")
 _TAG_TOKEN = re.compile(r"[\"'>]")
 _ENTITY = re.compile(r"&(#x[0-9A-Fa-f]{1,32}|#[0-9]{1,32}|[^\s;&<#]{1,100});")
 _NAMED = {"lt": "<", "gt": ">", "amp": "&", "quot": '"', "apos": "'"}
+_UNKNOWN_ENTITY = re.compile(r"&(?!(?:lt|gt|amp|quot|apos|#[0-9]{1,32}|#x[0-9A-Fa-f]{1,32});)")
 _SPACE = " \t\r\n"
 
 
@@ -53,7 +54,7 @@ class SourceText:
         while position >= 0:
             self._line_starts.append(position + 1)
             position = text.find("\n", position + 1)
-        #: Offsets of references to entities other than the five predefined ones.
+        #: Offset of the first reference to an entity other than the five predefined ones.
         self.unknown_entities: list[int] = []
         self.start_tags = self._scan_start_tags()
 
@@ -116,13 +117,11 @@ class SourceText:
             position = self._skip_to(token.group(), token.end())
 
     def _note_entities(self, start: int, end: int) -> None:
-        text = self.text
-        amp = text.find("&", start, end)
-        while amp >= 0:
-            match = _ENTITY.match(text, amp, end)
-            if match is None or (not match.group(1).startswith("#") and match.group(1) not in _NAMED):
-                self.unknown_entities.append(amp)
-            amp = text.find("&", amp + 1, end)
+        """Record the first reference to an entity that is not predefined (one search in C)."""
+        if not self.unknown_entities:
+            found = _UNKNOWN_ENTITY.search(self.text, start, end)
+            if found is not None:
+                self.unknown_entities.append(found.start())
 
     def _scan_start_tags(self) -> list[StartTag]:
         tags: list[StartTag] = []
