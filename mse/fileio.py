@@ -29,11 +29,9 @@ import contextlib
 import json
 import os
 import re
-import shutil
 import signal
 import stat
 import sys
-import tempfile
 from collections.abc import Iterable, Iterator, Sequence
 from pathlib import Path
 from typing import Any, BinaryIO
@@ -379,6 +377,8 @@ def write_atomic(path: PathLike, data: str | bytes, *, inputs: Iterable[PathLike
         os.makedirs(folder, exist_ok=True)
     except OSError as error:
         raise _write_error(name, f"cannot create the output folder: {error.strerror or error}") from None
+    import tempfile  # only when writing (keeps the start of every command light)
+
     base = os.path.basename(target)
     tmp_name = ""
     try:
@@ -440,6 +440,9 @@ def staged_folder(out: PathLike, *, inputs: Sequence[PathLike] = ()) -> Iterator
         parent.mkdir(parents=True, exist_ok=True)
     except OSError as error:
         raise _write_error(name, f"cannot create the output folder: {error.strerror or error}") from None
+    import shutil
+    import tempfile
+
     staging = ""
     try:
         with _signals_blocked():

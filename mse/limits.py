@@ -114,7 +114,7 @@ def time_problem(value: float, *, minimum: float = -MAX_SECONDS) -> str | None:
 # -- text -----------------------------------------------------------------------------------
 #: Characters XML 1.0 cannot hold (C0 controls but tab and line ends, lone surrogates,
 #: U+FFFE/U+FFFF).  Text that reaches BML, SVG or HTML must not contain them.
-_NOT_XML_CHAR = re.compile("[^\t\n\r\u0020-\ud7ff\ue000-\ufffd\U00010000-\U0010ffff]")
+_NOT_XML_CHAR = re.compile("[\x00-\x08\x0b\x0c\x0e-\x1f\ud800-\udfff\ufffe\uffff]")
 
 
 def xml_char_problem(text: str) -> str | None:
