@@ -312,10 +312,12 @@ def expression_source(model: Model) -> dict[str, str] | None:
     >>> expression_source(mse.load("relief"))["bundled"]
     'relief'
     """
+    from mse.fileio import read_input
+
     path = Path(model.path)
-    try:
-        data = path.read_bytes() if path.is_file() else None
-    except OSError:
+    try:  # a path named by compiled IR may be anything: a regular file, capped, or nothing
+        data = read_input(path) if path.is_file() else None
+    except (MseError, ValueError):
         data = None
     if data is None:
         return None

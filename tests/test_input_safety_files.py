@@ -187,7 +187,7 @@ def test_exports_stay_well_formed_whatever_the_strings_hold() -> None:
 # -- items 7 and 11: numbers and durations given on the command line ----------------------------------
 @pytest.mark.parametrize("value", ["nan", "inf", "-5", "0", "1e9"])
 def test_lint_duration_is_checked(value: str, capsys: pytest.CaptureFixture[str]) -> None:
-    assert main(["lint", str(MINIMAL), f"--duration={value}"]) == 1
+    assert main(["lint", str(MINIMAL), f"--duration={value}"]) == 2  # a usage error, as a bad --select
     err = capsys.readouterr().err
     assert "E100" in err and "W402" not in err
 
@@ -269,9 +269,9 @@ def test_animate_refuses_occurrences_too_long_to_generate(tmp_path: Path, capsys
 
 @pytest.fixture(scope="module")
 def hsmm_model(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    from mse.motion.base.starter import starter_library
     from mse.motion.hsmm import api
     from mse.motion.hsmm.io import save_model
-    from mse.motion.starter import starter_library
 
     library = starter_library()
     clips = [(library.motion(c), c.style) for c in library.select(action="bow")][:3]
@@ -338,7 +338,7 @@ def test_damaged_models_are_e100(
     ids=["json-utf8", "json-deep", "json-huge-int", "csv-utf8", "csv-long-field", "csv-nul"],
 )
 def test_hostile_library_indexes_are_e100(name: str, content: bytes, tmp_path: Path) -> None:
-    from mse.motion.library import load_library
+    from mse.motion.base.library import load_library
 
     (tmp_path / name).write_bytes(content)
     with pytest.raises(MseError) as error:
@@ -357,7 +357,7 @@ def test_hostile_library_indexes_are_e100(name: str, content: bytes, tmp_path: P
     ids=["cfg-utf8", "infinity", "negative", "float"],
 )
 def test_hostile_bandai_layouts_are_e100(labels: bytes, sidecar: bytes, tmp_path: Path) -> None:
-    from mse.motion.library import load_library
+    from mse.motion.base.library import load_library
 
     (tmp_path / "cfg").mkdir()
     (tmp_path / "data").mkdir()

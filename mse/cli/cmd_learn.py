@@ -50,12 +50,11 @@ def _mapping(args: argparse.Namespace) -> Any:
     if args.mapping:
         import tomllib
 
-        try:
-            data = tomllib.loads(Path(args.mapping).read_text(encoding="utf-8"))
-        except OSError as error:
-            raise MseError([Diagnostic("E100", f"cannot read mapping: {error.strerror or error}",
-                                       Span(args.mapping))]) from None
-        except (tomllib.TOMLDecodeError, UnicodeDecodeError) as error:
+        from mse.fileio import decode_utf8, read_input
+
+        try:  # regular files only, capped, UTF-8 (mse.fileio)
+            data = tomllib.loads(decode_utf8(read_input(args.mapping, what="mapping"), args.mapping, what="mapping"))
+        except tomllib.TOMLDecodeError as error:
             raise MseError([Diagnostic("E100", f"invalid TOML: {error}", Span(args.mapping))]) from None
         for table, target in (("tiers", tiers), ("labels", labels)):
             entries = data.get(table, {})
@@ -105,12 +104,16 @@ def run(args: argparse.Namespace) -> int:
     except MseError as error:
         return print_error(error)
     print_diagnostics(result.diagnostics)
-    emit(result.xml, args.output)
-    _summary(result)
-    if args.report:
-        from mse.fileio import write_atomic
+    inputs = [*args.inputs, *([args.mapping] if args.mapping else [])]
+    try:
+        emit(result.xml, args.output, inputs=inputs)
+        _summary(result)
+        if args.report:
+            from mse.fileio import write_atomic
 
-        write_atomic(args.report, json.dumps(_report(result), indent=2, ensure_ascii=False) + "\n")
+            write_atomic(args.report, json.dumps(_report(result), indent=2, ensure_ascii=False) + "\n", inputs=inputs)
+    except MseError as error:  # -o or --report cannot be written (E105)
+        return print_error(error)
     return 0
 
 

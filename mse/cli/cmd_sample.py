@@ -256,7 +256,8 @@ def _sample(model: Any, args: argparse.Namespace) -> int:
         return _video(timelines, fmt, args)
     if fmt in EXPORT_FORMATS and args.output and _is_folder(args.output):
         return _write_folder(timelines, fmt, args)
-    emit(_render(timelines, fmt, args, many=args.count is not None), args.output)
+    inputs = [p for p in (args.source, args.library, args.face_library) if p]
+    emit(_render(timelines, fmt, args, many=args.count is not None), args.output, inputs=inputs)
     return 0
 
 
@@ -281,11 +282,7 @@ def _write_folder(timelines: list[Any], fmt: str, args: argparse.Namespace) -> i
         print_diagnostics(export_notes(timeline, fmt, options, where=args.source or "<sample>"))
     for number, (timeline, page) in enumerate(zip(timelines, pages, strict=True), 1):
         target = Path(args.output) / f"{timeline.expression or 'timeline'}-{number}{SUFFIXES[fmt]}"
-        try:
-            write_atomic(target, page)
-        except OSError as error:
-            raise MseError([Diagnostic("E100", f"cannot write output: {error.strerror or error}",
-                                       Span(str(target)))]) from None
+        write_atomic(target, page, inputs=[p for p in (args.source, args.library, args.face_library) if p])
     return 0
 
 

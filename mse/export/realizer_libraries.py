@@ -196,22 +196,16 @@ def _error(code: str, message: str, where: str, line: int = 0, col: int = 0) -> 
 
 def read_library_xml(path: Path, what: str) -> etree._Element:
     """The root element of a realizer library, read as plain data (E100/E101/E104)."""
-    from lxml import etree
+    from mse.fileio import read_input
+    from mse.syntax.safexml import parse_xml
 
     where = str(path)
-    try:
-        size = path.stat().st_size
-        if size > MAX_LIBRARY_BYTES:
-            raise _error("E104", f"{what} is larger than {MAX_LIBRARY_BYTES // (1024 * 1024)} MB", where)
-        data = path.read_bytes()
-    except OSError as error:
-        raise _error("E100", f"cannot read {what}: {error.strerror or error}", where) from None
-    parser = etree.XMLParser(resolve_entities=False, no_network=True, load_dtd=False, huge_tree=False)
-    try:
-        return etree.fromstring(data, parser)
-    except etree.XMLSyntaxError as error:
-        line, col = error.position
-        raise _error("E101", f"{what} is not well-formed XML: {error.msg}", where, line, col) from None
+    # Regular files only, size-capped; entities refused on the parsed DOCTYPE (mse.fileio,
+    # mse.syntax.safexml: the one reader of files and of XML).
+    root, _, problems = parse_xml(read_input(path, limit=MAX_LIBRARY_BYTES, what=what), where)
+    if root is None:
+        raise MseError(problems)
+    return root
 
 
 def _float(text: str | None, default: float) -> float:

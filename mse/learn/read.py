@@ -81,13 +81,12 @@ MAX_CORPUS_BYTES = 128 * 1024 * 1024
 def _read(path: Path, kind: str) -> tuple[bytes | None, list[Diagnostic]]:
     if kind == "eaf":
         return read_bytes(path)
-    try:
-        size = path.stat().st_size
-        if size > MAX_CORPUS_BYTES:
-            return None, [Diagnostic("E104", f"file is {size} bytes; the limit is {MAX_CORPUS_BYTES}", Span(str(path)))]
-        return path.read_bytes(), []
-    except OSError as error:
-        return None, [Diagnostic("E100", f"cannot read file: {error.strerror or error}", Span(str(path)))]
+    from mse.fileio import read_input
+
+    try:  # regular files only, never more than the limit (mse.fileio)
+        return read_input(path, limit=MAX_CORPUS_BYTES), []
+    except MseError as error:
+        return None, list(error.diagnostics)
 
 
 def read_corpus(paths: Iterable[str | Path], mapping: TierMapping = DEFAULT_MAPPING) -> tuple[Corpus, list[Diagnostic]]:
