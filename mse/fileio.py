@@ -365,41 +365,59 @@ def write_atomic(path: PathLike, data: str | bytes, *, inputs: Iterable[PathLike
 
     ``inputs`` are the files the command read: writing over one of them is refused.
     ``durable``: flush the data to disk before the rename (off for caches)."""
-    name = os.fspath(path)
     payload = data.encode("utf-8", errors="surrogateescape") if isinstance(data, str) else data
+    with atomic_path(path, inputs=inputs) as temporary:
+        try:
+            with open(temporary, "wb") as handle:
+                handle.write(payload)
+                handle.flush()
+                if durable:
+                    os.fsync(handle.fileno())
+        except OSError as error:
+            raise _write_error(os.fspath(path), f"cannot write output: {error.strerror or error}") from None
+
+
+@contextlib.contextmanager
+def atomic_path(path: PathLike, *, inputs: Iterable[PathLike] = (), suffix: str = ".tmp") -> Iterator[Path]:
+    """A temporary file for writers that need a path (encoders, image libraries): write
+    ``path``'s content into the yielded file; when the body succeeds it takes ``path``'s place
+    by the rules of :func:`write_atomic` (renamed over a regular file with its mode kept,
+    streamed into a device or FIFO, refused for what must not be written); on any error or
+    signal it is removed and ``path`` is untouched."""
+    name = os.fspath(path)
     target, existing = _resolve_target(name)
     _refuse_inputs(name, existing, inputs)
-    if existing is not None and not stat.S_ISREG(existing.st_mode):
-        _write_through(target, payload)
-        return
-    folder = os.path.dirname(os.path.abspath(target))
+    through = existing is not None and not stat.S_ISREG(existing.st_mode)
+    import tempfile  # only when writing (keeps the start of every command light)
+
+    # Beside the target (one rename, same file system); a device's folder is no place for it.
+    folder = tempfile.gettempdir() if through else os.path.dirname(os.path.abspath(target))
     try:
         os.makedirs(folder, exist_ok=True)
     except OSError as error:
         raise _write_error(name, f"cannot create the output folder: {error.strerror or error}") from None
-    import tempfile  # only when writing (keeps the start of every command light)
-
     base = os.path.basename(target)
     tmp_name = ""
     try:
         with _signals_blocked():
             try:
-                fd, tmp_name = tempfile.mkstemp(prefix=f".{base[:100]}.", suffix=".tmp", dir=folder)
+                fd, tmp_name = tempfile.mkstemp(prefix=f".{base[:100]}.", suffix=suffix, dir=folder)
             except OSError as error:
                 reason = error.strerror or str(error)
                 raise _write_error(name, f"cannot write output: cannot create a file in {folder}: {reason}") from None
-        with os.fdopen(fd, "wb") as handle:
-            handle.write(payload)
-            handle.flush()
-            if existing is not None:
-                os.fchmod(handle.fileno(), stat.S_IMODE(existing.st_mode) & 0o777)
-                if (existing.st_uid, existing.st_gid) != (os.geteuid(), os.getegid()):
-                    with contextlib.suppress(OSError):
-                        os.fchown(handle.fileno(), existing.st_uid, existing.st_gid)
-            else:  # mkstemp makes 0600; a new file gets what a plain open() would give
-                os.fchmod(handle.fileno(), 0o666 & ~_umask())
-            if durable:
-                os.fsync(handle.fileno())
+        os.close(fd)
+        yield Path(tmp_name)
+        if through:
+            with open(tmp_name, "rb") as handle:
+                _write_through(target, handle.read())
+            return
+        if existing is not None:
+            os.chmod(tmp_name, stat.S_IMODE(existing.st_mode) & 0o777)
+            if (existing.st_uid, existing.st_gid) != (os.geteuid(), os.getegid()):
+                with contextlib.suppress(OSError):
+                    os.chown(tmp_name, existing.st_uid, existing.st_gid)
+        else:  # mkstemp makes 0600; a new file gets what a plain open() would give
+            os.chmod(tmp_name, 0o666 & ~_umask())
         os.replace(tmp_name, target)
         tmp_name = ""
     except OSError as error:

@@ -227,13 +227,13 @@ def test_a_carriage_return_separates_tokens(raw: bytes, code: str) -> None:
 @pytest.mark.parametrize(
     ("data", "code"),
     [
-        (_signal(max_duration="1e306"), "E214"),
-        (_signal(min_duration="1e308"), "E214"),
-        (_signal(max_duration="1e20"), "E214"),
-        (_signal(max_duration="1000001"), "E214"),
-        (_wrap("start(a) &lt; 1e306"), "E214"),
-        (_wrap("equal(start(a), 1, 1e306)"), "E214"),
-        (_wrap("start(a) + 900000 + 900000 &lt; 3"), "E214"),
+        (_signal(max_duration="1e306"), "E215"),
+        (_signal(min_duration="1e308"), "E215"),
+        (_signal(max_duration="1e20"), "E215"),
+        (_signal(max_duration="1000001"), "E215"),
+        (_wrap("start(a) &lt; 1e306"), "E215"),
+        (_wrap("equal(start(a), 1, 1e306)"), "E215"),
+        (_wrap("start(a) + 900000 + 900000 &lt; 3"), "E215"),
         (_wrap("start(a) &lt; 1e400"), "E112"),
         (_signal(max_duration="1_0"), "E204"),
         (_signal(max_duration="\u0661"), "E204"),  # ARABIC-INDIC DIGIT ONE

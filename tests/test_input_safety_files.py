@@ -263,7 +263,7 @@ def test_animate_refuses_occurrences_too_long_to_generate(tmp_path: Path, capsys
         path = tmp_path / "t.json"
         path.write_text(json.dumps(timeline))
         assert main(["animate", str(path), "-o", str(tmp_path / "anim")]) == 1
-        assert "E214" in capsys.readouterr().err
+        assert "E215" in capsys.readouterr().err
         assert not (tmp_path / "anim").exists()
 
 

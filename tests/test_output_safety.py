@@ -237,3 +237,22 @@ def test_lint_flags_unknown_actions_lone_max_occurrences_and_unused_exclusive_mo
     repetitive = source.read_bytes().replace(b'max_occurrences="3"', b'max_occurrences="3" repetitivity="1"')
     source.write_bytes(repetitive)
     assert "W311" not in [d.code for d in lint([source])]
+
+
+def test_writers_that_need_a_path_use_the_same_rules(tmp_path: Path) -> None:
+    """atomic_path: the video encoder's way in (a temporary file it can open by name)."""
+    from mse.fileio import atomic_path
+
+    target = tmp_path / "clip.mp4"
+    target.write_bytes(b"old")
+    target.chmod(0o640)
+    with pytest.raises(RuntimeError), atomic_path(target, suffix=".mp4") as temporary:
+        temporary.write_bytes(b"half")
+        raise RuntimeError("encoder failed")
+    assert target.read_bytes() == b"old" and sorted(p.name for p in tmp_path.iterdir()) == ["clip.mp4"]
+    with atomic_path(target, suffix=".mp4") as temporary:
+        temporary.write_bytes(b"new")
+    assert target.read_bytes() == b"new" and stat.S_IMODE(target.stat().st_mode) == 0o640
+    with atomic_path("/dev/null") as temporary:
+        temporary.write_bytes(b"discarded")
+    assert stat.S_ISCHR(os.lstat("/dev/null").st_mode)

@@ -165,7 +165,7 @@ def _pins(values: list[str]) -> tuple[Any, ...]:
         start, stop = float(match.group(2)), float(match.group(3))
         if not (start <= MAX_SECONDS and stop <= MAX_SECONDS):
             message = f"--pin {value!r}: times must be at most {MAX_SECONDS:g} s"
-            raise MseError([Diagnostic("E214", message, Span("<arguments>"))])
+            raise MseError([Diagnostic("E215", message, Span("<arguments>"))])
         pins.append(Pin(match.group(1), start, stop))
     return tuple(pins)
 

@@ -9,10 +9,6 @@ reader never sees half a video and a failed render replaces nothing.
 
 from __future__ import annotations
 
-import contextlib
-import os
-import shutil
-import tempfile
 from collections.abc import Iterator, Sequence
 from dataclasses import dataclass, field
 from fractions import Fraction
@@ -23,6 +19,7 @@ import numpy as np
 
 from mse.diagnostics import Diagnostic, MseError, Span
 from mse.export.options import ExportOptions
+from mse.fileio import atomic_path, staged_folder
 from mse.timeline import Timeline
 
 if TYPE_CHECKING:
@@ -115,22 +112,13 @@ def write_video(
     check_options(video, fmt)
     times = frame_times(timeline.duration, video.fps)
     frames = painter(timeline, options, video, clips)
-    target = Path(path)
-    target.parent.mkdir(parents=True, exist_ok=True)
-    handle, temporary = tempfile.mkstemp(prefix=f".{target.name}.", suffix=VIDEO_FORMATS[fmt], dir=target.parent)
-    os.close(handle)
-    try:
+    # mse.fileio: the one writer (atomic, mode kept, devices written through, no stray file)
+    with atomic_path(path, suffix=VIDEO_FORMATS[fmt]) as temporary:
         if fmt == "gif":
             samples = [frames.paint(float(t)) for t in times[:: max(1, len(times) // 6)]]
-            _write_gif(iter_frames(frames, times), Path(temporary), video.fps, samples)
+            _write_gif(iter_frames(frames, times), temporary, video.fps, samples)
         else:
-            _encode(iter_frames(frames, times), Path(temporary), fmt, video)
-        os.chmod(temporary, 0o644)
-        os.replace(temporary, target)
-    except BaseException:
-        with contextlib.suppress(FileNotFoundError):
-            os.unlink(temporary)
-        raise
+            _encode(iter_frames(frames, times), temporary, fmt, video)
     return RenderReport(len(times), video.fps, frames.track.notes)
 
 
@@ -148,18 +136,10 @@ def write_frames(
         raise _error("E100", "--frames needs a new or empty folder (nothing is overwritten)", str(target))
     times = frame_times(timeline.duration, video.fps)
     frames = painter(timeline, options, video, clips)
-    target.parent.mkdir(parents=True, exist_ok=True)
-    staging = Path(tempfile.mkdtemp(prefix=f".{target.name}.", dir=target.parent))
-    try:
+    with staged_folder(target) as staging:  # every frame, or none (mse.fileio)
         digits = max(5, len(str(len(times))))
         for index, image in enumerate(iter_frames(frames, times), start=1):
             image.save(staging / f"frame_{index:0{digits}d}.png", compress_level=1)
-        if target.exists():
-            target.rmdir()
-        os.replace(staging, target)
-    except BaseException:
-        shutil.rmtree(staging, ignore_errors=True)
-        raise
     return RenderReport(len(times), video.fps, frames.track.notes)
 
 

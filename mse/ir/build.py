@@ -55,12 +55,12 @@ class _Checker:
         return value
 
     def seconds(self, attributes: dict[str, ast.Attribute], key: str, default: float) -> float:
-        """A duration attribute: a number in [0, MAX_SECONDS] (E204, E214)."""
+        """A duration attribute: a number in [0, MAX_SECONDS] (E204, E215)."""
         value = self.number(attributes, key, default, minimum=0.0)
         attribute = attributes.get(key)
         problem = time_problem(value, minimum=0.0) if attribute is not None and math.isfinite(value) else None
         if attribute is not None and problem is not None:
-            self.error("E214", f"{key}={attribute.value[:60]} {problem}", attribute.span)
+            self.error("E215", f"{key}={attribute.value[:60]} {problem}", attribute.span)
             return default
         return value
 
@@ -283,10 +283,10 @@ class _Resolver:
         return name.text
 
     def ticks(self, value: float, span: Span, what: str) -> int:
-        """Seconds to ms ticks, within the supported range (E214 otherwise)."""
+        """Seconds to ms ticks, within the supported range (E215 otherwise)."""
         problem = time_problem(value)
         if problem is not None:
-            self.checker.error("E214", f"{what} {value:g} {problem} (constraint {self.constraint_id!r})", span)
+            self.checker.error("E215", f"{what} {value:g} {problem} (constraint {self.constraint_id!r})", span)
             return 0
         return to_ticks(value)
 

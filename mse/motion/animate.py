@@ -198,7 +198,7 @@ def _check_limits(timeline: Timeline, model: Model) -> None:
 
     if not timeline.duration <= MAX_ANIMATE_SECONDS:
         message = f"a timeline of {timeline.duration:g} s is too long to animate (at most {MAX_ANIMATE_SECONDS:g} s)"
-        raise MseError([Diagnostic("E214", message, Span("<timeline>"))])
+        raise MseError([Diagnostic("E215", message, Span("<timeline>"))])
     total = 0.0
     for entry in timeline.signals:
         declared = model.signal_by_id.get(entry.id)
@@ -211,7 +211,7 @@ def _check_limits(timeline: Timeline, model: Model) -> None:
                 f"a motion occurrence lasts at most {MAX_MOTION_SECONDS:g} s, and all of a "
                 f"timeline's together at most {MAX_ANIMATE_SECONDS:g} s"
             )
-            raise MseError([Diagnostic("E214", message, declared.motion.span)])
+            raise MseError([Diagnostic("E215", message, declared.motion.span)])
 
 
 def _write_timeline_bvh(out: Path, duration: float, tracks: list[Track]) -> None:

@@ -180,7 +180,7 @@ def read_signal(
             errors.append(Diagnostic("E112", message, where))
             continue
         if native_name.endswith("_duration") and time_problem(number) is not None:
-            errors.append(Diagnostic("E214", f"{greta_name}={text[:60]!r} {time_problem(number)}", where))
+            errors.append(Diagnostic("E215", f"{greta_name}={text[:60]!r} {time_problem(number)}", where))
             continue
         problem = _value_problem(native_name, number)
         if problem is not None:
