@@ -122,11 +122,10 @@ def parse_table(text: str, source: str, where: str) -> dict[str, Action]:
 
 
 def load_table(path: Path) -> dict[str, Action]:
-    try:
-        text = path.read_text(encoding="utf-8")
-    except (OSError, UnicodeDecodeError) as error:
-        reason = getattr(error, "strerror", None) or str(error)
-        raise MseError([Diagnostic("E100", f"cannot read lexeme table: {reason}", Span(str(path)))]) from None
+    from mse.fileio import decode_utf8, read_input
+
+    # Regular files only, size-capped, UTF-8 (mse.fileio: the one reader of files).
+    text = decode_utf8(read_input(path, what="lexeme table"), str(path), what="lexeme table")
     return parse_table(text, path.name, str(path))
 
 
