@@ -425,15 +425,20 @@ def sample(
     schedules = backend.solve(model, request)
     motions = motion_annotations(model)
     source = expression_source(model)
+    # How each timeline was made (the default solver: "walk" or its fallback) and the mode.
+    methods: list[str] = list(getattr(backend, "methods", ()))
     timelines = [
         with_source(
-            from_schedule(
-                schedule,
-                expression=model.name,
-                signal_info=model.signal_info,
-                solver=solver,
-                seed=derive_seed(request.seed, index),
-                motions=motions,
+            replace(
+                from_schedule(
+                    schedule,
+                    expression=model.name,
+                    signal_info=model.signal_info,
+                    solver=solver,
+                    seed=derive_seed(request.seed, index),
+                    motions=motions,
+                ),
+                extra={"mode": request.mode, **({"method": methods[index]} if index < len(methods) else {})},
             ),
             source,
         )

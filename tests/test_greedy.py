@@ -154,24 +154,29 @@ def _stamp_frequencies(model: ir.Model, runs: int) -> list[float]:
     return [c / runs for c in counts]
 
 
-@pytest.mark.parametrize(("start", "end"), [(0.0, 0.6), (0.2, 0.8), (0.5, 0.5), (0.9, 0.1), (0.7, 0.0)])
+@pytest.mark.parametrize(("start", "end"), [(0.0, 0.6), (0.2, 0.8), (0.5, 0.5), (0.9, 0.1), (0.7, 0.0), (0.2, 0.2)])
 def test_start_and_end_frequencies_follow_the_profile(start: float, end: float) -> None:
-    """A signal that occurs once starts in stamp j with probability P * p(t_j) / sum(p), where
-    P = 1 - prod(1 - p(t_j)) (docs/sampler.md): first and last stamps follow p_start, p_end."""
+    """mse/ir/profile.py: a signal that occurs once occurs with probability (start + end) / 2
+    and starts in second j with probability proportional to p at its middle."""
     model = ir.Model("one", (signal("x", probability_start=start, probability_end=end),))
-    profile = [start + (end - start) * j / 9 for j in range(10)]
-    never = 1.0
-    for p in profile:
-        never *= 1 - p
-    expected = [(1 - never) * p / sum(profile) for p in profile]
+    profile = [start + (end - start) * (j + 0.5) / 10 for j in range(10)]
+    occurs = (start + end) / 2
+    expected = [occurs * p / sum(profile) for p in profile]
     observed = _stamp_frequencies(model, 2000)
     assert abs(observed[0] - expected[0]) < 0.03
     assert abs(observed[-1] - expected[-1]) < 0.03
-    assert abs(sum(observed) - (1 - never)) < 0.04
+    assert abs(sum(observed) - occurs) < 0.04
     if start == 0:
-        assert observed[0] == 0
+        assert observed[0] < 0.01
     if end == 0:
-        assert observed[-1] == 0
+        assert observed[-1] < 0.01
+
+
+def test_signals_with_both_probabilities_zero_never_occur() -> None:
+    members = (signal("x", probability_start=0.0, probability_end=0.0, repetitivity=1),
+               signal("y", probability_start=0.0, probability_end=0.0, modality="head"))
+    for schedule in solve(ir.Model("zero", members), duration=30, seed=3, count=50):
+        assert not schedule.occurrences
 
 
 @pytest.mark.parametrize("probability", [0.0, 0.2, 0.5, 0.9])

@@ -33,7 +33,8 @@ def render_table(timeline: Timeline, *, width: int = WIDTH) -> str:
         lanes.setdefault(signal.modality or "?", [])
     name_width = max([len(m) for m in lanes] + [8])
     lines = [
-        f"{timeline.expression}  duration {timeline.duration:g} s  solver {timeline.solver}  seed {timeline.seed}",
+        f"{timeline.expression}  duration {timeline.duration:g} s  solver {timeline.solver}  seed {timeline.seed}"
+        + "".join(f"  {key} {timeline.extra[key]}" for key in ("mode", "method") if key in timeline.extra),
     ]
     labels, ticks = _ruler(duration, width)
     lines.append(" " * (name_width + 2) + labels)

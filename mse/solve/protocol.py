@@ -101,7 +101,8 @@ class Solver(Protocol):
 
 #: name -> "module:Class"; imported only when used.
 BACKENDS: dict[str, str] = {
-    "greedy": "mse.solve.greedy:GreedySolver",
+    "greedy": "mse.solve.default:DefaultSolver",  # the walk, then CP-SAT when it gives up
+    "walk": "mse.solve.greedy:GreedySolver",  # the walk alone (no fallback, no proof)
     "cpsat": "mse.solve.cpsat:CpSatSolver",
     "csp": "mse.solve.csp:CspSolver",
 }

@@ -1,4 +1,4 @@
-"""One attempt of the paper's greedy algorithm (§4.3) on a :class:`Plan`.
+"""One walk of the paper's greedy algorithm (§4.3) on a :class:`Plan`: its state and its moves.
 
 Walk the time stamps t_0 .. t_{n-1}.  At each stamp every available signal is a candidate
 with the probability the table gives it there (owed signals first, with a raised weight);
@@ -7,19 +7,19 @@ candidates are tried in random order.  For a candidate: draw its start in
 draw its stop (triangular, mode at the middle of [min, max]) and check again.  When a drawn
 time fails, the ad-hoc inference computes the exact set of times the instantiated constraints
 allow (critical points, docs/sampler.md) and draws inside it, so equalities and offsets are
-met exactly.  Starts never decrease.  The attempt returns its occurrences; the caller verifies
-them with the full evaluator and restarts when needed.  The walk over the stamps is in
-walk.py; this module holds the state, the checks, placing and the obligations.
+met exactly.  Starts never decrease.  The walk over the stamps (with its checkpoints and
+backtracking) is in walk.py; the obligations (owed signals, their deadlines and
+prerequisites) in debts.py; this module holds the state, the checks and placing.
 """
 
 from __future__ import annotations
 
 import math
 import random
-from collections.abc import Iterable
 
 from mse.ir.schedule import Occurrence
-from mse.solve.greedy.partial import Box, CompiledConstraint
+from mse.solve.greedy.debts import Doomed, latest_start
+from mse.solve.greedy.partial import Box
 from mse.solve.greedy.plan import Plan, SignalPlan
 from mse.solve.greedy.windows import (
     Intervals,
@@ -35,16 +35,12 @@ from mse.solve.greedy.windows import (
 _sqrt = math.sqrt
 
 
-class Doomed(Exception):
-    """An obligation can no longer be met: give up this attempt early."""
-
-
 class Attempt:
-    """The mutable state of one attempt: placed occurrences, frontier, obligations."""
+    """The mutable state of one walk: placed occurrences, frontier, obligations."""
 
     __slots__ = (
         "buckets", "checked", "count", "dead", "env", "forbid", "frontier", "last_stop", "latest",
-        "modality_free", "occurrences", "owing", "plan", "require", "rng", "stamp_low",
+        "modality_free", "needs", "occurrences", "owing", "placements", "plan", "require", "rng", "stamp_low",
     )
 
     def __init__(self, plan: Plan, rng: random.Random, forbid: frozenset[str], require: frozenset[str]) -> None:
@@ -58,11 +54,14 @@ class Attempt:
         self.modality_free: dict[str, int] = {}  # exclusive modality -> when it is free again
         self.frontier = 0
         self.stamp_low = 0  # start of the current stamp
-        self.occurrences: list[Occurrence] = []
+        self.occurrences: list[Occurrence] = []  # placed since the last commit (all, unless streaming)
+        self.placements = 0  # occurrences placed so far: a version number of the state
         self.owing: set[str] = set()  # ids of constraints violated if nothing more occurred
         self.latest: dict[str, int] = {}  # owed signal -> latest start that may pay its debt
+        # owed signal that cannot be placed yet -> the prerequisites it waits for (debts.py)
+        self.needs: dict[str, tuple[str, ...]] = {}
         self.checked: tuple[str, Box, list[str]] | None = None  # last accepted check
-        self.dead: set[str] = set(forbid)  # signals that can no longer be placed in this attempt
+        self.dead: set[str] = set(forbid)  # signals that can no longer be placed in this walk
         # buckets[j]: signals whose next candidacy is at stamp j (see Plan.cumulative)
         self.buckets: list[list[SignalPlan]] = [[] for _ in range(len(plan.stamps) - 1)]
 
@@ -92,6 +91,13 @@ class Attempt:
         if low > high:
             return None
         return (low, high, low + signal.shortest, self.plan.duration)
+
+    def settled(self) -> bool:
+        """Nothing is owed: the placed occurrences, alone, are a consistent timeline."""
+        if self.owing:
+            return False
+        env = self.env
+        return all(env.get(name) for name in self.require)
 
     # -- checking a candidate --------------------------------------------------------------------
     def allows(self, signal: SignalPlan, box: Box) -> bool:
@@ -128,7 +134,7 @@ class Attempt:
         finally:
             boxes.pop()
 
-    def _critical(self, signal: SignalPlan, variable: str, start: int | None) -> list[int]:
+    def critical(self, signal: SignalPlan, variable: str, start: int | None) -> list[int]:
         return critical_points(self.plan.edges[signal.id], self.env, signal, variable, start)
 
     def start_box(self, signal: SignalPlan, start: int) -> Box:
@@ -142,7 +148,7 @@ class Attempt:
         if not self.allows(signal, whole):
             return []
         return feasible(
-            lambda x: self.allows(signal, self.start_box(signal, x)), low, high, self._critical(signal, "start", None)
+            lambda x: self.allows(signal, self.start_box(signal, x)), low, high, self.critical(signal, "start", None)
         )
 
     def try_place(self, signal: SignalPlan, low: int, high: int) -> bool:
@@ -153,7 +159,7 @@ class Attempt:
             return False
         first_start, last_start = self.start_window(signal)
         # Lower bounds only grow (frontier, placed partners) and upper bounds only shrink, so
-        # a signal whose window closed stays out for the rest of the attempt.
+        # a signal whose window closed stays out for the rest of the walk.
         if first_start > last_start or last_start < low:
             self.dead.add(signal.id)
             return False
@@ -191,7 +197,7 @@ class Attempt:
                 window = [(stop, stop)]
             if not self.allows(signal, (start, start, stop, stop)):
                 first, last = start + signal.shortest, min(start + signal.longest, self.plan.duration)
-                points = self._critical(signal, "stop", start)
+                points = self.critical(signal, "stop", start)
 
                 def stop_allowed(y: int) -> bool:
                     return self.allows(signal, (start, start, y, y))
@@ -262,21 +268,23 @@ class Attempt:
             return round(last - half * math.sqrt(2 * (1 - u)))
         return round(first + half * math.sqrt(2 * u))
 
+    # -- placing and taking back -----------------------------------------------------------------
     def commit(self, signal: SignalPlan, start: int, stop: int) -> bool:
         """Place the occurrence unless that leaves an obligation nothing can meet."""
         saved = (
             self.last_stop.get(signal.id), self.modality_free.get(signal.exclusive or ""), self.frontier,
-            self.owing, self.latest,  # both are replaced, never mutated, once saved
+            self.owing, self.latest, self.needs,  # all three are replaced, never mutated, once saved
         )
         try:
             self.place(signal, start, stop)
         except Doomed:
-            last_stop, free, self.frontier, self.owing, self.latest = saved
+            last_stop, free, self.frontier, self.owing, self.latest, self.needs = saved
             self.env[signal.id].pop()
             self.count[signal.id] -= 1
             if signal.id not in self.forbid:
                 self.dead.discard(signal.id)  # it was alive: try_place checked its window
             self.occurrences.pop()
+            self.placements -= 1
             if last_stop is None:
                 del self.last_stop[signal.id]
             else:
@@ -307,6 +315,7 @@ class Attempt:
             self.modality_free[exclusive] = stop if stop > free else free
         self.frontier = start
         self.occurrences.append(Occurrence(start, stop, sid))
+        self.placements += 1
         checked, self.checked = self.checked, None
         constraints = self.plan.by_signal[sid]
         if checked is not None and checked[0] == sid and checked[1] == box:
@@ -327,7 +336,15 @@ class Attempt:
                         else:
                             current.discard(cid)
         else:
-            changed = self.set_owing((c, c.violated(self.env)) for c in constraints)
+            changed = False
+            for compiled in constraints:
+                cid = compiled.id
+                owes = compiled.violated(self.env)
+                if owes != (cid in self.owing):
+                    if not changed:
+                        self.owing = set(self.owing)  # copy on write: commit() keeps the old one
+                        changed = True
+                    (self.owing.add if owes else self.owing.discard)(cid)
         if changed or (self.latest and self.narrows_debts(signal)):
             self.refresh_latest()
 
@@ -335,23 +352,47 @@ class Attempt:
         """Whether placing ``signal`` may have moved the latest start of an owed signal."""
         if any(name in self.latest for name in self.plan.related[signal.id]):
             return True
+        if signal.id in self.needs or any(signal.id in needed for needed in self.needs.values()):
+            return True
         exclusive = signal.exclusive
         return exclusive is not None and any(self.plan.by_id[n].exclusive == exclusive for n in self.latest)
 
-    # -- obligations ---------------------------------------------------------------------------
-    def set_owing(self, verdicts: Iterable[tuple[CompiledConstraint, bool]]) -> bool:
-        """Record which constraints would be violated if nothing more occurred; True if the
-        set changed."""
-        changed = False
-        for compiled, owes in verdicts:
-            cid = compiled.id
-            if owes != (cid in self.owing):
-                if not changed:
-                    self.owing = set(self.owing)  # copy on write: commit() keeps the old one
-                changed = True
-                (self.owing.add if owes else self.owing.discard)(cid)
-        return changed
+    def truncate(self, kept: int, frontier: int, owing: frozenset[str]) -> None:
+        """Take back every occurrence after the first ``kept`` of :attr:`occurrences` (a
+        checkpoint of walk.py): the state is as it was when they were the whole timeline."""
+        taken = self.occurrences[kept:]
+        del self.occurrences[kept:]
+        self.placements -= len(taken)
+        touched: set[str] = set()
+        for occurrence in reversed(taken):
+            sid = occurrence.signal
+            self.env[sid].pop()
+            self.count[sid] -= 1
+            touched.add(sid)
+        modalities: set[str] = set()
+        for sid in touched:
+            boxes = self.env[sid]
+            if boxes:
+                self.last_stop[sid] = boxes[-1][2]
+            else:
+                del self.env[sid]
+                del self.count[sid]
+                self.last_stop.pop(sid, None)
+            exclusive = self.plan.by_id[sid].exclusive
+            if exclusive is not None:
+                modalities.add(exclusive)
+        for modality in modalities:
+            stops = [self.last_stop[s.id] for s in self.plan.in_modality[modality] if s.id in self.last_stop]
+            if stops:
+                self.modality_free[modality] = max(stops)
+            else:
+                self.modality_free.pop(modality, None)
+        self.frontier = frontier
+        self.owing = set(owing)
+        self.latest, self.needs, self.checked = {}, {}, None
+        self.dead = set(self.forbid) | {s.id for s in self.plan.signals if self.count.get(s.id, 0) >= s.limit}
 
+    # -- obligations (docs/sampler.md, "Obligations that only the end settles") ------------------
     def owed_signals(self) -> set[str]:
         owed = {s for s in self.require if not self.env.get(s)}
         owing = self.owing
@@ -364,33 +405,96 @@ class Attempt:
 
     def refresh_latest(self) -> None:
         """Latest useful start of every owed signal (the ad-hoc inference over the rest of
-        the timeline); raise :class:`Doomed` when some debt can no longer be paid."""
-        previous, self.latest = self.latest, {}
+        the timeline) and of the prerequisites an owed signal waits for; raise
+        :class:`Doomed` when some debt can no longer be paid."""
+        previous, self.latest, self.needs = self.latest, {}, {}
+        plan = self.plan
         boxes: dict[str, Box] = {}
-        for name in sorted(self.owed_signals()):
-            signal = self.plan.by_id[name]
+        caps: dict[str, int] = {}  # prerequisite -> latest start of what waits for it
+        pending = sorted(self.owed_signals())
+        visits = 0
+        while pending and visits < 4 * len(plan.signals):
+            name = pending.pop(0)
+            visits += 1
+            signal = plan.by_id[name]
             if not self.can_add(signal):
                 continue
             low, high = self.start_window(signal)
             low = max(low, self.stamp_low)  # no start before the current stamp any more
+            high = min(high, caps.get(name, high))
             if low > high:
                 continue
-            check = lambda x: self.allows(signal, self.start_box(signal, x))  # noqa: B023, E731
-            points = lambda: self._critical(signal, "start", None)  # noqa: B023, E731
-            # Placements rarely move a latest start later: probe below the previous one first,
-            # and search the whole rest only when that finds nothing.
-            bound = previous.get(name, high)
-            latest = latest_feasible(check, low, min(bound, high), points) if low <= bound else None
-            if latest is None and bound < high:
-                latest = latest_feasible(check, max(low, bound + 1), high, points)
+            latest = latest_start(
+                lambda x: self.allows(signal, self.start_box(signal, x)),  # noqa: B023
+                lambda: self.critical(signal, "start", None),  # noqa: B023
+                low, high, previous.get(name, high),
+            )
+            if latest is None:
+                # It cannot be placed now; perhaps once other signals are placed before it
+                # (``exists(a) and precedes(a, b)`` with b owed): those become owed too, due
+                # before it.
+                found = self.prerequisites(signal, low, high)
+                if found is not None:
+                    latest, needed = found
+                    self.needs[name] = needed
+                    for other in needed:
+                        if caps.get(other, high + 1) > latest:
+                            caps[other] = latest
+                            pending.append(other)
             if latest is not None:
                 self.latest[name] = latest
-                boxes[name] = (low, latest, low + signal.shortest, self.plan.duration)
+                boxes[name] = (low, latest, low + signal.shortest, plan.duration)
         owing = self.owing
-        for compiled in self.plan.constraints if owing else ():
+        for compiled in plan.constraints if owing else ():
             # Doomed unless the signals that can still start may, together, pay this debt.
             if compiled.id in owing and not compiled.in_other_world(self.env, boxes):
                 raise Doomed(compiled.id)
         for name in self.require:
             if not self.env.get(name) and name not in self.latest:
                 raise Doomed(f"require {name}")
+
+    def prerequisites(self, signal: SignalPlan, low: int, high: int) -> tuple[int, tuple[str, ...]] | None:
+        """The latest start in [low, high] at which ``signal`` could be placed if some other
+        signals were placed before it (from ``low`` on), and those signals; None if none."""
+        def needed_at(x: int) -> tuple[str, ...] | None:
+            box = self.start_box(signal, x)
+            boxes = self.env.setdefault(signal.id, [])
+            boxes.append(box)
+            try:
+                found: set[str] = set()
+                for compiled in self.plan.by_signal[signal.id]:
+                    if compiled.acceptable(self.env):
+                        continue
+                    optional: dict[str, Box] = {}
+                    strict: dict[str, Box] = {}
+                    for name in compiled.mentioned:
+                        other = self.plan.by_id[name]
+                        early = self.future_box(other, low, None)
+                        if early is not None and name != signal.id:
+                            optional[name] = early
+                        late = self.future_box(other, x, (signal, x))
+                        if late is not None:
+                            strict[name] = late
+                    world = compiled.accepting_world(self.env, optional)
+                    if world is None:
+                        return None
+                    for name in world:
+                        # a signal that may as well come after the candidate is no prerequisite
+                        trial = {n: optional[n] for n in world if n != name}
+                        if name in strict:
+                            trial[name] = strict[name]
+                        if not compiled.accepts_world(self.env, trial):
+                            found.add(name)
+                return tuple(sorted(found))
+            finally:
+                boxes.pop()
+                if not boxes:
+                    del self.env[signal.id]
+
+        latest = latest_feasible(
+            lambda x: bool(needed_at(x)), low, high, lambda: self.critical(signal, "start", None)
+        )
+        if latest is None:
+            return None
+        needed = needed_at(latest)
+        return (latest, needed) if needed else None

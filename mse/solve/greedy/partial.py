@@ -32,8 +32,8 @@ Box = tuple[int, int, int, int]
 Env = Mapping[str, Sequence[Box]]
 Node = Callable[[Env], int]
 
-#: Worlds are enumerated over at most this many optional signals per constraint; a
-#: constraint naming more optional signals is accepted unchecked (the final check decides).
+#: Worlds are enumerated over at most this many optional signals per constraint; for more,
+#: a search pruned by a lifted evaluation looks for one (``CompiledConstraint._search``).
 MAX_WORLD_SIGNALS = 5
 
 
@@ -267,14 +267,60 @@ def _acceptance(triggers: tuple[str, ...], node: Node) -> Callable[[Env], bool |
     return acceptable
 
 
+def _lift(expr: ir.Expr, duration: int) -> Callable[[Env, Mapping[str, Box]], int]:
+    """Like :func:`compile_expr`, for a state where each signal of ``maybe`` may or may not
+    get one more occurrence (its box), independently per atom: the union of the atom's
+    values over its own worlds.  Sound (every world's value is included) but it forgets the
+    correlation between atoms, so it is only used to prune the search over worlds."""
+    if isinstance(expr, ir.Exists):
+        name = expr.signal
+        return lambda env, maybe: T if env.get(name) else (T | F if name in maybe else F)
+    if isinstance(expr, ir.Relation | ir.Compare):
+        exact, names = compile_expr(expr, duration), tuple(dict.fromkeys(ir.atom_signals(expr)))
+
+        def atom(env: Env, maybe: Mapping[str, Box]) -> int:
+            relevant = [name for name in names if name in maybe]
+            if not relevant:
+                return exact(env)
+            local: dict[str, Sequence[Box]] = {name: env.get(name) or () for name in names}
+            mask = 0
+            for bits in range(1 << len(relevant)):
+                for index, name in enumerate(relevant):
+                    base = env.get(name) or ()
+                    local[name] = [*base, maybe[name]] if bits >> index & 1 else base
+                mask |= exact(local)
+            return mask
+
+        return atom
+    if isinstance(expr, ir.Not):
+        inner = _lift(expr.operand, duration)
+        return lambda env, maybe: NOT_TABLE[inner(env, maybe)]
+    if isinstance(expr, ir.Implies):
+        premise, conclusion = _lift(expr.left, duration), _lift(expr.right, duration)
+        return lambda env, maybe: IMPLIES_TABLE[premise(env, maybe) << 3 | conclusion(env, maybe)]
+    parts = [_lift(e, duration) for e in ir.children(expr)]
+    combine = mask_and if isinstance(expr, ir.And) else mask_or
+    return lambda env, maybe: combine([part(env, maybe) for part in parts])
+
+
+#: Nodes of the search over worlds of one check (constraints naming more than
+#: MAX_WORLD_SIGNALS optional signals); past it the state is accepted (sound, not exact).
+WORLD_BUDGET = 256
+
+
+class _OutOfBudget(Exception):
+    pass
+
+
 class CompiledConstraint:
     """One constraint, compiled for a timeline of ``duration`` ms."""
 
-    __slots__ = ("acceptable", "constraint", "id", "mentioned", "node", "triggers")
+    __slots__ = ("_lifted", "acceptable", "constraint", "duration", "id", "mentioned", "node", "triggers")
 
     def __init__(self, constraint: ir.Constraint, duration: int) -> None:
         self.constraint = constraint
         self.id = constraint.id
+        self.duration = duration
         self.node = compile_expr(constraint.expr, duration)
         self.triggers = tuple(sorted(constraint.triggers))
         self.mentioned = tuple(sorted(ir.mentioned_signals(constraint.expr)))
@@ -282,6 +328,7 @@ class CompiledConstraint:
         #: (not surely false); true or false in the sense of ``if``.  A closure rather than
         #: a method: it is the hottest call.
         self.acceptable = _acceptance(self.triggers, self.node)
+        self._lifted: Callable[[Env, Mapping[str, Box]], int] | None = None
 
     def violated(self, env: Env) -> bool:
         """On a complete timeline (points only): exactly :func:`mse.ir.evaluate.is_violated`."""
@@ -298,7 +345,10 @@ class CompiledConstraint:
         if not names:
             return False
         if len(names) > MAX_WORLD_SIGNALS:
-            return True
+            try:
+                return self._search(env, optional, names) is not None
+            except _OutOfBudget:
+                return True  # undecided: accept (the final check decides)
         # One copy of the environment, each world setting the named signals' entries in it.
         world = dict(env)
         extended = [[*env.get(name, ()), optional[name]] for name in names]
@@ -313,3 +363,66 @@ class CompiledConstraint:
             if self.acceptable(world):
                 return True
         return False
+
+    def accepts_world(self, env: Env, present: Mapping[str, Box]) -> bool:
+        """The one world where exactly the signals of ``present`` get one more occurrence."""
+        world = dict(env)
+        for name, box in present.items():
+            world[name] = [*env.get(name, ()), box]
+        return bool(self.acceptable(world))
+
+    def accepting_world(self, env: Env, optional: Mapping[str, Box]) -> tuple[str, ...] | None:
+        """The signals of an acceptable world other than "nothing more occurs", as few as
+        possible (exactly the fewest up to MAX_WORLD_SIGNALS optional signals); None when
+        no world is acceptable or the search ran out of budget."""
+        names = [s for s in self.mentioned if s in optional]
+        if len(names) > MAX_WORLD_SIGNALS:
+            try:
+                return self._search(env, optional, names)
+            except _OutOfBudget:
+                return None
+        for bits in sorted(range(1, 1 << len(names)), key=lambda b: (bin(b).count("1"), b)):
+            present = {name: optional[name] for index, name in enumerate(names) if bits >> index & 1}
+            if self.accepts_world(env, present):
+                return tuple(present)
+        return None
+
+    def _search(self, env: Env, optional: Mapping[str, Box], names: Sequence[str]) -> tuple[str, ...] | None:
+        """Depth-first search over the worlds of ``names`` (absent first), pruned by the lifted
+        evaluation: a partial choice whose lifted value cannot be acceptable is abandoned."""
+        if self._lifted is None:
+            self._lifted = _lift(self.constraint.expr, self.duration)
+        lifted, triggers = self._lifted, self.triggers
+        world = dict(env)
+        present: list[str] = []
+        budget = [WORLD_BUDGET]
+
+        def may_accept(maybe: Mapping[str, Box]) -> bool:
+            if triggers and not any(world.get(t) for t in triggers):
+                return True  # the world where every maybe trigger stays absent ignores it
+            return bool(lifted(world, maybe) & (T | N))
+
+        def visit(index: int) -> tuple[str, ...] | None:
+            budget[0] -= 1
+            if budget[0] < 0:
+                raise _OutOfBudget
+            if index == len(names):
+                return tuple(present) if present and self.acceptable(world) else None
+            if not may_accept({name: optional[name] for name in names[index:]}):
+                return None
+            name = names[index]
+            found = visit(index + 1)
+            if found is not None:
+                return found
+            saved = world.get(name)
+            world[name] = [*(saved or ()), optional[name]]
+            present.append(name)
+            found = visit(index + 1)
+            present.pop()
+            if saved is None:
+                del world[name]
+            else:
+                world[name] = saved
+            return found
+
+        return visit(0)

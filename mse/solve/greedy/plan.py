@@ -9,20 +9,19 @@ signal and another time, the offset and tolerance that say where its truth may c
 
 from __future__ import annotations
 
+import itertools
 import math
 import weakref
 from collections.abc import Sequence
 from typing import NamedTuple
 
 from mse.ir import model as ir
+from mse.ir.profile import RATE_UNIT
 from mse.ir.schedule import to_ticks
 from mse.solve.greedy.partial import CompiledConstraint
 
 #: Default length of a time stamp in seconds (the original implementation's ~1 s).
 DEFAULT_SLOT = 1.0
-
-#: Stamps of the paper's reference animation (about 10 s in stamps of about 1 s).
-REFERENCE_STAMPS = 10
 
 #: How often a repetitive signal may occur when the model sets no limit: more than fits.
 UNBOUNDED = 1 << 30
@@ -80,7 +79,7 @@ class Plan:
 
     __slots__ = (
         "bounds", "by_id", "by_signal", "constraints", "cumulative", "duration", "edges", "fixed",
-        "initial_owing", "partner_bounds", "related", "signals", "stamps", "table",
+        "in_modality", "initial_owing", "partner_bounds", "related", "signals", "stamps", "table",
     )
 
     def __init__(
@@ -104,6 +103,11 @@ class Plan:
         self.cumulative = tuple(_cumulative([row[s.index] for row in table]) for s in signals)
         self.signals = signals
         self.by_id = {s.id: s for s in signals}
+        in_modality: dict[str, list[SignalPlan]] = {}
+        for signal in signals:
+            if signal.exclusive is not None:
+                in_modality.setdefault(signal.exclusive, []).append(signal)
+        self.in_modality = {name: tuple(members) for name, members in in_modality.items()}
         self.constraints = constraints
         # Constraints violated while nothing is placed (every attempt starts owing them).
         self.initial_owing = frozenset(c.id for c in constraints if c.violated({}))
@@ -281,34 +285,37 @@ def _signal_plan(index: int, signal: ir.Signal, duration: int, exclusive: frozen
     )
 
 
-def _occurs(signal: SignalPlan) -> float:
-    """Probability that a signal occurring once is a candidate at all: as in a walk of
-    REFERENCE_STAMPS stamps (the paper's ~10 s at ~1 s) where it is a candidate at each stamp
-    with the table's probability."""
-    never = 1.0
-    for i in range(REFERENCE_STAMPS):
-        position = i / (REFERENCE_STAMPS - 1)
-        never *= 1.0 - (signal.probability_start + (signal.probability_end - signal.probability_start) * position)
-    return 1.0 - never
+def _profile(signal: SignalPlan, stamps: Sequence[int], duration: int) -> list[float]:
+    """``p(u)`` at the middle of every stamp (mse.ir.profile: the straight line over u = t / D)."""
+    start, end = signal.probability_start, signal.probability_end
+    return [
+        min(1.0, max(0.0, start + (end - start) * ((first + last) / 2) / duration))
+        for first, last in itertools.pairwise(stamps)
+    ]
 
 
-def _hazards(profile: list[float], repetitive: bool, slot: float, occurs: float) -> list[float]:
-    """Per-stamp probability that a still available signal is a candidate (docs/sampler.md).
+def _hazards(signal: SignalPlan, stamps: Sequence[int], duration: int) -> list[float]:
+    """Per-stamp probability that a still available signal is a candidate (mse/ir/profile.py,
+    docs/sampler.md).
 
-    Repetitive signals: the table value itself (scaled down for stamps shorter than the
-    default slot, so the rate per second does not depend on the slot).  Signals that occur
-    once: the hazard that makes "starts in stamp j" have probability occurs * p(t_j) / sum(p),
-    so the start follows the profile over the whole span, whatever the duration, instead of
-    being used up in the first seconds (``occurs``: see :func:`_occurs`)."""
-    if repetitive:
-        scale = min(1.0, slot / DEFAULT_SLOT)
-        return [scale * p for p in profile]
-    count, total = len(profile), sum(profile)
+    Repetitive signals: ``1 - (1 - p(u))^(stamp length in seconds)``, so that a free second
+    holds a start with probability ``p(u)`` whatever the stamp length.  Signals that occur
+    once: the hazard that makes "starts in stamp j" have probability
+    ``occurrence_probability * mass_j`` where ``mass_j`` is the stamp's share of the integral
+    of ``p(u)`` (the start density is proportional to the profile over the whole span)."""
+    profile = _profile(signal, stamps, duration)
+    lengths = [last - first for first, last in itertools.pairwise(stamps)]
+    if signal.limit > 1:
+        unit = RATE_UNIT * 1000
+        return [1.0 - (1.0 - p) ** (length / unit) for p, length in zip(profile, lengths, strict=True)]
+    masses = [p * length for p, length in zip(profile, lengths, strict=True)]
+    total = sum(masses)
     if total <= 0:
-        return [0.0] * count
+        return [0.0] * len(masses)
+    occurs = min(1.0, (signal.probability_start + signal.probability_end) / 2)  # occurrence_probability
     hazards, used = [], 0.0
-    for p in profile:
-        share = occurs * p / total
+    for mass in masses:
+        share = occurs * mass / total
         left = 1.0 - used
         hazards.append(min(1.0, share / left) if left > 1e-12 else 0.0)
         used += share
@@ -320,12 +327,7 @@ def build_plan(model: ir.Model, duration: int, slot: float, with_constraints: bo
     count = max(1, round(duration / max(1, to_ticks(slot))))
     stamps = tuple(round(j * duration / count) for j in range(count + 1))
     signals = tuple(_signal_plan(i, s, duration, model.exclusive_modalities) for i, s in enumerate(model.signals))
-    profiles = [
-        [s.probability_start + (s.probability_end - s.probability_start) * (j / (count - 1) if count > 1 else 0.0)
-         for j in range(count)]
-        for s in signals
-    ]
-    columns = [_hazards(profile, s.limit > 1, slot, _occurs(s)) for s, profile in zip(signals, profiles, strict=True)]
+    columns = [_hazards(s, stamps, duration) for s in signals]
     table = tuple(tuple(column[j] for column in columns) for j in range(count))
     constraints = (
         tuple(CompiledConstraint(c, duration) for c in model.constraints) if with_constraints else ()

@@ -1,9 +1,10 @@
 """The paper's greedy stochastic sampler (§4.3) behind the solver protocol: ``--solver greedy``.
 
-Every returned schedule is verified with :func:`mse.ir.evaluate.check_schedule`; an attempt
-that fails is restarted (the same seeded random stream continues, so the result depends on the
-seed alone), at most ``request.max_restarts`` times, then :class:`NoSolution` names the
-constraints that were never met.  ``mode="constraint-less"`` is the paper's control
+Every returned schedule is verified with :func:`mse.ir.evaluate.check_schedule`.  A walk that
+paints itself into a corner backtracks to its last checkpoint (walk.py; the same seeded random
+stream continues, so the result depends on the seed alone), at most ``request.max_restarts``
+times without getting further, then :class:`NoSolution` (not a proof) names the constraints
+that were never met.  ``mode="constraint-less"`` is the paper's control
 condition (§5.3): same signals, durations and probability profiles, constraints ignored, and
 every returned timeline violates at least one constraint.  Imports nothing heavy.
 """
@@ -18,9 +19,10 @@ from mse.diagnostics import Diagnostic, MseError, Span
 from mse.ir import model as ir
 from mse.ir.evaluate import check_schedule
 from mse.ir.schedule import Occurrence, Schedule, to_ticks
-from mse.solve.greedy.engine import Attempt, Doomed
-from mse.solve.greedy.plan import DEFAULT_SLOT, plan_for
-from mse.solve.greedy.walk import walk
+from mse.solve.greedy.debts import Doomed
+from mse.solve.greedy.engine import Attempt
+from mse.solve.greedy.plan import DEFAULT_SLOT, Plan, plan_for
+from mse.solve.greedy.walk import OutOfBudget, walk, walk_steps
 from mse.solve.protocol import NoSolution, SolveRequest, derive_seed
 
 
@@ -28,7 +30,7 @@ def _error(message: str) -> MseError:
     return MseError([Diagnostic("E100", message, Span("<arguments>"))])
 
 
-def _validate(model: ir.Model, request: SolveRequest) -> None:
+def validate(model: ir.Model, request: SolveRequest) -> None:
     if not request.duration > 0 or to_ticks(request.duration) < 1:
         raise _error(f"duration must be a positive number of seconds, not {request.duration!r}")
     if request.slot is not None and not request.slot > 0:
@@ -53,77 +55,101 @@ def _validate(model: ir.Model, request: SolveRequest) -> None:
 
 
 class GreedySolver:
-    """``name = "greedy"``: streaming, seeded, constraint-less control mode."""
+    """The walk alone (``name = "walk"``): streaming, seeded, constraint-less control mode.
 
-    name = "greedy"
+    ``mse sample`` and ``api.sample`` use :class:`mse.solve.default.DefaultSolver` (name
+    ``greedy``), which runs this walk and falls back to a complete solver when it fails."""
+
+    name = "walk"
     supports = frozenset({"stream", "constraint-less", "require", "forbid"})
 
     def __init__(self) -> None:
-        #: Attempts and restarts of the last :meth:`solve` (the bench reads them).
+        #: Walks and backtracks of the last :meth:`solve` (the bench reads them).
         self.attempts = 0
         self.restarts = 0
 
     def solve(self, model: ir.Model, request: SolveRequest) -> list[Schedule]:
-        _validate(model, request)
+        validate(model, request)
         self.attempts = self.restarts = 0
-        return [self._one(model, request, derive_seed(request.seed, i)) for i in range(request.count)]
+        return [self.one(model, request, derive_seed(request.seed, i)) for i in range(request.count)]
 
     def stream(self, model: ir.Model, request: SolveRequest) -> Iterator[Occurrence]:
-        """The occurrences of one timeline, in the order the sampler decided them (start
-        order).  The whole timeline is decided and verified before the first one is yielded
-        (a few hundred microseconds): a consumer can never be handed an occurrence that a
-        restart would take back."""
-        _validate(model, request)
-        schedule = self._one(model, request, derive_seed(request.seed, 0))
-        yield from sorted(schedule.occurrences)
+        """The occurrences of one timeline in start order, each batch handed out as soon as
+        the walk reaches a checkpoint: the occurrences before it are, alone, a consistent
+        timeline, so no later failure takes them back (the walk never backtracks past it)."""
+        validate(model, request)
+        seed = derive_seed(request.seed, 0)
+        if request.mode == "constraint-less":
+            yield from sorted(self.one(model, request, seed).occurrences)
+            return
+        _, attempt = self._attempt(model, request, seed)
+        self.attempts, backtracks = 1, [0]
+        try:
+            steps = walk_steps(attempt, request.max_restarts, stream=True, backtracks=backtracks)
+            while True:
+                try:
+                    batch = next(steps)
+                except StopIteration as done:
+                    yield from sorted(done.value)
+                    return
+                yield from sorted(batch)
+        except (Doomed, OutOfBudget) as failure:
+            raise self._failure(model, request, seed, _reasons(failure)) from None
+        finally:
+            self.restarts = backtracks[0]
 
     # -- one timeline -----------------------------------------------------------------------------
-    def _one(self, model: ir.Model, request: SolveRequest, seed: int) -> Schedule:
+    def _attempt(self, model: ir.Model, request: SolveRequest, seed: int) -> tuple[Plan, Attempt]:
         duration = to_ticks(request.duration)
         slot = request.slot if request.slot is not None else DEFAULT_SLOT
         free = request.mode == "constraint-less"
         plan = plan_for(model, duration, slot, with_constraints=not free)
-        rng = random.Random(seed)
-        forbid, require = frozenset(request.forbid), frozenset(request.require)
+        attempt = Attempt(plan, random.Random(seed), frozenset(request.forbid), frozenset(request.require))
+        return plan, attempt
+
+    def one(self, model: ir.Model, request: SolveRequest, seed: int) -> Schedule:
+        """One timeline of the walk for ``seed``; :class:`NoSolution` (not a proof) when the
+        walk fails ``request.max_restarts`` times without getting further."""
+        plan, attempt = self._attempt(model, request, seed)
+        free = request.mode == "constraint-less"
+        rng = attempt.rng
+        forbid, require = attempt.forbid, attempt.require
         unmet: Counter[str] = Counter()
-        for attempt in range(request.max_restarts + 1):
+        # The walk backtracks by itself; a new walk starts only in constraint-less mode (a prior
+        # sample that violates nothing) or after a sampler bug caught by the final check.
+        for fresh in range(request.max_restarts + 1 if free else 3):
+            if fresh:
+                attempt = Attempt(plan, rng, forbid, require)
             self.attempts += 1
-            self.restarts += attempt > 0
+            backtracks = [0]
             try:
-                occurrences = walk(Attempt(plan, rng, forbid, require))
-            except Doomed as doomed:
-                unmet[str(doomed)] += 1
-                continue
-            schedule = Schedule.of(duration, occurrences)
+                occurrences = walk(attempt, request.max_restarts, backtracks)
+            except (Doomed, OutOfBudget) as failure:
+                self.restarts += backtracks[0]
+                unmet.update(_reasons(failure))
+                break
+            self.restarts += backtracks[0] + (fresh > 0)
+            schedule = Schedule.of(plan.duration, occurrences)
             violations = check_schedule(model, schedule)
-            if not violations and not require and not free:
-                return schedule  # the usual case, decided as below without the bookkeeping
+            if not violations and not free:
+                return schedule  # the usual case
             structural = [v for v in violations if v.kind != "constraint"]
-            # The engine builds structure correctly by construction; a structural violation
-            # would be a sampler bug, and is never returned either.
-            if structural:
+            if structural:  # built correctly by construction: this would be a sampler bug
                 unmet.update(v.kind for v in structural)
-                continue
-            missing = sorted(require - {o.signal for o in occurrences})
-            if missing:
-                unmet.update(f"require {name}" for name in missing)
                 continue
             if free:
                 if violations:
                     return schedule
                 unmet["(every constraint held)"] += 1
                 continue
-            if not violations:
-                return schedule
             unmet.update(v.constraint or v.kind for v in violations)
         raise self._failure(model, request, seed, unmet)
 
     def _failure(self, model: ir.Model, request: SolveRequest, seed: int, unmet: Counter[str]) -> NoSolution:
-        attempts = request.max_restarts + 1
         what = "timeline violating a constraint" if request.mode == "constraint-less" else "consistent timeline"
         head = (
-            f"greedy sampler found no {what} of {request.duration:g} s for {model.name!r} "
-            f"in {attempts} attempt(s) (seed {seed})"
+            f"the greedy walk found no {what} of {request.duration:g} s for {model.name!r} "
+            f"(seed {seed}, {request.max_restarts} backtracks without progress)"
         )
         by_id = {c.id: c for c in model.constraints}
         diagnostics: list[Diagnostic] = []
@@ -138,5 +164,12 @@ class GreedySolver:
         summary = f"{head}; unmet: {', '.join(reasons) or 'nothing recorded'}"
         if not diagnostics:
             diagnostics.append(Diagnostic("W401", summary, Span(model.path)))
-        hint = " (try --solver cpsat, which can prove whether a timeline exists)"
+        hint = " (--solver cpsat can prove whether a timeline exists)"
         return NoSolution(diagnostics, proven=False, reason=summary + hint)
+
+
+def _reasons(failure: Exception) -> Counter[str]:
+    if isinstance(failure, OutOfBudget):
+        return failure.unmet
+    return Counter([str(failure)])
+

@@ -1,21 +1,31 @@
-"""The walk over the time stamps of one attempt (paper §4.3), on an :class:`Attempt`.
+"""The walk over the time stamps (paper §4.3) on an :class:`Attempt`, with checkpoints.
 
 At each stamp t_j the candidates are the owed signals (first, each with the larger of the
 table's probability and 1 / the stamps left before its deadline) and the signals whose next
 candidacy falls at this stamp (drawn ahead from the cumulative hazard, :func:`schedule`), in
 random order.  Each is tried once per state with :meth:`Attempt.try_place`; a placement that
-opens an owed signal's window tries that one again at once.  Split from engine.py,
-which holds the checks and the bookkeeping.
+opens an owed signal's window tries that one again at once.
+
+A *checkpoint* is the start of a stamp where nothing is owed: the occurrences placed so far
+are, alone, a consistent timeline, so the walk can always be completed from there (by adding
+nothing).  When the walk paints itself into a corner (an obligation can no longer be met, or
+the end is reached with a debt), it goes back to the last checkpoint and walks on from there
+with fresh draws (bounded backtracking); a checkpoint that failed ``RETRIES_PER_CHECKPOINT``
+times is dropped for the one before it.  When streaming, every checkpoint *commits*: the
+occurrences before it are handed out, and the walk never goes back past it
+(docs/sampler.md, "Streaming").
 """
 
 from __future__ import annotations
 
 import bisect
 import math
-from collections.abc import Callable
+from collections import Counter
+from collections.abc import Callable, Generator
 from typing import TYPE_CHECKING
 
 from mse.ir.schedule import Occurrence
+from mse.solve.greedy.debts import Doomed
 from mse.solve.greedy.plan import SignalPlan
 
 if TYPE_CHECKING:
@@ -24,6 +34,33 @@ if TYPE_CHECKING:
 # bound once: the walk calls them tens of thousands of times per second
 _log = math.log
 _bisect_right = bisect.bisect_right
+
+#: Failures from one checkpoint before the walk goes back to the one before it.
+RETRIES_PER_CHECKPOINT = 3
+#: A walk fails for good after ``budget`` failures without getting further than before, or
+#: after this many times ``budget + 1`` failures in all.
+TOTAL_FACTOR = 4
+#: Checkpoints kept (older ones are forgotten: going back that far is a fresh start anyway).
+KEPT_CHECKPOINTS = 8
+
+
+class OutOfBudget(Exception):
+    """The walk failed ``budget + 1`` times: ``unmet`` counts why (constraint ids, requires)."""
+
+    def __init__(self, unmet: Counter[str]) -> None:
+        super().__init__(", ".join(unmet))
+        self.unmet = unmet
+
+
+class Checkpoint:
+    __slots__ = ("failures", "frontier", "kept", "owing", "stamp")
+
+    def __init__(self, stamp: int, kept: int, frontier: int, owing: frozenset[str]) -> None:
+        self.stamp = stamp  # the stamp the walk resumes at
+        self.kept = kept  # occurrences of Attempt.occurrences kept
+        self.frontier = frontier
+        self.owing = owing
+        self.failures = 0
 
 
 def _shuffle(getrandbits: Callable[[int], int], items: list[SignalPlan]) -> None:
@@ -39,67 +76,156 @@ def _shuffle(getrandbits: Callable[[int], int], items: list[SignalPlan]) -> None
         items[i], items[j] = items[j], items[i]
 
 
-def walk(attempt: Attempt) -> list[Occurrence]:
-    """The occurrences of one attempt (:class:`Doomed` when an obligation cannot be met)."""
-    plan, rng = attempt.plan, attempt.rng
-    # Bound once (the same objects all attempt long): this loop is the hot path.
-    dead, buckets, occurrences = attempt.dead, attempt.buckets, attempt.occurrences
-    try_place = attempt.try_place
-    random_draw, cumulative_of, last_stamp = rng.random, plan.cumulative, len(buckets)
-    for signal in plan.signals:
-        if signal.id not in dead and last_stamp:
-            # schedule(signal, 0), inlined: once per signal and attempt
-            cumulative = cumulative_of[signal.index]
-            after = _bisect_right(cumulative, cumulative[0] - _log(1.0 - random_draw()), 1)
-            if after <= last_stamp:
-                buckets[after - 1].append(signal)
-    if plan.initial_owing:  # what an empty timeline violates, computed once per plan
-        attempt.owing = set(plan.initial_owing)
+def walk(attempt: Attempt, budget: int = 0, backtracks: list[int] | None = None) -> list[Occurrence]:
+    """The occurrences of one walk, backtracking at most ``budget`` times without progress
+    (:class:`OutOfBudget` past that)."""
+    steps = walk_steps(attempt, budget, stream=False, backtracks=backtracks)
+    while True:
+        try:
+            next(steps)
+        except StopIteration as done:
+            result: list[Occurrence] = done.value
+            return result
+
+
+def walk_steps(
+    attempt: Attempt, budget: int, *, stream: bool, backtracks: list[int] | None = None
+) -> Generator[list[Occurrence], None, list[Occurrence]]:
+    """The walk as a generator.  With ``stream``, yields the occurrences committed at each
+    checkpoint (in start order) and returns the last ones; when the budget runs out after a
+    commit, it ends the timeline at the last commit (consistent) instead of failing.
+    ``backtracks`` (a one-element list) counts the backtracks, for the caller's statistics."""
+    plan = attempt.plan
+    last_stamp = len(plan.stamps) - 1
+    attempt.owing = set(plan.initial_owing)  # what an empty timeline violates, once per plan
+    start_candidacies(attempt, 0)
     if plan.initial_owing or attempt.require:
-        attempt.refresh_latest()
+        attempt.refresh_latest()  # Doomed here: no walk can pay (the caller falls back)
+    checkpoints = [Checkpoint(0, 0, 0, frozenset(plan.initial_owing))]
+    committed = False  # the bottom checkpoint was committed (streaming): never go back past it
+    unmet: Counter[str] = Counter()
+    failures = total = 0  # since the walk last got further than ever before; in all
+    furthest = 0
+    j = 0
+    resume: Checkpoint | None = None
+    while True:
+        try:
+            if resume is not None:
+                j, checkpoint, resume = resume.stamp, resume, None
+                attempt.truncate(checkpoint.kept, checkpoint.frontier, checkpoint.owing)
+                attempt.stamp_low = plan.stamps[j]
+                start_candidacies(attempt, j)
+                if attempt.owing or attempt.require:
+                    attempt.refresh_latest()
+            while j < last_stamp:
+                if not attempt.owing and j > checkpoints[-1].stamp and attempt.settled():
+                    if stream and attempt.occurrences:
+                        yield attempt.occurrences[:]
+                        del attempt.occurrences[:]
+                        checkpoints = []
+                        committed = True
+                    checkpoints.append(Checkpoint(j, len(attempt.occurrences), attempt.frontier, frozenset()))
+                    if j > furthest:
+                        furthest, failures = j, 0
+                    if len(checkpoints) > KEPT_CHECKPOINTS:
+                        del checkpoints[1 if committed else 0]
+                walk_stamp(attempt, j)
+                j += 1
+            if not attempt.settled():
+                raise Doomed(next(iter(sorted(attempt.owing)), "") or "require "
+                             + ", ".join(sorted(n for n in attempt.require if not attempt.env.get(n))))
+            return attempt.occurrences
+        except Doomed as doomed:
+            unmet[str(doomed)] += 1
+            failures += 1
+            total += 1
+            if backtracks is not None:
+                backtracks[0] += 1
+            if failures > budget or total > TOTAL_FACTOR * (budget + 1):
+                if committed:
+                    attempt.truncate(0, checkpoints[0].frontier, frozenset())
+                    return attempt.occurrences  # the last commit ends the timeline
+                raise OutOfBudget(unmet) from None
+            checkpoint = checkpoints[-1]
+            checkpoint.failures += 1
+            if checkpoint.failures > RETRIES_PER_CHECKPOINT and len(checkpoints) > 1:
+                checkpoints.pop()
+                checkpoint = checkpoints[-1]
+                checkpoint.failures += 1
+            resume = checkpoint
+
+
+def walk_stamp(attempt: Attempt, j: int) -> None:
+    """Every candidate of stamp ``j`` (raises :class:`Doomed` when a deadline passed unpaid)."""
+    plan, rng = attempt.plan, attempt.rng
+    dead, try_place = attempt.dead, attempt.try_place
     stamps = plan.stamps
-    for j in range(len(stamps) - 1):
-        low, high = stamps[j], stamps[j + 1] - 1
-        if high < low:
+    low, high = stamps[j], stamps[j + 1] - 1
+    if high < low:
+        return
+    attempt.stamp_low = low
+    queue: list[SignalPlan] = []
+    if attempt.latest:
+        if any(latest < low for latest in attempt.latest.values()):
+            attempt.refresh_latest()
+        row = plan.table[j]
+        for name in sorted(attempt.latest):
+            remaining = plan.stamp_of(attempt.latest[name]) - j + 1
+            if remaining >= 1 and rng.random() < max(row[plan.by_id[name].index], 1 / remaining):
+                queue.append(plan.by_id[name])
+    bucket = attempt.buckets[j]
+    if not bucket and not queue:
+        return
+    proposals = [s for s in bucket if s.id not in dead]
+    bucket.clear()
+    if len(proposals) > 1:
+        _shuffle(rng.getrandbits, proposals)
+    queue.extend(proposals)
+    # Each signal is tried once per stamp and state: a placement may open the window of
+    # a signal tried before it (an owed partner), which is then tried again at once.
+    tried: dict[str, int] = {}
+    placed: set[str] = set()
+    position = 0
+    while position < len(queue):
+        signal = queue[position]
+        position += 1
+        version = attempt.placements
+        if tried.get(signal.id) == version:
             continue
-        attempt.stamp_low = low
-        queue: list[SignalPlan] = []
-        if attempt.latest:
-            if any(latest < low for latest in attempt.latest.values()):
-                attempt.refresh_latest()
-            row = plan.table[j]
-            for name in sorted(attempt.latest):
-                remaining = plan.stamp_of(attempt.latest[name]) - j + 1
-                if remaining >= 1 and rng.random() < max(row[plan.by_id[name].index], 1 / remaining):
-                    queue.append(plan.by_id[name])
-        proposals = [s for s in buckets[j] if s.id not in dead]
-        if not proposals and not queue:
-            continue
-        if len(proposals) > 1:
-            _shuffle(rng.getrandbits, proposals)
-        queue.extend(proposals)
-        # Each signal is tried once per stamp and state: a placement may open the window of
-        # a signal tried before it (an owed partner), which is then tried again at once.
-        tried: dict[str, int] = {}
-        position = 0
-        while position < len(queue):
-            signal = queue[position]
-            position += 1
-            version = len(occurrences)
-            if tried.get(signal.id) == version:
-                continue
-            tried[signal.id] = version
-            frontier = attempt.frontier
-            if try_place(signal, low if low > frontier else frontier, high) and attempt.latest:
+        tried[signal.id] = version
+        frontier = attempt.frontier
+        if try_place(signal, low if low > frontier else frontier, high):
+            placed.add(signal.id)
+            if attempt.latest:
                 version += 1
                 urgent = [
                     plan.by_id[n] for n, t in sorted(attempt.latest.items()) if t <= high and tried.get(n) != version
                 ]
                 queue[position:position] = urgent
-        for signal in proposals:
-            if signal.id not in dead:
-                schedule(attempt, signal, j + 1)
-    return occurrences
+    for signal in proposals:
+        if signal.id in dead:
+            continue
+        if signal.id in placed:
+            # free again at its stop: a repetitive signal's next start is drawn from there
+            schedule_from(attempt, signal, attempt.last_stop[signal.id], j + 1)
+        else:
+            schedule(attempt, signal, j + 1)
+
+
+def start_candidacies(attempt: Attempt, first: int) -> None:
+    """Draw every available signal's next candidacy from stamp ``first`` on (walk start, and
+    after a backtrack: the draws before were taken back with the occurrences)."""
+    for bucket in attempt.buckets[first:]:
+        bucket.clear()
+    tick = attempt.plan.stamps[first]
+    for signal in attempt.plan.signals:
+        if signal.id in attempt.dead:
+            continue
+        stop = attempt.last_stop.get(signal.id)
+        if stop is not None and stop > tick:
+            schedule_from(attempt, signal, stop, first)
+        else:
+            schedule(attempt, signal, first)
 
 
 def schedule(attempt: Attempt, signal: SignalPlan, first: int) -> None:
@@ -112,3 +238,22 @@ def schedule(attempt: Attempt, signal: SignalPlan, first: int) -> None:
     after = _bisect_right(cumulative, target, first + 1)
     if after <= stamps:
         attempt.buckets[after - 1].append(signal)
+
+
+def schedule_from(attempt: Attempt, signal: SignalPlan, tick: int, first: int) -> None:
+    """Put ``signal`` in the bucket of its next candidacy, counting its hazard from ``tick``
+    (the cumulative hazard grows linearly inside a stamp), at stamp ``first`` or later."""
+    plan = attempt.plan
+    cumulative = plan.cumulative[signal.index]
+    stamps = len(cumulative) - 1
+    k = plan.stamp_of(min(tick, plan.duration - 1))
+    if k >= stamps:
+        return
+    length = plan.stamps[k + 1] - plan.stamps[k]
+    fraction = (tick - plan.stamps[k]) / length if length else 0.0
+    base = cumulative[k] + (cumulative[k + 1] - cumulative[k]) * min(1.0, max(0.0, fraction))
+    target = base - _log(1.0 - attempt.rng.random())
+    after = _bisect_right(cumulative, target, k + 1)
+    index = max(first, after - 1)
+    if after <= stamps and index < stamps:
+        attempt.buckets[index].append(signal)

@@ -1,0 +1,128 @@
+"""The default solver (``--solver greedy``): the paper's walk, then a complete fallback.
+
+``mse sample`` must return a timeline whenever one exists, and say so with a proof when none
+does.  The composition, per timeline (seed ``S + i``):
+
+1. **walk** — the greedy walk of :mod:`mse.solve.greedy` (docs/sampler.md), which backtracks
+   to its checkpoints by itself (the repair step); this is the distribution users get;
+2. **cpsat** — when the walk gives up (or the request pins signals, which the walk does not
+   place), CP-SAT with its default objective, which follows the same probability profile
+   (:mod:`mse.ir.profile`), finds a timeline if one exists;
+3. **proof** — when CP-SAT proves that none exists, its minimal explanation (file:line of
+   every rule in the conflict) is the answer (``NoSolution(proven=True)``).
+
+Signals whose probabilities are both 0 never occur (mse.ir.profile.never_occurs) unless the
+request requires or pins them, or no timeline exists without them (a constraint demands
+them): they are forbidden in a first pass, allowed in a second one only when the first is
+proven infeasible.
+
+Each timeline records how it was made (:attr:`DefaultSolver.methods`: ``walk`` or
+``cpsat``; the timeline JSON's ``"method"``).  CP-SAT is reached only through
+:func:`mse.solve.protocol.get_solver` and imported only when the walk fails, so sampling a
+set the walk solves never loads ortools.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterator
+from dataclasses import replace
+
+from mse.ir import model as ir
+from mse.ir.profile import never_occurs
+from mse.ir.schedule import Occurrence, Schedule
+from mse.solve.greedy import GreedySolver
+from mse.solve.greedy.solver import validate
+from mse.solve.protocol import NoSolution, SolveRequest, check_request, derive_seed, get_solver
+
+#: Name of the complete fallback solver, as recorded in ``"method"``.
+FALLBACK = "cpsat"
+
+
+class DefaultSolver:
+    """``name = "greedy"``: walk → (backtracking) → CP-SAT → proof."""
+
+    name = "greedy"
+    supports = frozenset({"stream", "constraint-less", "require", "forbid", "pin"})
+
+    def __init__(self) -> None:
+        self.walker = GreedySolver()
+        #: How each timeline of the last :meth:`solve` was made ("walk" or "cpsat").
+        self.methods: list[str] = []
+        #: Walks and backtracks of the last :meth:`solve` (the bench reads them).
+        self.attempts = 0
+        self.restarts = 0
+
+    def solve(self, model: ir.Model, request: SolveRequest) -> list[Schedule]:
+        self._validate(model, request)
+        self.methods, self.attempts, self.restarts = [], 0, 0
+        schedules = []
+        for index in range(request.count):
+            schedule, method = self.one(model, request, derive_seed(request.seed, index))
+            schedules.append(schedule)
+            self.methods.append(method)
+        return schedules
+
+    def stream(self, model: ir.Model, request: SolveRequest) -> Iterator[Occurrence]:
+        """The walk's stream (each batch handed out at a checkpoint, docs/sampler.md); when the
+        walk gives up before its first checkpoint, the fallback's timeline at once."""
+        self._validate(model, request)
+        self.methods = []
+        seed = derive_seed(request.seed, 0)
+        if not request.pinned:
+            first = replace(request, forbid=self._forbidden(model, request))
+            streamed = False
+            try:
+                for occurrence in self.walker.stream(model, first):
+                    streamed = True
+                    yield occurrence
+                self.methods.append("walk")
+                return
+            except NoSolution:
+                if streamed:  # cannot happen: the walk ends at its last commit instead
+                    raise
+        schedule, method = self.one(model, request, seed, walk=False)
+        self.methods.append(method)
+        yield from sorted(schedule.occurrences)
+
+    # -- one timeline ---------------------------------------------------------------------------
+    def one(self, model: ir.Model, request: SolveRequest, seed: int, *, walk: bool = True) -> tuple[Schedule, str]:
+        """One timeline for ``seed`` and how it was made; NoSolution (a proof, when CP-SAT
+        gives one) when there is none."""
+        zeros = self._zeros(model, request)
+        try:
+            return self._pass(model, replace(request, forbid=(*request.forbid, *zeros)), seed, walk)
+        except NoSolution as failure:
+            if not (zeros and failure.proven):
+                raise
+        # No timeline without the never-occurring signals: a constraint demands some of them.
+        return self._pass(model, request, seed, walk)
+
+    def _pass(self, model: ir.Model, request: SolveRequest, seed: int, walk: bool) -> tuple[Schedule, str]:
+        if walk and not request.pinned:
+            single = replace(request, seed=seed, count=1)
+            try:
+                schedule = self.walker.one(model, single, seed)
+                return schedule, "walk"
+            except NoSolution:
+                pass
+            finally:
+                self.attempts += self.walker.attempts
+                self.restarts += self.walker.restarts
+                self.walker.attempts = self.walker.restarts = 0
+        fallback = get_solver(FALLBACK)
+        complete = replace(request, seed=seed, count=1, objective=None, diverse=False)
+        return fallback.solve(model, complete)[0], FALLBACK
+
+    # -- requests -------------------------------------------------------------------------------
+    def _validate(self, model: ir.Model, request: SolveRequest) -> None:
+        validate(model, request)
+        check_request(model, request)
+
+    @staticmethod
+    def _zeros(model: ir.Model, request: SolveRequest) -> tuple[str, ...]:
+        """Never-occurring signals (both probabilities 0) the request does not ask for."""
+        asked = {*request.require, *request.forbid, *(pin.signal for pin in request.pinned)}
+        return tuple(s.id for s in model.signals if never_occurs(s) and s.id not in asked)
+
+    def _forbidden(self, model: ir.Model, request: SolveRequest) -> tuple[str, ...]:
+        return (*request.forbid, *self._zeros(model, request))
