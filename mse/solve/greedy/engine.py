@@ -19,7 +19,7 @@ import random
 
 from mse.ir.schedule import Occurrence
 from mse.solve.greedy.debts import Doomed, latest_start
-from mse.solve.greedy.partial import Box
+from mse.solve.greedy.partial import Box, CompiledConstraint
 from mse.solve.greedy.plan import Plan, SignalPlan
 from mse.solve.greedy.windows import (
     Intervals,
@@ -41,6 +41,7 @@ class Attempt:
     __slots__ = (
         "buckets", "checked", "count", "dead", "env", "forbid", "frontier", "last_stop", "latest",
         "modality_free", "needs", "occurrences", "owing", "placements", "plan", "require", "rng", "stamp_low",
+        "stuck", "work",
     )
 
     def __init__(self, plan: Plan, rng: random.Random, forbid: frozenset[str], require: frozenset[str]) -> None:
@@ -56,10 +57,12 @@ class Attempt:
         self.stamp_low = 0  # start of the current stamp
         self.occurrences: list[Occurrence] = []  # placed since the last commit (all, unless streaming)
         self.placements = 0  # occurrences placed so far: a version number of the state
+        self.work = 0  # partial checks made (a deterministic measure of effort: walk.py caps it)
         self.owing: set[str] = set()  # ids of constraints violated if nothing more occurred
         self.latest: dict[str, int] = {}  # owed signal -> latest start that may pay its debt
         # owed signal that cannot be placed yet -> the prerequisites it waits for (debts.py)
         self.needs: dict[str, tuple[str, ...]] = {}
+        self.stuck: frozenset[str] = frozenset()  # owed signals that found no latest start
         self.checked: tuple[str, Box, list[str]] | None = None  # last accepted check
         self.dead: set[str] = set(forbid)  # signals that can no longer be placed in this walk
         # buckets[j]: signals whose next candidacy is at stamp j (see Plan.cumulative)
@@ -106,6 +109,7 @@ class Attempt:
         constraints = self.plan.by_signal[signal.id]
         if not constraints:
             return True
+        self.work += 1
         env = self.env
         boxes = env.get(signal.id)
         if boxes is None:
@@ -273,12 +277,12 @@ class Attempt:
         """Place the occurrence unless that leaves an obligation nothing can meet."""
         saved = (
             self.last_stop.get(signal.id), self.modality_free.get(signal.exclusive or ""), self.frontier,
-            self.owing, self.latest, self.needs,  # all three are replaced, never mutated, once saved
+            self.owing, self.latest, self.needs, self.stuck,  # replaced, never mutated, once saved
         )
         try:
             self.place(signal, start, stop)
         except Doomed:
-            last_stop, free, self.frontier, self.owing, self.latest, self.needs = saved
+            last_stop, free, self.frontier, self.owing, self.latest, self.needs, self.stuck = saved
             self.env[signal.id].pop()
             self.count[signal.id] -= 1
             if signal.id not in self.forbid:
@@ -346,16 +350,13 @@ class Attempt:
                         changed = True
                     (self.owing.add if owes else self.owing.discard)(cid)
         if changed or (self.latest and self.narrows_debts(signal)):
-            self.refresh_latest()
+            self.refresh_latest(sid)
 
     def narrows_debts(self, signal: SignalPlan) -> bool:
-        """Whether placing ``signal`` may have moved the latest start of an owed signal."""
-        if any(name in self.latest for name in self.plan.related[signal.id]):
-            return True
-        if signal.id in self.needs or any(signal.id in needed for needed in self.needs.values()):
-            return True
-        exclusive = signal.exclusive
-        return exclusive is not None and any(self.plan.by_id[n].exclusive == exclusive for n in self.latest)
+        """Whether placing ``signal`` may have moved the latest start of an owed signal (or
+        of a prerequisite: they have latest starts too)."""
+        influence = self.plan.influence[signal.id]
+        return any(name in influence for name in self.latest)
 
     def truncate(self, kept: int, frontier: int, owing: frozenset[str]) -> None:
         """Take back every occurrence after the first ``kept`` of :attr:`occurrences` (a
@@ -389,7 +390,7 @@ class Attempt:
                 self.modality_free.pop(modality, None)
         self.frontier = frontier
         self.owing = set(owing)
-        self.latest, self.needs, self.checked = {}, {}, None
+        self.latest, self.needs, self.checked, self.stuck = {}, {}, None, frozenset()
         self.dead = set(self.forbid) | {s.id for s in self.plan.signals if self.count.get(s.id, 0) >= s.limit}
 
     # -- obligations (docs/sampler.md, "Obligations that only the end settles") ------------------
@@ -403,14 +404,23 @@ class Attempt:
                 owed.update(name for name in compiled.mentioned if name not in self.forbid)
         return owed
 
-    def refresh_latest(self) -> None:
+    def refresh_latest(self, changed: str | None = None, *, expired_only: bool = False) -> None:
         """Latest useful start of every owed signal (the ad-hoc inference over the rest of
         the timeline) and of the prerequisites an owed signal waits for; raise
-        :class:`Doomed` when some debt can no longer be paid."""
-        previous, self.latest, self.needs = self.latest, {}, {}
+        :class:`Doomed` when some debt can no longer be paid.
+
+        Incremental: after placing ``changed``, only the signals whose checks it may have
+        changed (``Plan.influence``) are searched again, and with ``expired_only`` only
+        those whose latest start has passed; the others keep their latest start."""
         plan = self.plan
+        previous, previous_needs, previous_stuck = self.latest, self.needs, self.stuck
+        full = changed is None and not expired_only
+        stuck: set[str] = set()
+        influence = plan.influence[changed] if changed is not None else frozenset()
+        self.latest, self.needs = {}, {}
         boxes: dict[str, Box] = {}
         caps: dict[str, int] = {}  # prerequisite -> latest start of what waits for it
+        searched: set[str] = set()
         pending = sorted(self.owed_signals())
         visits = 0
         while pending and visits < 4 * len(plan.signals):
@@ -424,31 +434,58 @@ class Attempt:
             high = min(high, caps.get(name, high))
             if low > high:
                 continue
-            latest = latest_start(
-                lambda x: self.allows(signal, self.start_box(signal, x)),  # noqa: B023
-                lambda: self.critical(signal, "start", None),  # noqa: B023
-                low, high, previous.get(name, high),
-            )
+            latest = previous.get(name)
+            needed = previous_needs.get(name, ())
+            if not full and name in previous_stuck and name not in influence and name not in caps:
+                stuck.add(name)  # nothing it depends on moved: still no way to place it
+                continue
+            if full or latest is None or name in influence or not low <= latest <= high:
+                searched.add(name)
+                needed = ()
+                latest = latest_start(
+                    lambda x: self.allows(signal, self.start_box(signal, x)),  # noqa: B023
+                    lambda: self.critical(signal, "start", None),  # noqa: B023
+                    low, high, previous.get(name, high),
+                )
+                if latest is None:
+                    # It cannot be placed now; perhaps once other signals are placed before it
+                    # (``exists(a) and precedes(a, b)`` with b owed): those become owed too,
+                    # due before it.
+                    found = self.prerequisites(signal, low, high)
+                    if found is not None:
+                        latest, needed = found
             if latest is None:
-                # It cannot be placed now; perhaps once other signals are placed before it
-                # (``exists(a) and precedes(a, b)`` with b owed): those become owed too, due
-                # before it.
-                found = self.prerequisites(signal, low, high)
-                if found is not None:
-                    latest, needed = found
-                    self.needs[name] = needed
-                    for other in needed:
-                        if caps.get(other, high + 1) > latest:
-                            caps[other] = latest
-                            pending.append(other)
-            if latest is not None:
-                self.latest[name] = latest
-                boxes[name] = (low, latest, low + signal.shortest, plan.duration)
+                stuck.add(name)
+                continue
+            if needed:
+                self.needs[name] = needed
+                for other in needed:
+                    if caps.get(other, high + 1) > latest:
+                        caps[other] = latest
+                        pending.append(other)
+            self.latest[name] = latest
+            boxes[name] = (low, latest, low + signal.shortest, plan.duration)
+        self.stuck = frozenset(stuck)
         owing = self.owing
-        for compiled in plan.constraints if owing else ():
-            # Doomed unless the signals that can still start may, together, pay this debt.
-            if compiled.id in owing and not compiled.in_other_world(self.env, boxes):
-                raise Doomed(compiled.id)
+        if owing:
+            if full:
+                suspects = [c for c in plan.constraints if c.id in owing]
+            else:
+                # Only a debt whose payers moved (or the placed signal's own) may have become
+                # unpayable.
+                touched = searched | previous.keys() - self.latest.keys()
+                if changed is not None:
+                    touched.add(changed)
+                seen: dict[str, CompiledConstraint] = {}
+                for name in sorted(touched):
+                    for compiled in plan.by_signal[name]:
+                        if compiled.id in owing:
+                            seen.setdefault(compiled.id, compiled)
+                suspects = list(seen.values())
+            for compiled in suspects:
+                # Doomed unless the signals that can still start may, together, pay this debt.
+                if not compiled.in_other_world(self.env, boxes):
+                    raise Doomed(compiled.id)
         for name in self.require:
             if not self.env.get(name) and name not in self.latest:
                 raise Doomed(f"require {name}")

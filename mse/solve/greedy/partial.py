@@ -33,7 +33,7 @@ Env = Mapping[str, Sequence[Box]]
 Node = Callable[[Env], int]
 
 #: Worlds are enumerated over at most this many optional signals per constraint; for more,
-#: a search pruned by a lifted evaluation looks for one (``CompiledConstraint._search``).
+#: the lifted evaluation decides (``CompiledConstraint.in_other_world``).
 MAX_WORLD_SIGNALS = 5
 
 
@@ -303,9 +303,9 @@ def _lift(expr: ir.Expr, duration: int) -> Callable[[Env, Mapping[str, Box]], in
     return lambda env, maybe: combine([part(env, maybe) for part in parts])
 
 
-#: Nodes of the search over worlds of one check (constraints naming more than
-#: MAX_WORLD_SIGNALS optional signals); past it the state is accepted (sound, not exact).
-WORLD_BUDGET = 256
+#: Nodes of the search for an accepting world naming more than MAX_WORLD_SIGNALS optional
+#: signals (:meth:`CompiledConstraint.accepting_world`, for prerequisites); past it: none found.
+WORLD_BUDGET = 64
 
 
 class _OutOfBudget(Exception):
@@ -340,15 +340,20 @@ class CompiledConstraint:
         return bool(self.acceptable(env)) or self.in_other_world(env, optional)
 
     def in_other_world(self, env: Env, optional: Mapping[str, Box]) -> bool:
-        """:meth:`may_hold` without the world where nothing more occurs."""
+        """:meth:`may_hold` without the world where nothing more occurs.
+
+        Up to MAX_WORLD_SIGNALS optional signals the worlds are enumerated (exact); past
+        that, the lifted evaluation decides (sound: it never rejects a state some world
+        accepts, but may accept one that no world does; the final check catches those).
+        From three signals on, the lifted evaluation first rules out hopeless states at the
+        cost of one evaluation instead of up to 2^k."""
         names = [s for s in self.mentioned if s in optional]
         if not names:
             return False
+        if len(names) >= 3 and not self.lifted_accepts(env, {name: optional[name] for name in names}):
+            return False
         if len(names) > MAX_WORLD_SIGNALS:
-            try:
-                return self._search(env, optional, names) is not None
-            except _OutOfBudget:
-                return True  # undecided: accept (the final check decides)
+            return True
         # One copy of the environment, each world setting the named signals' entries in it.
         world = dict(env)
         extended = [[*env.get(name, ()), optional[name]] for name in names]
@@ -363,6 +368,14 @@ class CompiledConstraint:
             if self.acceptable(world):
                 return True
         return False
+
+    def lifted_accepts(self, env: Env, maybe: Mapping[str, Box]) -> bool:
+        """Some world of ``maybe`` may be acceptable, by the lifted evaluation (sound)."""
+        if self._lifted is None:
+            self._lifted = _lift(self.constraint.expr, self.duration)
+        if self.triggers and not any(env.get(t) for t in self.triggers):
+            return True  # the world where every maybe trigger stays absent ignores it
+        return bool(self._lifted(env, maybe) & (T | N))
 
     def accepts_world(self, env: Env, present: Mapping[str, Box]) -> bool:
         """The one world where exactly the signals of ``present`` get one more occurrence."""
@@ -390,17 +403,12 @@ class CompiledConstraint:
     def _search(self, env: Env, optional: Mapping[str, Box], names: Sequence[str]) -> tuple[str, ...] | None:
         """Depth-first search over the worlds of ``names`` (absent first), pruned by the lifted
         evaluation: a partial choice whose lifted value cannot be acceptable is abandoned."""
-        if self._lifted is None:
-            self._lifted = _lift(self.constraint.expr, self.duration)
-        lifted, triggers = self._lifted, self.triggers
         world = dict(env)
         present: list[str] = []
         budget = [WORLD_BUDGET]
 
         def may_accept(maybe: Mapping[str, Box]) -> bool:
-            if triggers and not any(world.get(t) for t in triggers):
-                return True  # the world where every maybe trigger stays absent ignores it
-            return bool(lifted(world, maybe) & (T | N))
+            return self.lifted_accepts(world, maybe)
 
         def visit(index: int) -> tuple[str, ...] | None:
             budget[0] -= 1

@@ -79,7 +79,7 @@ class Plan:
 
     __slots__ = (
         "bounds", "by_id", "by_signal", "constraints", "cumulative", "duration", "edges", "fixed",
-        "in_modality", "initial_owing", "partner_bounds", "related", "signals", "stamps", "table",
+        "in_modality", "influence", "initial_owing", "partner_bounds", "related", "signals", "stamps", "table",
     )
 
     def __init__(
@@ -114,6 +114,16 @@ class Plan:
         # Lists, reordered by the sampler (most recently failing first: order never changes results)
         self.by_signal = by_signal
         self.related = related  # signals sharing a constraint with it (itself too)
+        # Placing a signal may change the checks of the signals related to it and, through the
+        # future boxes of its exclusive modality's members, of the signals related to those.
+        reach = {
+            name: frozenset(n for member in members for n in related[member.id])
+            for name, members in self.in_modality.items()
+        }
+        self.influence = {
+            s.id: frozenset(related[s.id]) | (reach[s.exclusive] if s.exclusive is not None else frozenset())
+            for s in signals
+        }
         self.edges = edges
         self.bounds = bounds
         # earliest/latest start from the constant bounds alone

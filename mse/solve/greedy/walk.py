@@ -6,13 +6,14 @@ candidacy falls at this stamp (drawn ahead from the cumulative hazard, :func:`sc
 random order.  Each is tried once per state with :meth:`Attempt.try_place`; a placement that
 opens an owed signal's window tries that one again at once.
 
-A *checkpoint* is the start of a stamp where nothing is owed: the occurrences placed so far
-are, alone, a consistent timeline, so the walk can always be completed from there (by adding
-nothing).  When the walk paints itself into a corner (an obligation can no longer be met, or
-the end is reached with a debt), it goes back to the last checkpoint and walks on from there
-with fresh draws (bounded backtracking); a checkpoint that failed ``RETRIES_PER_CHECKPOINT``
-times is dropped for the one before it.  When streaming, every checkpoint *commits*: the
-occurrences before it are handed out, and the walk never goes back past it
+The state at the start of every stamp is a *checkpoint*.  When the walk paints itself into a
+corner (an obligation can no longer be met, or the end is reached with a debt), it goes back
+1, 2, 4, ... stamps (doubling on repeated failures, then starting over at 1) and walks on from
+there with fresh draws: bounded backtracking, ``budget`` failures without getting further than
+before, then :class:`OutOfBudget`.  A stamp where nothing is owed is *settled*: the
+occurrences placed so far are, alone, a consistent timeline, so the walk can always be
+completed from there (by adding nothing).  When streaming, every settled stamp *commits*: the
+occurrences before it are handed out and the walk never goes back past it
 (docs/sampler.md, "Streaming").
 """
 
@@ -35,13 +36,14 @@ if TYPE_CHECKING:
 _log = math.log
 _bisect_right = bisect.bisect_right
 
-#: Failures from one checkpoint before the walk goes back to the one before it.
-RETRIES_PER_CHECKPOINT = 3
 #: A walk fails for good after ``budget`` failures without getting further than before, or
 #: after this many times ``budget + 1`` failures in all.
 TOTAL_FACTOR = 4
-#: Checkpoints kept (older ones are forgotten: going back that far is a fresh start anyway).
-KEPT_CHECKPOINTS = 8
+#: Partial checks a walk may make, per stamp and per signal or constraint of the model, plus a
+#: constant; past it the walk gives up (a deterministic bound on effort: the default solver
+#: then falls back to CP-SAT).  Ordinary walks use a few percent of it.
+WORK_PER_STAMP = 20
+WORK_BASE = 20_000
 
 
 class OutOfBudget(Exception):
@@ -53,14 +55,13 @@ class OutOfBudget(Exception):
 
 
 class Checkpoint:
-    __slots__ = ("failures", "frontier", "kept", "owing", "stamp")
+    __slots__ = ("frontier", "kept", "owing", "stamp")
 
     def __init__(self, stamp: int, kept: int, frontier: int, owing: frozenset[str]) -> None:
         self.stamp = stamp  # the stamp the walk resumes at
         self.kept = kept  # occurrences of Attempt.occurrences kept
         self.frontier = frontier
         self.owing = owing
-        self.failures = 0
 
 
 def _shuffle(getrandbits: Callable[[int], int], items: list[SignalPlan]) -> None:
@@ -92,8 +93,8 @@ def walk_steps(
     attempt: Attempt, budget: int, *, stream: bool, backtracks: list[int] | None = None
 ) -> Generator[list[Occurrence], None, list[Occurrence]]:
     """The walk as a generator.  With ``stream``, yields the occurrences committed at each
-    checkpoint (in start order) and returns the last ones; when the budget runs out after a
-    commit, it ends the timeline at the last commit (consistent) instead of failing.
+    settled stamp (in start order) and returns the last ones; when the budget runs out after
+    a commit, it ends the timeline at the last commit (consistent) instead of failing.
     ``backtracks`` (a one-element list) counts the backtracks, for the caller's statistics."""
     plan = attempt.plan
     last_stamp = len(plan.stamps) - 1
@@ -101,11 +102,15 @@ def walk_steps(
     start_candidacies(attempt, 0)
     if plan.initial_owing or attempt.require:
         attempt.refresh_latest()  # Doomed here: no walk can pay (the caller falls back)
-    checkpoints = [Checkpoint(0, 0, 0, frozenset(plan.initial_owing))]
-    committed = False  # the bottom checkpoint was committed (streaming): never go back past it
+    # checkpoints[i]: the state at the start of stamp checkpoints[i].stamp (increasing); the
+    # first one is the start of the walk or, when streaming, the last commit.
+    checkpoints: list[Checkpoint] = []
+    committed = False  # checkpoints[0] was committed (streaming): never go back past it
     unmet: Counter[str] = Counter()
     failures = total = 0  # since the walk last got further than ever before; in all
-    furthest = 0
+    furthest = -1
+    reach = 0  # the next backtrack goes back 2**reach stamps
+    work_limit = WORK_PER_STAMP * (len(plan.signals) + len(plan.constraints)) * last_stamp + WORK_BASE
     j = 0
     resume: Checkpoint | None = None
     while True:
@@ -118,19 +123,23 @@ def walk_steps(
                 if attempt.owing or attempt.require:
                     attempt.refresh_latest()
             while j < last_stamp:
-                if not attempt.owing and j > checkpoints[-1].stamp and attempt.settled():
-                    if stream and attempt.occurrences:
+                if not checkpoints or checkpoints[-1].stamp < j:
+                    if stream and attempt.occurrences and not attempt.owing and attempt.settled():
                         yield attempt.occurrences[:]
                         del attempt.occurrences[:]
-                        checkpoints = []
-                        committed = True
-                    checkpoints.append(Checkpoint(j, len(attempt.occurrences), attempt.frontier, frozenset()))
+                        checkpoints, committed = [], True
+                    checkpoints.append(Checkpoint(j, len(attempt.occurrences), attempt.frontier,
+                                                  frozenset(attempt.owing)))
                     if j > furthest:
                         furthest, failures = j, 0
-                    if len(checkpoints) > KEPT_CHECKPOINTS:
-                        del checkpoints[1 if committed else 0]
                 walk_stamp(attempt, j)
                 j += 1
+                if attempt.work > work_limit:
+                    unmet["(work limit)"] += 1
+                    if committed:
+                        attempt.truncate(0, checkpoints[0].frontier, frozenset())
+                        return attempt.occurrences  # the last commit ends the timeline
+                    raise OutOfBudget(unmet)
             if not attempt.settled():
                 raise Doomed(next(iter(sorted(attempt.owing)), "") or "require "
                              + ", ".join(sorted(n for n in attempt.require if not attempt.env.get(n))))
@@ -146,13 +155,14 @@ def walk_steps(
                     attempt.truncate(0, checkpoints[0].frontier, frozenset())
                     return attempt.occurrences  # the last commit ends the timeline
                 raise OutOfBudget(unmet) from None
-            checkpoint = checkpoints[-1]
-            checkpoint.failures += 1
-            if checkpoint.failures > RETRIES_PER_CHECKPOINT and len(checkpoints) > 1:
-                checkpoints.pop()
-                checkpoint = checkpoints[-1]
-                checkpoint.failures += 1
-            resume = checkpoint
+            # Go back 1, 2, 4, ... stamps on repeated failures, until the first checkpoint,
+            # then start over at 1: a debt is usually made unpayable by a recent choice,
+            # sometimes by an old one.
+            target = j - (1 << reach)
+            index = max(0, bisect.bisect_right([c.stamp for c in checkpoints], target) - 1)
+            reach = 0 if index == 0 else reach + 1
+            resume = checkpoints[index]
+            del checkpoints[index + 1:]
 
 
 def walk_stamp(attempt: Attempt, j: int) -> None:
@@ -167,7 +177,7 @@ def walk_stamp(attempt: Attempt, j: int) -> None:
     queue: list[SignalPlan] = []
     if attempt.latest:
         if any(latest < low for latest in attempt.latest.values()):
-            attempt.refresh_latest()
+            attempt.refresh_latest(expired_only=True)
         row = plan.table[j]
         for name in sorted(attempt.latest):
             remaining = plan.stamp_of(attempt.latest[name]) - j + 1
