@@ -1,64 +1,421 @@
-"""Benchmark of the greedy sampler (issue 3).  Prints numbers; asserts nothing.
+"""Benchmarks of the default sampler (issues 3, 12 and 19).  Prints numbers; asserts nothing.
 
-    python bench/sample.py                 # every bundled emotion at 4, 10 and 30 s
-    python bench/sample.py --count 2000 --emotions embarrassment --durations 10
+    python bench/sample.py --sets                       # every bundled and Greta set, 10 s
+    python bench/sample.py --corpus                     # random sets, CP-SAT as ground truth
+    python bench/sample.py --growth                     # growth exponents, 200/400 at 10 s
+    python bench/sample.py --long                       # one-hour timelines: rate, memory, stream
+    python bench/sample.py --infeasible                 # time to a proof (CLI, up to 50 signals)
+    python bench/sample.py --fidelity                   # per-signal rates against the definition
+    python bench/sample.py --constraint-less            # the control condition
+    python bench/sample.py --cli                        # start time of `mse sample`
+    ... --baseline-ref 14df718                          # compare with another revision's walk
 
-Reports, per bundled emotion and duration: timelines per second in one process for one
-``--count`` request (wall clock, and per second of CPU time of this process, which other
-processes on the machine disturb less; every timeline is verified by ``check_schedule``, as
-the sampler always does), mean signals per timeline, restart rate (restarted attempts /
-attempts), with the load average before and after; then the wall time of
-``mse sample --duration 10`` against a bare ``python -c pass``, both with byte-code caching on
-as for an installed user (PYTHONDONTWRITEBYTECODE, set in this environment, is removed for
-those subprocesses; one warm-up run writes the cache), and for comparison without it.
+The machine is shared: every speed is also given as a ratio against the baseline revision
+(``--baseline-ref``, default 14df718, the walk before issue 12), measured in the same run:
+the baseline's source tree is extracted with ``git archive`` into a temporary folder and run
+in a subprocess alternately with this tree (bench/runner.py).  The load average is printed
+before and after.  Greta's sets are imported from ``$MSE_SHARED/greta`` (default ../shared).
 """
 
 from __future__ import annotations
 
 import argparse
+import contextlib
+import json
+import math
 import os
-import shutil
+import random
+import resource
 import statistics
 import subprocess
 import sys
 import tempfile
 import time
+from collections.abc import Callable, Sequence
 from pathlib import Path
+from typing import Any
 
 REPO = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(REPO))
+sys.path.insert(0, str(Path(__file__).resolve().parent))
 
-from mse.api import load  # noqa: E402
+from corpus import planted_model, random_model  # noqa: E402
+from runner import extract, run_job  # noqa: E402
+
+from mse.api import load, loads  # noqa: E402
+from mse.ir import model as ir  # noqa: E402
+from mse.ir.canonical import model_to_json  # noqa: E402
+from mse.ir.evaluate import check_schedule  # noqa: E402
 from mse.resources import bundled_names  # noqa: E402
-from mse.solve.greedy import GreedySolver  # noqa: E402
-from mse.solve.protocol import NoSolution, SolveRequest  # noqa: E402
+from mse.solve.protocol import NoSolution, SolveRequest, get_solver  # noqa: E402
+
+GRETA_EMOTIONS = (
+    "anger", "anxiety", "embarrassment", "joy", "panic_fear", "pride", "regret", "rejoice", "relief", "tension",
+)
 
 
-def bench_emotion(name: str, duration: float, count: int, seed: int) -> tuple[float, float, float, float, int]:
-    """(timelines/s wall, timelines/s CPU, mean signals, restart rate, failures) for ``count``
-    timelines of one request (``--count``), as ``mse sample --count N`` does."""
-    model = load(name)
-    solver = GreedySolver()
-    solver.solve(model, SolveRequest(duration=duration, seed=seed, count=5))  # warm the per-model cache
-    wall, cpu = time.perf_counter(), time.process_time()
-    try:
-        schedules = solver.solve(model, SolveRequest(duration=duration, seed=seed, count=count))
-        attempts, restarts, failures = solver.attempts, solver.restarts, 0
-    except NoSolution:  # rare: redo one request per timeline so that a failure costs one only
-        schedules, attempts, restarts, failures = [], 0, 0, 0
-        wall, cpu = time.perf_counter(), time.process_time()
-        for index in range(count):
-            try:
-                schedules += solver.solve(model, SolveRequest(duration=duration, seed=seed + index))
-            except NoSolution:
-                failures += 1
-            attempts += solver.attempts
-            restarts += solver.restarts
-    wall, cpu = time.perf_counter() - wall, time.process_time() - cpu
-    signals = sum(len(s.occurrences) for s in schedules) / max(1, len(schedules))
-    return count / wall, count / cpu, signals, restarts / max(1, attempts), failures
+def load_line(note: str = "") -> str:
+    return f"load average {os.getloadavg()[0]:.2f} (2 cores, shared){note}"
 
 
+def percentile(values: Sequence[float], fraction: float) -> float:
+    ordered = sorted(values)
+    return ordered[min(len(ordered) - 1, round(fraction * (len(ordered) - 1)))] if ordered else float("nan")
+
+
+def slope(xs: Sequence[float], ys: Sequence[float]) -> float:
+    """Least-squares slope of log(y) against log(x): the growth exponent."""
+    lx = [math.log(x) for x in xs]
+    ly = [math.log(max(y, 1e-9)) for y in ys]
+    mx, my = statistics.mean(lx), statistics.mean(ly)
+    return sum((a - mx) * (b - my) for a, b in zip(lx, ly, strict=True)) / sum((a - mx) ** 2 for a in lx)
+
+
+def greta_models() -> dict[str, ir.Model]:
+    shared = Path(os.environ.get("MSE_SHARED", REPO.parent / "shared"))
+    lexicon, constraint = shared / "greta" / "lexicon.xml", shared / "greta" / "constraint.xml"
+    if not lexicon.exists():
+        print(f"(Greta's data not found under {shared}: Greta sets skipped)")
+        return {}
+    from mse.syntax.greta import import_greta_report
+
+    report = import_greta_report(lexicon, constraint)
+    return {
+        f"greta:{e.name}": loads(e.xml, path=f"greta/{e.name}.xml")
+        for e in report.expressions if e.name in GRETA_EMOTIONS
+    }
+
+
+def all_sets() -> dict[str, ir.Model]:
+    found = {name: load(name) for name in bundled_names()}
+    found.update(greta_models())
+    return found
+
+
+class Compare:
+    """Runs the same job on this tree and on the baseline revision, alternately."""
+
+    def __init__(self, baseline: str | None, folder: Path) -> None:
+        self.baseline_root = extract(baseline, folder) if baseline else None
+        self.baseline = baseline
+
+    def run(self, job: list[dict[str, Any]], baseline_solver: str = "greedy") -> tuple[list[dict[str, Any]], ...]:
+        mine = run_job(REPO, job)
+        if self.baseline_root is None:
+            return (mine,)
+        theirs = run_job(self.baseline_root, [{**item, "solver": baseline_solver} for item in job])
+        return mine, theirs
+
+
+def item(name: str, model: ir.Model, duration: float, seeds: Sequence[int], solver: str = "greedy",
+         warm: int = 3) -> dict[str, Any]:
+    return {"name": name, "model": model_to_json(model), "duration": duration, "seeds": list(seeds),
+            "solver": solver, "warm": warm}
+
+
+# -- --sets: every bundled and Greta set (issue 19) ------------------------------------------------
+def bench_sets(compare: Compare, count: int, duration: float) -> None:
+    sets = all_sets()
+    print(f"== timelines per second, in-process, {duration:g} s, {count} timelines per set "
+          f"(one process; CPU time of that process; {load_line()})")
+    header = f"{'set':24s} {'tl/s (CPU)':>11s} {'tl/s wall':>10s} {'backtracks/tl':>13s} {'fallbacks':>9s}"
+    if compare.baseline:
+        header += f" {'baseline tl/s':>13s} {'ratio':>6s} {'baseline fails':>14s}"
+    print(header)
+    worst = math.inf
+    for name, model in sets.items():
+        job = [item(name, model, duration, range(1, count + 1))]
+        results = compare.run(job)
+        mine = results[0][0]
+        rate, wall_rate = count / mine["cpu"], count / mine["wall"]
+        worst = min(worst, rate)
+        fallbacks = sum(1 for m in mine["methods"] if m != "walk")
+        line = (f"{name:24s} {rate:11.0f} {wall_rate:10.0f} {mine['restarts'] / count:13.3f} "
+                f"{fallbacks + (count - mine['ok']):9d}")
+        if len(results) > 1:
+            theirs = results[1][0]
+            base = count / theirs["cpu"]
+            line += f" {base:13.0f} {rate / base:6.2f} {count - theirs['ok']:14d}"
+        print(line, flush=True)
+    print(f"slowest set: {worst:.0f} timelines per CPU second (target >= 4000); {load_line()}")
+
+
+# -- --corpus: random sets with CP-SAT as ground truth (issue 12) ------------------------------------
+def corpus_sizes(count: int, seed: int) -> list[tuple[int, int, int, float]]:
+    rng = random.Random(seed)
+    sizes = []
+    for index in range(count):
+        n = rng.randint(3, 40)
+        sizes.append((seed * 100_000 + index, n, rng.randint(max(1, n // 2), 2 * n), rng.choice((4.0, 10.0, 30.0))))
+    return sizes
+
+
+def bench_corpus(compare: Compare, count: int, seeds: int, seed: int, time_limit: float) -> None:
+    cpsat = get_solver("cpsat")
+    feasible: list[tuple[str, ir.Model, float]] = []
+    infeasible = unknown = 0
+    began = time.perf_counter()
+    for model_seed, n, m, duration in corpus_sizes(count, seed):
+        model = random_model(model_seed, n, m)
+        try:
+            cpsat.solve(model, SolveRequest(duration=duration, seed=0, time_limit=time_limit))
+            feasible.append((model.name, model, duration))
+        except NoSolution as failure:
+            if failure.proven:
+                infeasible += 1
+            else:
+                unknown += 1
+    print(f"== corpus: {count} random sets (3-40 signals, n/2-2n constraints, 4/10/30 s, bench/corpus.py, "
+          f"seed {seed}); CP-SAT ({time_limit:g} s): {len(feasible)} feasible, {infeasible} infeasible, "
+          f"{unknown} undecided ({time.perf_counter() - began:.0f} s)")
+    job = [item(name, model, duration, range(seeds), warm=0) for name, model, duration in feasible]
+    results = compare.run(job)
+    mine = results[0]
+    failed_sets = sum(1 for r in mine if r["ok"] < seeds)
+    failed = sum(seeds - r["ok"] for r in mine)
+    fallback_sets = sum(1 for r in mine if any(m != "walk" for m in r["methods"]))
+    fallbacks = sum(sum(1 for m in r["methods"] if m != "walk") for r in mine)
+    times = [t for r in mine for t in r["times"]]
+    walk_times = [t for r in mine for t, m in zip(r["times"], r["methods"], strict=False) if m == "walk"]
+    total = len(feasible) * seeds
+    print(f"default solver on the {len(feasible)} feasible sets x {seeds} seeds: "
+          f"failed {failed}/{total} timelines ({failed / max(1, total):.2%}) on {failed_sets} sets (target 0)")
+    print(f"  made by the walk: {total - fallbacks - failed}; by the CP-SAT fallback: {fallbacks} "
+          f"({fallbacks / max(1, total):.2%}, on {fallback_sets} sets)")
+    print(f"  time per timeline: p50 {percentile(times, 0.5) * 1000:.1f} ms, "
+          f"p99 {percentile(times, 0.99) * 1000:.1f} ms (walk only: p50 {percentile(walk_times, 0.5) * 1000:.1f} ms, "
+          f"p99 {percentile(walk_times, 0.99) * 1000:.1f} ms)")
+    if len(results) > 1:
+        theirs = results[1]
+        old_failed = sum(seeds - r["ok"] for r in theirs)
+        old_sets = sum(1 for r in theirs if r["ok"] < seeds)
+        old_times = [t for r in theirs for t in r["times"]]
+        print(f"baseline walk ({compare.baseline}): failed {old_failed}/{total} timelines "
+              f"({old_failed / max(1, total):.2%}) on {old_sets} sets; p50 {percentile(old_times, 0.5) * 1000:.1f} ms, "
+              f"p99 {percentile(old_times, 0.99) * 1000:.1f} ms")
+        ratios = [b / a for a, b in zip(times, old_times, strict=True) if a > 0 and b > 0]
+        print(f"  speed ratio baseline/default per timeline: median {statistics.median(ratios):.2f}, "
+              f"geometric mean {math.exp(statistics.mean(math.log(r) for r in ratios)):.2f}; "
+              f"total time {sum(old_times):.1f} s (baseline) vs {sum(times):.1f} s (default)")
+    print(load_line())
+
+
+# -- --growth: exponents in signals, constraints, duration; 200 signals / 400 constraints -----------
+def bench_growth(compare: Compare, models: int, seeds: int) -> None:
+    series: dict[str, list[tuple[float, int, int, float]]] = {
+        "signals (constraints = 2 x signals, 10 s)": [(n, n, 2 * n, 10.0) for n in (12, 25, 50, 100, 200)],
+        "constraints (50 signals, 10 s)": [(m, 50, m, 10.0) for m in (12, 25, 50, 100, 200)],
+        "duration (20 signals, 30 constraints)": [(d, 20, 30, d) for d in (5.0, 10.0, 30.0, 60.0, 120.0)],
+    }
+    print(f"== growth: planted sets (a random timeline drawn first, then random constraints it satisfies, "
+          f"bench/corpus.py), {models} sets x {seeds} seeds per point; median time per timeline; {load_line()}")
+    for title, points in series.items():
+        xs, mine_medians, theirs_medians = [], [], []
+        print(title)
+        for x, n, m, duration in points:
+            job = [item(f"p{k}", planted_model(1000 * k + n + m, n, m, duration), duration, range(seeds), warm=1)
+                   for k in range(models)]
+            results = compare.run(job)
+            times = [t for r in results[0] for t in r["times"]]
+            failed = sum(seeds - r["ok"] for r in results[0])
+            fallbacks = sum(sum(1 for mm in r["methods"] if mm != "walk") for r in results[0])
+            xs.append(x)
+            mine_medians.append(statistics.median(times))
+            line = (f"  {x:6g}: p50 {statistics.median(times) * 1000:8.1f} ms  "
+                    f"p99 {percentile(times, 0.99) * 1000:8.1f} ms  failed {failed}  fallbacks {fallbacks}")
+            if len(results) > 1:
+                old = [t for r in results[1] for t in r["times"]]
+                old_failed = sum(seeds - r["ok"] for r in results[1])
+                theirs_medians.append(statistics.median(old))
+                line += (f"  | baseline p50 {statistics.median(old) * 1000:8.1f} ms failed {old_failed}"
+                         f"  ratio {statistics.median(old) / statistics.median(times):5.2f}")
+            print(line, flush=True)
+        line = f"  growth exponent: {slope(xs, mine_medians):.2f}"
+        if theirs_medians:
+            line += f" (baseline {slope(xs, theirs_medians):.2f})"
+        print(line)
+    print(load_line())
+
+
+# -- --long: one-hour timelines ---------------------------------------------------------------------
+LONG_SCRIPT = r"""
+import json, sys, time, resource
+sys.path.insert(0, sys.argv[1])
+import mse.api as api
+from mse.solve.protocol import SolveRequest, get_solver
+def rss():
+    with open("/proc/self/statm") as f:
+        return int(f.read().split()[1]) * 4096 / 2**20
+name, duration = sys.argv[2], float(sys.argv[3])
+model = api.load(name)
+solver = get_solver("greedy")
+before = rss()
+began = time.perf_counter()
+first = None
+marks = {}
+count = 0
+for occurrence in solver.stream(model, SolveRequest(duration=duration, seed=1)):
+    now = time.perf_counter() - began
+    if first is None:
+        first = now
+    count += 1
+    minute = occurrence.start // 60000
+    marks.setdefault(minute, [now, now, rss()])[1] = now
+total = time.perf_counter() - began
+print(json.dumps({"total": total, "first": first, "count": count, "before": before, "after": rss(),
+                  "peak": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024, "marks": marks,
+                  "methods": solver.methods}))
+"""
+
+
+def bench_long(duration: float, names: Sequence[str]) -> None:
+    print(f"== one timeline of {duration:g} s per bundled set, streamed (--stream), in a fresh process; {load_line()}")
+    print(f"{'set':15s} {'wall s':>7s} {'x real':>7s} {'first s':>8s} {'signals':>8s} {'RSS MB start':>12s} "
+          f"{'at end':>7s} {'first/last 10 min s':>20s}")
+    for name in names:
+        done = subprocess.run([sys.executable, "-c", LONG_SCRIPT, str(REPO), name, str(duration)],
+                              capture_output=True, text=True, check=False)
+        if done.returncode != 0:
+            print(f"{name:15s} failed: {done.stderr[-300:]}")
+            continue
+        data = json.loads(done.stdout.strip().splitlines()[-1])
+        marks = {int(k): v for k, v in data["marks"].items()}
+        minutes = sorted(marks)
+        ten = max(1, len(minutes) // 6)
+        head = sum(marks[m][1] - marks[m][0] for m in minutes[:ten]) if minutes else 0.0
+        tail = sum(marks[m][1] - marks[m][0] for m in minutes[-ten:]) if minutes else 0.0
+        first = data["first"] if data["first"] is not None else float("nan")
+        print(f"{name:15s} {data['total']:7.2f} {duration / data['total']:7.0f} {first:8.3f} {data['count']:8d} "
+              f"{data['before']:12.1f} {data['after']:7.1f} {head:9.2f} / {tail:.2f}  {data['methods']}", flush=True)
+    print(load_line())
+
+
+# -- --infeasible: proofs ----------------------------------------------------------------------------
+def bench_infeasible(count: int, seed: int, time_limit: float) -> None:
+    cpsat = get_solver("cpsat")
+    found: list[tuple[ir.Model, float]] = []
+    for model_seed, n, m, duration in corpus_sizes(count * 10, seed + 7):
+        if len(found) >= count:
+            break
+        n = max(n, 7)
+        model = random_model(model_seed, n, m)
+        try:
+            cpsat.solve(model, SolveRequest(duration=duration, seed=0, time_limit=time_limit))
+        except NoSolution as failure:
+            if failure.proven:
+                found.append((model, duration))
+    # and the largest: 50 signals
+    rng = random.Random(seed)
+    for attempt in range(200):
+        if len(found) >= count + 3:
+            break
+        model = random_model(seed * 7919 + attempt, 50, rng.randint(25, 60))
+        try:
+            cpsat.solve(model, SolveRequest(duration=10.0, seed=0, time_limit=time_limit))
+        except NoSolution as failure:
+            if failure.proven:
+                found.append((model, 10.0))
+    print(f"== infeasible sets: `mse sample SET.json --seed 1` (compiled IR), wall and CPU time to the proof; "
+          f"{load_line()}")
+    walls, cpus = [], []
+    with tempfile.TemporaryDirectory() as folder:
+        for model, duration in found:
+            path = Path(folder) / f"{model.name}.json"
+            path.write_text(json.dumps(model_to_json(model)), encoding="utf-8")
+            began, usage = time.perf_counter(), resource.getrusage(resource.RUSAGE_CHILDREN)
+            done = subprocess.run([sys.executable, "-m", "mse", "sample", str(path), "--seed", "1",
+                                   "--duration", str(duration)], capture_output=True, text=True, check=False)
+            wall = time.perf_counter() - began
+            after = resource.getrusage(resource.RUSAGE_CHILDREN)
+            cpu = after.ru_utime + after.ru_stime - usage.ru_utime - usage.ru_stime
+            walls.append(wall)
+            cpus.append(cpu)
+            proof = "no timeline of" in done.stderr
+            line = done.stderr.strip().splitlines()[0][:110] if done.stderr.strip() else ""
+            print(f"  {len(model.signals):3d} signals {len(model.constraints):3d} constraints {duration:4g} s: "
+                  f"exit {done.returncode} wall {wall:5.2f} s CPU {cpu:5.2f} s proof {proof}  {line}", flush=True)
+    print(f"max wall {max(walls):.2f} s, max CPU {max(cpus):.2f} s (target 2 s); {load_line()}")
+
+
+# -- --fidelity -------------------------------------------------------------------------------------
+def bench_fidelity(count: int, cp_count: int, duration: float, draws: int, names: Sequence[str] | None) -> None:
+    from fidelity import marginals, target
+
+    sets = all_sets()
+    if names:
+        sets = {k: v for k, v in sets.items() if k in names}
+    print(f"== probability fidelity at {duration:g} s: target = prior (mse/ir/profile.py) conditioned on "
+          f"consistency, by rejection from {draws} prior draws when >= 200 are consistent, else the prior's own "
+          f"prediction; walk: {count} timelines; CP-SAT (on this tree): {cp_count} timelines; {load_line()}")
+    print("rate: once-only signals, fraction of timelines; repetitive (*): occurrences per timeline.  start: mean, s.")
+    worst: dict[str, list[float]] = {"walk rate": [], "cpsat rate": [], "walk start": [], "cpsat start": []}
+    agreement: list[float] = []
+    for name, model in sets.items():
+        wanted, how, acceptance = target(model, duration, draws, 1, 200)
+        sampled = {}
+        for solver_name, number in (("greedy", count), ("cpsat", cp_count)):
+            solver = get_solver(solver_name)
+            schedules = []
+            for seed in range(number):
+                with contextlib.suppress(NoSolution):
+                    schedules.extend(solver.solve(model, SolveRequest(duration=duration, seed=seed)))
+            sampled[solver_name] = marginals(model, schedules)
+        print(f"-- {name}: target by {how} (acceptance {acceptance:.1%})")
+        print(f"   {'signal':24s} {'target':>7s} {'walk':>6s} {'cpsat':>6s}   {'start':>6s} {'walk':>6s} {'cpsat':>6s}")
+        for signal in model.signals:
+            sid = signal.id
+            mark = "*" if signal.repetitive else ""
+
+            def fmt(value: float | None) -> str:
+                return "     -" if value is None or value != value else f"{value:6.2f}"
+
+            walk, cp = sampled["greedy"], sampled["cpsat"]
+            print(f"   {sid + mark:24s} {fmt(wanted.rate[sid]):>7s} {fmt(walk.rate[sid])} {fmt(cp.rate[sid])}   "
+                  f"{fmt(wanted.start[sid])} {fmt(walk.start[sid])} {fmt(cp.start[sid])}")
+            if how == "rejection" and not signal.repetitive:
+                worst["walk rate"].append(abs(walk.rate[sid] - wanted.rate[sid]))
+                worst["cpsat rate"].append(abs(cp.rate[sid] - wanted.rate[sid]))
+                for key, got in (("walk start", walk.start[sid]), ("cpsat start", cp.start[sid])):
+                    if got is not None and wanted.start[sid] is not None and wanted.rate[sid] > 0.1:
+                        worst[key].append(abs(got - wanted.start[sid]))  # type: ignore[operator]
+            if not signal.repetitive:
+                agreement.append(abs(walk.rate[sid] - cp.rate[sid]))
+    print("over the sets whose target comes from rejection sampling (once-only signals; start: signals with "
+          "target rate > 0.1):")
+    for key, values in worst.items():
+        if values:
+            unit = " s" if "start" in key else ""
+            print(f"   |{key} - target|: median {statistics.median(values):.3f}{unit}, "
+                  f"90th percentile {percentile(values, 0.9):.3f}{unit}, max {max(values):.3f}{unit}")
+    if agreement:
+        print(f"walk vs CP-SAT occurrence rate, every once-only signal of every set: median |difference| "
+              f"{statistics.median(agreement):.3f}, 90th percentile {percentile(agreement, 0.9):.3f}, "
+              f"max {max(agreement):.3f}")
+    print(load_line())
+
+
+# -- --constraint-less --------------------------------------------------------------------------------
+def bench_constraint_less(count: int) -> None:
+    print(f"== --mode constraint-less: {count} timelines per set; every one must violate a constraint; {load_line()}")
+    for name, model in all_sets().items():
+        if not model.constraints:
+            continue
+        solver = get_solver("greedy")
+        began = time.perf_counter()
+        try:
+            schedules = solver.solve(model, SolveRequest(duration=10.0, seed=1, count=count, mode="constraint-less"))
+        except NoSolution as failure:
+            print(f"  {name:24s} failed: {failure.reason[:120]}")
+            continue
+        elapsed = time.perf_counter() - began
+        violating = sum(1 for s in schedules if any(v.kind == "constraint" for v in check_schedule(model, s)))
+        structural = sum(1 for s in schedules if any(v.kind != "constraint" for v in check_schedule(model, s)))
+        methods = getattr(solver, "methods", [])
+        print(f"  {name:24s} violate >= 1 constraint: {violating}/{len(schedules)}, structural errors {structural}, "
+              f"fallbacks {sum(1 for m in methods if m != 'walk')}, {elapsed / count * 1000:.2f} ms each")
+
+
+# -- --cli ----------------------------------------------------------------------------------------------
 def wall_times(commands: list[list[str]], repeat: int, env: dict[str, str]) -> list[float]:
     """Median wall time in seconds of each command over ``repeat`` runs.  Each is run once
     first (not counted: it writes the byte-code cache), then the commands alternate, so a
@@ -77,63 +434,59 @@ def wall_times(commands: list[list[str]], repeat: int, env: dict[str, str]) -> l
     return [statistics.median(found) for found in times]
 
 
-def installed_env(cache: str) -> dict[str, str]:
-    """The environment of an installed user: byte-code caching on.  This environment sets
-    PYTHONDONTWRITEBYTECODE=1, with which every start recompiles every module of ``mse`` (an
-    installed wheel has its .pyc files), so it is removed for the measured subprocesses; the
-    cache goes to ``cache`` (PYTHONPYCACHEPREFIX), not into the shared checkout."""
-    env = {k: v for k, v in os.environ.items() if k != "PYTHONDONTWRITEBYTECODE"}
-    env["PYTHONPYCACHEPREFIX"] = cache
-    return env
-
-
 def bench_cli(repeat: int) -> None:
+    """``mse sample --duration 10`` against ``python -c pass``, byte-code cached as for an
+    installed user (PYTHONDONTWRITEBYTECODE, set in this environment, is removed for these
+    subprocesses; the cache goes to a temporary PYTHONPYCACHEPREFIX)."""
+    import shutil
+
     executable = shutil.which("mse", path=str(Path(sys.executable).parent)) or ""
     cli = [executable] if executable else [sys.executable, "-m", "mse"]
     command = [*cli, "sample", "--duration", "10", "--seed", "1", "--format", "json"]
-    bare_command = [sys.executable, "-c", "pass"]
     with tempfile.TemporaryDirectory() as cache:
-        bare, sample = wall_times([bare_command, command], repeat, installed_env(cache))
-    unset = " (PYTHONDONTWRITEBYTECODE unset for these runs)" if os.environ.get("PYTHONDONTWRITEBYTECODE") else ""
-    print(f"CLI start, byte-code cached as when installed, one warm-up run not counted{unset}:")
-    print(f"python -c pass:             {bare * 1000:7.1f} ms (median of {repeat})")
-    print(f"mse sample --duration 10:   {sample * 1000:7.1f} ms (median of {repeat})")
-    print(f"ratio:                      {sample / bare:7.2f}x (target <= 10x)")
-    if os.environ.get("PYTHONDONTWRITEBYTECODE"):
-        bare, sample = wall_times([bare_command, command], repeat, dict(os.environ))
-        print("for comparison, this environment as is (PYTHONDONTWRITEBYTECODE=1: no byte-code cache):")
-        print(f"python -c pass:             {bare * 1000:7.1f} ms")
-        print(f"mse sample --duration 10:   {sample * 1000:7.1f} ms")
-        print(f"ratio:                      {sample / bare:7.2f}x")
+        env = {k: v for k, v in os.environ.items() if k != "PYTHONDONTWRITEBYTECODE"}
+        env["PYTHONPYCACHEPREFIX"] = cache
+        bare, sample = wall_times([[sys.executable, "-c", "pass"], command], repeat, env)
+    print(f"== CLI start (median of {repeat}, one warm-up run not counted): python -c pass {bare * 1000:.1f} ms, "
+          f"mse sample --duration 10 {sample * 1000:.1f} ms, ratio {sample / bare:.2f}x (target <= 10x)")
 
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    parser.add_argument("--count", type=int, default=1000, help="timelines per emotion and duration")
-    parser.add_argument("--emotions", nargs="*", default=None, help="bundled names (default: all)")
-    parser.add_argument("--durations", nargs="*", type=float, default=[4.0, 10.0, 30.0])
+    modes: dict[str, Callable[[], None]] = {}
+    for flag in ("sets", "corpus", "growth", "long", "infeasible", "fidelity", "constraint-less", "cli"):
+        parser.add_argument(f"--{flag}", action="store_true")
+    parser.add_argument("--baseline-ref", default="14df718", help="revision to compare with ('' for none)")
+    parser.add_argument("--count", type=int, default=2000, help="--sets: timelines per set")
+    parser.add_argument("--duration", type=float, default=None, help="--sets (10), --long (3600), --fidelity (10)")
+    parser.add_argument("--corpus-size", type=int, default=400, help="--corpus: random sets")
+    parser.add_argument("--seeds", type=int, default=5, help="--corpus, --growth: seeds per set")
+    parser.add_argument("--models", type=int, default=8, help="--growth: sets per point")
     parser.add_argument("--seed", type=int, default=1)
-    parser.add_argument("--repeat", type=int, default=7, help="runs of each command for the CLI timing")
-    parser.add_argument("--no-cli", action="store_true", help="skip the CLI start-up timing")
+    parser.add_argument("--time-limit", type=float, default=10.0, help="CP-SAT ground truth, seconds")
+    parser.add_argument("--sets-only", nargs="*", default=None, help="--long, --fidelity: these sets only")
+    parser.add_argument("--draws", type=int, default=20000, help="--fidelity: prior draws per set")
+    parser.add_argument("--repeat", type=int, default=7)
     args = parser.parse_args()
 
-    emotions = args.emotions or bundled_names()
-    print(f"load average before: {os.getloadavg()[0]:.2f} (other processes slow the wall-clock rate)")
-    print(f"{'emotion':15s} {'dur s':>5s} {'timelines/s':>12s} {'(CPU time)':>11s} {'signals':>8s} "
-          f"{'restarts':>9s} {'failed':>6s}")
-    total_attempt_rates = []
-    for name in emotions:
-        for duration in args.durations:
-            rate, cpu_rate, signals, restart_rate, failures = bench_emotion(name, duration, args.count, args.seed)
-            total_attempt_rates.append(restart_rate)
-            print(f"{name:15s} {duration:5g} {rate:12.0f} {cpu_rate:11.0f} {signals:8.2f} {restart_rate:9.2%} "
-                  f"{failures:6d}")
-    if total_attempt_rates:
-        print(f"mean restart rate over all rows: {statistics.mean(total_attempt_rates):.2%}")
-
-    print(f"load average after: {os.getloadavg()[0]:.2f}")
-    if not args.no_cli:
-        bench_cli(args.repeat)
+    print(load_line(" before"))
+    with tempfile.TemporaryDirectory() as folder:
+        needs_compare = args.sets or args.corpus or args.growth
+        compare = Compare(args.baseline_ref or None, Path(folder)) if needs_compare else Compare(None, Path(folder))
+        modes = {
+            "sets": lambda: bench_sets(compare, args.count, args.duration or 10.0),
+            "corpus": lambda: bench_corpus(compare, args.corpus_size, args.seeds, args.seed, args.time_limit),
+            "growth": lambda: bench_growth(compare, args.models, args.seeds),
+            "long": lambda: bench_long(args.duration or 3600.0, args.sets_only or bundled_names()),
+            "infeasible": lambda: bench_infeasible(10, args.seed, args.time_limit),
+            "fidelity": lambda: bench_fidelity(1000, 200, args.duration or 10.0, args.draws, args.sets_only),
+            "constraint_less": lambda: bench_constraint_less(200),
+            "cli": lambda: bench_cli(args.repeat),
+        }
+        chosen = [name for name in modes if getattr(args, name)]
+        for name in chosen or ["sets"]:
+            modes[name]()
+    print(load_line(" after"))
 
 
 if __name__ == "__main__":

@@ -442,7 +442,8 @@ class Attempt:
             if full or latest is None or name in influence or not low <= latest <= high:
                 searched.add(name)
                 needed = ()
-                latest = latest_start(
+                whole = (low, high, low + signal.shortest, min(high + signal.longest, plan.duration))
+                latest = None if not self.allows(signal, whole) else latest_start(
                     lambda x: self.allows(signal, self.start_box(signal, x)),  # noqa: B023
                     lambda: self.critical(signal, "start", None),  # noqa: B023
                     low, high, previous.get(name, high),
@@ -528,6 +529,11 @@ class Attempt:
                 if not boxes:
                     del self.env[signal.id]
 
+        # One relaxed check of the box of every start first (monotone, as in feasible_starts):
+        # usually nothing, with or without prerequisites, lets the signal in.
+        if not self.relaxed_allows(signal, (low, high, low + signal.shortest,
+                                            min(high + signal.longest, self.plan.duration)), low):
+            return None
         latest = latest_feasible(
             lambda x: bool(needed_at(x)), low, high, lambda: self.critical(signal, "start", None)
         )
@@ -535,3 +541,27 @@ class Attempt:
             return None
         needed = needed_at(latest)
         return (latest, needed) if needed else None
+
+    def relaxed_allows(self, signal: SignalPlan, box: Box, low: int) -> bool:
+        """:meth:`allows` where the other signals may still occur from ``low`` on (before the
+        candidate too): what the candidate could have if its prerequisites came first."""
+        env = self.env
+        boxes = env.setdefault(signal.id, [])
+        boxes.append(box)
+        try:
+            for compiled in self.plan.by_signal[signal.id]:
+                if compiled.acceptable(env):
+                    continue
+                optional: dict[str, Box] = {}
+                for name in compiled.mentioned:
+                    if name != signal.id:
+                        early = self.future_box(self.plan.by_id[name], low, None)
+                        if early is not None:
+                            optional[name] = early
+                if not compiled.in_other_world(env, optional):
+                    return False
+            return True
+        finally:
+            boxes.pop()
+            if not boxes:
+                del env[signal.id]

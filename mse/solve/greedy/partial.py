@@ -315,7 +315,9 @@ class _OutOfBudget(Exception):
 class CompiledConstraint:
     """One constraint, compiled for a timeline of ``duration`` ms."""
 
-    __slots__ = ("_lifted", "acceptable", "constraint", "duration", "id", "mentioned", "node", "triggers")
+    __slots__ = (
+        "_lifted", "acceptable", "constraint", "duration", "id", "mentioned", "node", "parts", "parts_or", "triggers",
+    )
 
     def __init__(self, constraint: ir.Constraint, duration: int) -> None:
         self.constraint = constraint
@@ -329,6 +331,16 @@ class CompiledConstraint:
         #: a method: it is the hottest call.
         self.acceptable = _acceptance(self.triggers, self.node)
         self._lifted: Callable[[Env, Mapping[str, Box]], int] | None = None
+        # A top-level "or" / "and": its operands, each with the signals it names, so that the
+        # worlds of operands naming different optional signals are searched one operand at a
+        # time (in_other_world): sum instead of product.
+        expr = constraint.expr
+        self.parts_or = isinstance(expr, ir.Or)
+        self.parts: tuple[tuple[Node, tuple[str, ...]], ...] = ()
+        if isinstance(expr, ir.Or | ir.And) and len(expr.operands) > 1:
+            self.parts = tuple(
+                (compile_expr(part, duration), tuple(sorted(ir.mentioned_signals(part)))) for part in expr.operands
+            )
 
     def violated(self, env: Env) -> bool:
         """On a complete timeline (points only): exactly :func:`mse.ir.evaluate.is_violated`."""
@@ -350,6 +362,10 @@ class CompiledConstraint:
         names = [s for s in self.mentioned if s in optional]
         if not names:
             return False
+        if self.parts and len(names) > 1:
+            decided = self._by_parts(env, optional, len(names))
+            if decided is not None:
+                return decided
         if len(names) >= 3 and not self.lifted_accepts(env, {name: optional[name] for name in names}):
             return False
         if len(names) > MAX_WORLD_SIGNALS:
@@ -368,6 +384,40 @@ class CompiledConstraint:
             if self.acceptable(world):
                 return True
         return False
+
+    def _by_parts(self, env: Env, optional: Mapping[str, Box], total: int) -> bool | None:
+        """:meth:`in_other_world` one operand at a time, or None when two operands share an
+        optional signal.  Exact: with disjoint signals each operand's world can be chosen on
+        its own; an "or" is acceptable (true or unknown) when some operand can be, an "and"
+        when every operand can be.  (Some trigger occurs, or the caller would have accepted
+        the world where nothing more occurs, so the instantiation rule plays no part.)"""
+        per_part = [[n for n in mentioned if n in optional] for _, mentioned in self.parts]
+        if sum(len(names) for names in per_part) != total:
+            return None  # an optional signal named by two operands: no independence
+        maybe = T | N
+        for (node, mentioned), names in zip(self.parts, per_part, strict=True):
+            if len(names) > MAX_WORLD_SIGNALS:
+                possible = True  # too many to enumerate: sound, not exact
+            else:
+                local: dict[str, Sequence[Box]] = {n: env[n] for n in mentioned if n in env}
+                possible = False
+                for bits in range(1 << len(names)):
+                    for index, name in enumerate(names):
+                        base = env.get(name)
+                        if bits >> index & 1:
+                            local[name] = [*(base or ()), optional[name]]
+                        elif base:
+                            local[name] = base
+                        else:
+                            local.pop(name, None)
+                    if node(local) & maybe:
+                        possible = True
+                        break
+            if possible and self.parts_or:
+                return True
+            if not possible and not self.parts_or:
+                return False
+        return not self.parts_or
 
     def lifted_accepts(self, env: Env, maybe: Mapping[str, Box]) -> bool:
         """Some world of ``maybe`` may be acceptable, by the lifted evaluation (sound)."""
