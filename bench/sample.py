@@ -246,13 +246,13 @@ from mse.solve.protocol import SolveRequest, get_solver
 def rss():
     with open("/proc/self/statm") as f:
         return int(f.read().split()[1]) * 4096 / 2**20
-name, duration = sys.argv[2], float(sys.argv[3])
-model = api.load(name)
+path, duration = sys.argv[2], float(sys.argv[3])
+model = api.load(path)
 solver = get_solver("greedy")
 before = rss()
 began = time.perf_counter()
 first = None
-marks = {}
+marks = {}  # minute of the timeline -> [wall time of the first occurrence starting in it, RSS then]
 count = 0
 for occurrence in solver.stream(model, SolveRequest(duration=duration, seed=1)):
     now = time.perf_counter() - began
@@ -260,7 +260,8 @@ for occurrence in solver.stream(model, SolveRequest(duration=duration, seed=1)):
         first = now
     count += 1
     minute = occurrence.start // 60000
-    marks.setdefault(minute, [now, now, rss()])[1] = now
+    if minute not in marks:
+        marks[minute] = [now, rss()]
 total = time.perf_counter() - began
 print(json.dumps({"total": total, "first": first, "count": count, "before": before, "after": rss(),
                   "peak": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024, "marks": marks,
@@ -269,24 +270,36 @@ print(json.dumps({"total": total, "first": first, "count": count, "before": befo
 
 
 def bench_long(duration: float, names: Sequence[str]) -> None:
-    print(f"== one timeline of {duration:g} s per bundled set, streamed (--stream), in a fresh process; {load_line()}")
-    print(f"{'set':15s} {'wall s':>7s} {'x real':>7s} {'first s':>8s} {'signals':>8s} {'RSS MB start':>12s} "
-          f"{'at end':>7s} {'first/last 10 min s':>20s}")
-    for name in names:
-        done = subprocess.run([sys.executable, "-c", LONG_SCRIPT, str(REPO), name, str(duration)],
-                              capture_output=True, text=True, check=False)
-        if done.returncode != 0:
-            print(f"{name:15s} failed: {done.stderr[-300:]}")
-            continue
-        data = json.loads(done.stdout.strip().splitlines()[-1])
-        marks = {int(k): v for k, v in data["marks"].items()}
-        minutes = sorted(marks)
-        ten = max(1, len(minutes) // 6)
-        head = sum(marks[m][1] - marks[m][0] for m in minutes[:ten]) if minutes else 0.0
-        tail = sum(marks[m][1] - marks[m][0] for m in minutes[-ten:]) if minutes else 0.0
-        first = data["first"] if data["first"] is not None else float("nan")
-        print(f"{name:15s} {data['total']:7.2f} {duration / data['total']:7.0f} {first:8.3f} {data['count']:8d} "
-              f"{data['before']:12.1f} {data['after']:7.1f} {head:9.2f} / {tail:.2f}  {data['methods']}", flush=True)
+    """One long timeline per set in a fresh process, consumed from ``stream()``.  The cost of
+    a stretch of timeline is the wall time between the hand-out of the first occurrence
+    starting in it and of the first one starting after it."""
+    print(f"== one timeline of {duration:g} s per set, streamed (--stream), in a fresh process; {load_line()}")
+    print(f"{'set':24s} {'wall s':>7s} {'x real':>7s} {'first s':>8s} {'signals':>8s} {'RSS MB: start':>13s} "
+          f"{'10 min':>7s} {'end':>6s}   {'wall s for minutes 0-10 / last 10':>34s}")
+    sets = all_sets()
+    with tempfile.TemporaryDirectory() as folder:
+        for name in names:
+            path = Path(folder) / f"{name.replace(':', '_')}.json"
+            path.write_text(json.dumps(model_to_json(sets[name])), encoding="utf-8")
+            done = subprocess.run([sys.executable, "-c", LONG_SCRIPT, str(REPO), str(path), str(duration)],
+                                  capture_output=True, text=True, check=False)
+            if done.returncode != 0:
+                print(f"{name:24s} failed: {done.stderr[-300:]}")
+                continue
+            data = json.loads(done.stdout.strip().splitlines()[-1])
+            marks = {int(k): v for k, v in data["marks"].items()}
+            last = int(duration // 60)
+
+            def at(minute: int, marks: dict[int, list[float]] = marks, total: float = data["total"]) -> float:
+                later = [marks[m][0] for m in marks if m >= minute]
+                return min(later) if later else total
+
+            head, tail = at(10) - at(0), data["total"] - at(last - 10)
+            rss10 = next((marks[m][1] for m in sorted(marks) if m >= 10), data["after"])
+            first = data["first"] if data["first"] is not None else float("nan")
+            print(f"{name:24s} {data['total']:7.2f} {duration / data['total']:7.0f} {first:8.3f} {data['count']:8d} "
+                  f"{data['before']:13.1f} {rss10:7.1f} {data['after']:6.1f}   {head:16.3f} / {tail:.3f}  "
+                  f"{','.join(sorted(set(data['methods'])))}", flush=True)
     print(load_line())
 
 
@@ -477,7 +490,7 @@ def main() -> None:
             "sets": lambda: bench_sets(compare, args.count, args.duration or 10.0),
             "corpus": lambda: bench_corpus(compare, args.corpus_size, args.seeds, args.seed, args.time_limit),
             "growth": lambda: bench_growth(compare, args.models, args.seeds),
-            "long": lambda: bench_long(args.duration or 3600.0, args.sets_only or bundled_names()),
+            "long": lambda: bench_long(args.duration or 3600.0, args.sets_only or list(all_sets())),
             "infeasible": lambda: bench_infeasible(10, args.seed, args.time_limit),
             "fidelity": lambda: bench_fidelity(1000, 200, args.duration or 10.0, args.draws, args.sets_only),
             "constraint_less": lambda: bench_constraint_less(200),

@@ -20,6 +20,7 @@ from mse.solve.greedy.partial import (
     N,
     T,
     compare_mask,
+    compile_expr,
     mask_and,
     mask_not,
     mask_or,
@@ -209,3 +210,38 @@ def test_world_shortcuts_answer_as_every_world(data: st.DataObject, model: ir.Mo
         if expected:
             assert compiled.lifted_accepts(env, {n: optional[n] for n in compiled.mentioned if n in optional})
             assert compiled.accepting_world(env, optional) is not None
+
+
+@st.composite
+def _disjoint(draw: st.DrawFn) -> list[tuple[int, int]]:
+    """Occurrences of one signal as the sampler places them: in start order, never overlapping."""
+    found, time = [], draw(st.integers(0, 5)) * 100
+    for _ in range(draw(st.integers(1, 5))):
+        length = draw(st.integers(1, 20)) * 100
+        if time + length > DURATION:
+            break
+        found.append((time, time + length))
+        time += length + draw(st.integers(0, 10)) * 100
+    return found or [(0, 100)]
+
+
+@settings(max_examples=300, deadline=None)
+@given(a=_disjoint(), b=_disjoint(), kind=st.sampled_from(["includes", "excludes", "precedes", "rightincludes"]),
+       op=st.sampled_from(["<", ">", "<=", ">=", "="]), tolerance=st.sampled_from([0, 300]),
+       edges=st.tuples(st.sampled_from(["start", "stop"]), st.sampled_from(["start", "stop"])))
+def test_folds_over_many_occurrences_are_exact(
+    a: list[tuple[int, int]], b: list[tuple[int, int]], kind: str, op: str, tolerance: int,
+    edges: tuple[str, str],
+) -> None:
+    """Aggregates and sweeps give the evaluator's value for every combination of occurrences."""
+    env = {"a": [(x, x, y, y) for x, y in a], "b": [(x, x, y, y) for x, y in b]}
+    intervals = {"a": a, "b": b}
+    atoms: list[ir.Expr] = [
+        ir.Relation(kind, "a", "b"),  # type: ignore[arg-type]
+        ir.Compare(op, ir.SignalTime("a", edges[0]), ir.SignalTime("b", edges[1], 200),  # type: ignore[arg-type]
+                   tolerance if op == "=" else 0),
+        ir.Compare(op, ir.SignalTime("a", edges[0]), ir.Constant(3000), tolerance if op == "=" else 0),  # type: ignore[arg-type]
+    ]
+    for atom in atoms:
+        expected = {True: T, False: F, None: N}[evaluate_expr(atom, intervals, DURATION)]
+        assert compile_expr(atom, DURATION)(env) == expected

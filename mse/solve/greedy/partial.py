@@ -22,7 +22,9 @@ worlds) the masks are single values and the evaluation is exactly :mod:`mse.ir.e
 
 from __future__ import annotations
 
+from bisect import bisect_right
 from collections.abc import Callable, Mapping, Sequence
+from operator import itemgetter
 
 from mse.ir import model as ir
 
@@ -122,23 +124,98 @@ def relation_mask(kind: str, a: Box, b: Box) -> int:
     return RELATION_MASKS[kind](a, b)
 
 
-# -- compiling expressions to closures -----------------------------------------------------------
-def _for_all(pairs_mask: Callable[[Box, Box], int], left: Sequence[Box], right: Sequence[Box], same: bool) -> int:
-    """Fold "holds for every combination of occurrences" over the boxes."""
-    if len(left) == 1 and (same or len(right) == 1):
-        return pairs_mask(left[0], left[0] if same else right[0])
+# -- folds over several occurrences ---------------------------------------------------------------
+# A relational atom over signals with several occurrences holds for every combination of them:
+# true is possible when every pair may be true, false when some pair may be false.  Each
+# relation but excludes is a conjunction of ``x <= y`` comparisons, so the fold only needs the
+# smallest and largest value of each box component (linear in the occurrences, at C speed,
+# instead of quadratic); excludes is a sweep over both lists, whose components never decrease
+# (occurrences of one signal are placed in start order and never overlap).  A repetitive
+# signal may occur hundreds of times in a long timeline: this keeps a check's cost nearly flat.
+def _spans(boxes: Sequence[Box]) -> tuple[tuple[int, int], tuple[int, int], tuple[int, int], tuple[int, int]]:
+    """(min, max) of each of the four box components."""
+    columns = tuple(zip(*boxes, strict=True))
+    return tuple((min(column), max(column)) for column in columns)  # type: ignore[return-value]
+
+
+def _sweep_overlaps(left: Sequence[Box], right: Sequence[Box], lo: int, hi: int) -> bool:
+    """Some pair has ``left[i][hi] > right[j][lo]`` and ``right[j][hi] > left[i][lo]``; both
+    lists have nondecreasing components.  A merge of the two lists, or, when one is much
+    shorter, a binary search in the longer one per box of the shorter (the first box of the
+    longer ending after this one starts is the only one that can overlap it first)."""
+    if len(left) > len(right):
+        left, right, lo, hi = right, left, lo, hi
+    if len(left) * 8 < len(right):
+        key = itemgetter(hi)
+        for box in left:
+            index = bisect_right(right, box[lo], key=key)
+            if index < len(right) and right[index][lo] < box[hi]:
+                return True
+        return False
+    i = j = 0
+    while i < len(left) and j < len(right):
+        a, b = left[i], right[j]
+        if a[hi] <= b[lo]:
+            i += 1
+        elif b[hi] <= a[lo]:
+            j += 1
+        else:
+            return True
+    return False
+
+
+def _fold_relation(kind: str, left: Sequence[Box], right: Sequence[Box]) -> int:
+    if kind == "excludes":
+        # T: no pair with a[2] > b[1] and b[2] > a[1]; F: some pair with a[3] > b[0] and b[3] > a[0]
+        may_true = not _sweep_overlaps(left, right, 1, 2)
+        may_false = _sweep_overlaps(left, right, 0, 3)
+        return (T if may_true else 0) | (F if may_false else 0)
+    a, b = _spans(left), _spans(right)
+    if kind == "precedes":  # a.stop <= b.start
+        return (T if a[2][1] <= b[1][0] else 0) | (F if a[3][1] > b[0][0] else 0)
+    if kind == "includes":  # a.start <= b.start and b.stop <= a.stop
+        return ((T if a[0][1] <= b[1][0] and b[2][1] <= a[3][0] else 0)
+                | (F if a[1][1] > b[0][0] or b[3][1] > a[2][0] else 0))
+    # rightincludes: a.start <= b.stop and b.stop <= a.stop
+    return ((T if a[0][1] <= b[3][0] and b[2][1] <= a[3][0] else 0)
+            | (F if a[1][1] > b[2][0] or b[3][1] > a[2][0] else 0))
+
+
+def _fold_compare(op: str, left: tuple[int, int, int, int], right: tuple[int, int, int, int], tolerance: int) -> int:
+    """``x op y`` for every x of ``left`` and y of ``right``, each given as (min of the low
+    ends, max of the low ends, min of the high ends, max of the high ends)."""
+    a_min_lo, a_max_lo, a_min_hi, a_max_hi = left
+    b_min_lo, b_max_lo, b_min_hi, b_max_hi = right
+    if op == "<=":
+        return (T if a_max_lo <= b_min_hi else 0) | (F if a_max_hi > b_min_lo else 0)
+    if op == "<":
+        return (T if a_max_lo < b_min_hi else 0) | (F if a_max_hi >= b_min_lo else 0)
+    if op == ">=":
+        return (T if a_min_hi >= b_max_lo else 0) | (F if a_min_lo < b_max_hi else 0)
+    if op == ">":
+        return (T if a_min_hi > b_max_lo else 0) | (F if a_min_lo <= b_max_hi else 0)
+    may_true = a_max_lo - b_min_hi <= tolerance and a_min_hi - b_max_lo >= -tolerance
+    may_false = a_min_lo - b_max_hi < -tolerance or a_max_hi - b_min_lo > tolerance
+    return (T if may_true else 0) | (F if may_false else 0)
+
+
+def _edge_span(boxes: Sequence[Box], low: int, high: int, offset: int) -> tuple[int, int, int, int]:
+    lows = [box[low] for box in boxes]
+    highs = [box[high] for box in boxes]
+    return min(lows) + offset, max(lows) + offset, min(highs) + offset, max(highs) + offset
+
+
+def _for_each(pairs_mask: Callable[[Box, Box], int], boxes: Sequence[Box]) -> int:
+    """Fold over the pairs (box, box): an atom naming one signal twice (same occurrence)."""
     may_true, may_false = True, False
-    if same:
-        combos: Sequence[tuple[Box, Box]] = [(box, box) for box in left]
-    else:
-        combos = [(a, b) for a in left for b in right]
-    for a, b in combos:
-        mask = pairs_mask(a, b)
+    for box in boxes:
+        mask = pairs_mask(box, box)
         may_true = may_true and bool(mask & T)
         may_false = may_false or bool(mask & F)
     return (T if may_true else 0) | (F if may_false else 0)
 
 
+# -- compiling expressions to closures -----------------------------------------------------------
 def _term_range(term: ir.Term, box: Box | None, duration: int) -> tuple[int, int]:
     if isinstance(term, ir.SignalTime):
         assert box is not None
@@ -177,13 +254,18 @@ def _compile_compare(atom: ir.Compare, duration: int) -> Node:
                 return compare_mask(op, a[low] + offset, a[high] + offset, value, value, tolerance)
             return compare_mask(op, value, value, a[low] + offset, a[high] + offset, tolerance)
 
+        fixed = (value, value, value, value)
+
         def one(env: Env) -> int:
             boxes = env.get(name)
             if not boxes:
                 return N
             if len(boxes) == 1:
                 return one_box(boxes[0])
-            return _for_all(lambda a, _b: one_box(a), boxes, boxes, True)
+            span = _edge_span(boxes, low, high, offset)
+            if on_left:
+                return _fold_compare(op, span, fixed, tolerance)
+            return _fold_compare(op, fixed, span, tolerance)
 
         return one
     same = left_signal == right_signal
@@ -201,13 +283,18 @@ def _compile_compare(atom: ir.Compare, duration: int) -> Node:
             return N
         if len(lefts) == 1 and len(rights) == 1:
             return pair(lefts[0], lefts[0] if same else rights[0])
-        return _for_all(pair, lefts, rights, same)
+        if same:
+            return _for_each(pair, lefts)
+        return _fold_compare(
+            op, _edge_span(lefts, a_low, a_high, a_offset), _edge_span(rights, b_low, b_high, b_offset), tolerance
+        )
 
     return two
 
 
 def _compile_relation(atom: ir.Relation) -> Node:
     holds, left, right, same = RELATION_MASKS[atom.kind], atom.left, atom.right, atom.left == atom.right
+    kind = atom.kind
 
     def node(env: Env) -> int:
         lefts, rights = env.get(left), env.get(right)
@@ -215,7 +302,9 @@ def _compile_relation(atom: ir.Relation) -> Node:
             return N
         if len(lefts) == 1 and len(rights) == 1:  # the usual case: one occurrence each
             return holds(lefts[0], lefts[0] if same else rights[0])
-        return _for_all(holds, lefts, rights, same)
+        if same:
+            return _for_each(holds, lefts)
+        return _fold_relation(kind, lefts, rights)
 
     return node
 
