@@ -1,0 +1,187 @@
+"""The default solver (walk -> CP-SAT -> proof, mse/solve/default.py) and what the walk gained
+for it: prerequisites, backtracking, streaming commits, the probability definition."""
+
+from __future__ import annotations
+
+import json
+
+import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+from strategies import models
+
+import mse.api as api
+from mse.cli import main
+from mse.ir import model as ir
+from mse.ir.evaluate import check_schedule
+from mse.ir.schedule import Schedule
+from mse.solve.default import DefaultSolver
+from mse.solve.greedy import GreedySolver
+from mse.solve.protocol import NoSolution, Pin, SolveRequest, get_solver
+
+SEQ = """<?xml version="1.0" encoding="UTF-8"?>
+<expression name="seq">
+  <signals>
+    <signal id="b" modality="face" lexeme="b"/>
+    <signal id="c" modality="face" lexeme="c"/>
+  </signals>
+  <constraints>
+    <constraint>exists(c)</constraint>
+    <constraint>exists(b) and precedes(b, c)</constraint>
+  </constraints>
+</expression>
+"""
+
+CONFLICT = """<?xml version="1.0" encoding="UTF-8"?>
+<expression name="conflict">
+  <signals>
+    <signal id="a" modality="face" lexeme="a" min_duration="1" max_duration="2"/>
+    <signal id="b" modality="head" lexeme="b" min_duration="1" max_duration="2"/>
+    <signal id="c" modality="gaze" lexeme="c"/>
+  </signals>
+  <constraints>
+    <constraint id="need_a">exists(a)</constraint>
+    <constraint id="b_first">exists(b) and precedes(b, a)</constraint>
+    <constraint id="a_first">precedes(a, b)</constraint>
+  </constraints>
+</expression>
+"""
+
+
+def consistent(model: ir.Model, schedule: Schedule) -> bool:
+    return not check_schedule(model, schedule)
+
+
+def test_a_signal_needing_another_before_it_is_sampled_by_the_walk() -> None:
+    """docs/behaviour_sets.md's idiom: c is mandatory and needs b before it."""
+    model = api.loads(SEQ, path="seq.xml")
+    walk = GreedySolver()
+    for schedule in walk.solve(model, SolveRequest(duration=10, seed=1, count=30)):
+        assert consistent(model, schedule)
+        b, c = (next(o for o in schedule.occurrences if o.signal == name) for name in "bc")
+        assert b.stop <= c.start
+
+
+@pytest.mark.parametrize(("name", "signal"), [
+    ("relief", "relief_smile"), ("cheerfulness", "laugh"), ("panic_fear", "fear_face_lips_down"),
+    ("tension", "pressed_lips"), ("tension", "lip_bite"),
+])
+def test_required_signals_with_prerequisites_are_sampled_by_the_walk(name: str, signal: str) -> None:
+    model = api.load(name)
+    for schedule in GreedySolver().solve(model, SolveRequest(duration=10, seed=3, count=10, require=(signal,))):
+        assert consistent(model, schedule)
+        assert signal in {o.signal for o in schedule.occurrences}
+
+
+def test_timeline_json_records_method_and_mode() -> None:
+    model = api.load("embarrassment")
+    timeline = api.sample(model, 10, seed=2)
+    assert not isinstance(timeline, list)
+    obj = timeline.to_json()
+    assert obj["method"] == "walk" and obj["mode"] == "consistent" and obj["solver"] == "greedy"
+    free = api.sample(model, 10, seed=2, mode="constraint-less")
+    assert not isinstance(free, list)
+    assert free.to_json()["mode"] == "constraint-less"
+
+
+def test_table_header_names_mode_and_method(capsys: pytest.CaptureFixture[str]) -> None:
+    assert main(["sample", "embarrassment", "--seed", "1", "--format", "table", "--mode", "constraint-less"]) == 0
+    header = capsys.readouterr().out.splitlines()[0]
+    assert "mode constraint-less" in header and "method walk" in header
+
+
+def test_no_timeline_is_proven_with_the_conflicting_lines() -> None:
+    model = api.loads(CONFLICT, path="conflict.xml")
+    with pytest.raises(NoSolution) as caught:
+        DefaultSolver().solve(model, SolveRequest(duration=10, seed=1))
+    assert caught.value.proven
+    text = caught.value.reason
+    for name, line in (("need_a", 9), ("b_first", 10), ("a_first", 11)):
+        assert f"{name} (conflict.xml:{line})" in text
+
+
+def test_pins_go_to_the_complete_solver() -> None:
+    model = api.load("relief")
+    solver = DefaultSolver()
+    [schedule] = solver.solve(model, SolveRequest(duration=10, seed=1, pinned=(Pin("open_mouth", 1.0, 3.0),)))
+    assert solver.methods == ["cpsat"]
+    assert consistent(model, schedule)
+    assert any(o.signal == "open_mouth" and (o.start, o.stop) == (1000, 3000) for o in schedule.occurrences)
+
+
+def test_never_occurring_signals_occur_only_when_a_constraint_demands_them() -> None:
+    quiet = ir.Signal("q", "face", "q", 0.5, 1.0, probability_start=0.0, probability_end=0.0)
+    loud = ir.Signal("l", "head", "l", 0.5, 1.0)
+    alone = ir.Model("zero", (quiet, loud))
+    for schedule in DefaultSolver().solve(alone, SolveRequest(duration=5, seed=1, count=20)):
+        assert "q" not in {o.signal for o in schedule.occurrences}
+    needed = ir.Model("zero", (quiet, loud), (ir.Constraint("c1", ir.Exists("q")),))
+    solver = DefaultSolver()
+    [schedule] = solver.solve(needed, SolveRequest(duration=5, seed=1))
+    assert "q" in {o.signal for o in schedule.occurrences} and consistent(needed, schedule)
+
+
+def test_stream_hands_out_occurrences_before_the_walk_ends(monkeypatch: pytest.MonkeyPatch) -> None:
+    """Streaming commits at settled stamps: the first occurrences come long before the end."""
+    import mse.solve.greedy.walk as walk_module
+
+    walked: list[int] = []
+    original = walk_module.walk_stamp
+
+    def counting(attempt: object, j: int) -> None:
+        walked.append(j)
+        original(attempt, j)  # type: ignore[arg-type]
+
+    monkeypatch.setattr(walk_module, "walk_stamp", counting)
+    model = api.load("tension")
+    stream = get_solver("greedy").stream(model, SolveRequest(duration=600, seed=5))
+    first = next(iter(stream))
+    assert first.start < 60_000
+    assert max(walked) < 300  # not decided to the end yet
+    rest = list(stream)
+    schedule = Schedule.of(600_000, [first, *rest])
+    assert consistent(model, schedule)
+    assert [o.start for o in [first, *rest]] == sorted(o.start for o in [first, *rest])
+
+
+def test_streamed_and_solved_timelines_are_both_consistent() -> None:
+    model = api.load("embarrassment")
+    for seed in range(5):
+        streamed = list(get_solver("greedy").stream(model, SolveRequest(duration=60, seed=seed)))
+        assert consistent(model, Schedule.of(60_000, streamed))
+
+
+def test_long_timelines_keep_repetitive_signals_going() -> None:
+    """A repetitive signal starts at p per free second all along a long timeline."""
+    signal = ir.Signal("r", "face", "r", 1.0, 1.0, probability_start=0.5, probability_end=0.5, repetitivity=1)
+    [schedule] = GreedySolver().solve(ir.Model("rep", (signal,)), SolveRequest(duration=600, seed=2))
+    starts = [o.start for o in schedule.occurrences]
+    # free 1 s after each 1 s occurrence, then a start within about 1 / 0.5 s on average: ~3 s apart
+    assert 150 < len(starts) < 300
+    assert sum(1 for s in starts if s >= 300_000) > 0.4 * len(starts)
+
+
+@settings(max_examples=40, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(model=models(max_signals=5, max_constraints=5), seed=st.integers(0, 2**20),
+       duration=st.sampled_from([3.0, 6.0, 10.0]))
+def test_whenever_cpsat_finds_a_timeline_the_default_solver_returns_one(
+    model: ir.Model, seed: int, duration: float
+) -> None:
+    request = SolveRequest(duration=duration, seed=seed, time_limit=5.0)
+    try:
+        get_solver("cpsat").solve(model, request)
+    except NoSolution:
+        return
+    solver = DefaultSolver()
+    [schedule] = solver.solve(model, request)
+    assert consistent(model, schedule)
+    assert solver.methods[0] in ("walk", "cpsat")
+
+
+def test_cli_json_carries_the_method(capsys: pytest.CaptureFixture[str], tmp_path: object) -> None:
+    from pathlib import Path
+
+    path = Path(str(tmp_path)) / "seq.xml"
+    path.write_text(SEQ, encoding="utf-8")
+    assert main(["sample", str(path), "--seed", "4", "--format", "json"]) == 0
+    assert json.loads(capsys.readouterr().out)["method"] == "walk"
