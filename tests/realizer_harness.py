@@ -21,6 +21,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from mse.export import ExportOptions
+from mse.ir import model as ir
 from mse.timeline import Timeline, TimelineSignal
 
 GRETA_LIBRARY_LINKS = ("facelibrary.xml", "HeadGestures.xml", "TorsoGestures.xml", "gestuary_poppy.xml")
@@ -291,7 +292,18 @@ def build_corpus(shared: Path, folder: Path) -> Corpus:
     imported = import_greta(greta / "lexicon.xml", greta / "constraint.xml")
     sources = [("bundled", name, load(name)) for name in bundled_names()]
     sources += [("imported", e.name, loads(e.xml, path=f"<greta {e.name}>")) for e in imported]
-    timelines = [(kind, name, sample(model, DURATION, seed=seed)) for kind, name, model in sources for seed in SEEDS]
+
+    def playing(model: ir.Model, seed: int) -> Timeline:
+        """A timeline of ``seed``, or of the next seeds when it is empty (a set whose signals
+        all stayed absent plays nothing: not a case for the parsers)."""
+        for attempt in range(10):
+            timeline = sample(model, DURATION, seed=seed + 1000 * attempt)
+            assert isinstance(timeline, Timeline)
+            if timeline.signals:
+                break
+        return timeline
+
+    timelines = [(kind, name, playing(model, seed)) for kind, name, model in sources for seed in SEEDS]
     timelines.append(("synthetic", "synthetic", synthetic_timeline()))
     timelines.append(("synthetic", "odd", odd_lexemes_timeline()))
     variants = {**asap_variants(greta), **greta_variants(greta)}
