@@ -84,13 +84,33 @@ class Attempt:
     def can_add(self, signal: SignalPlan, pending: int = 0) -> bool:
         return signal.id not in self.forbid and self.count.get(signal.id, 0) + pending < signal.limit
 
-    def future_box(self, signal: SignalPlan, frontier: int, extra: tuple[SignalPlan, int] | None) -> Box | None:
-        """Where one more occurrence of ``signal`` could still go, or None."""
+    def future_box(
+        self, signal: SignalPlan, frontier: int, extra: tuple[SignalPlan, int] | None, *, bounded: bool = True
+    ) -> Box | None:
+        """Where one more occurrence of ``signal`` could still go, or None.  ``bounded``: it
+        starts after everything in the state (the bounds of start_window assume so)."""
         pending = 1 if extra is not None and extra[0].id == signal.id else 0
         if not self.can_add(signal, pending):
             return None
         low = self.earliest(signal, frontier, extra)
-        high = self.plan.duration - signal.shortest
+        first, high = self.plan.fixed[signal.id]
+        if first > low:
+            low = first
+        # The necessary bounds of its constraints with the partners in the state (as
+        # start_window) hold in every world where it occurs.  A partner may be a range (the
+        # candidate): a lower bound uses its lowest value, an upper bound its highest.
+        env = self.env
+        for other, rules in self.plan.partner_bounds[signal.id] if bounded else ():
+            for box in env.get(other, ()):
+                for index, delta, upper in rules:
+                    if upper:
+                        value = box[index + 1] + delta
+                        if value < high:
+                            high = value
+                    else:
+                        value = box[index] + delta
+                        if value > low:
+                            low = value
         if low > high:
             return None
         return (low, high, low + signal.shortest, self.plan.duration)
@@ -161,6 +181,10 @@ class Attempt:
         if self.count.get(sid, 0) >= signal.limit:
             self.dead.add(sid)
             return False
+        env = self.env
+        for before in self.plan.needs_before[sid]:
+            if not env.get(before):
+                return False  # it cannot start before that one is placed (order.py)
         first_start, last_start = self.start_window(signal)
         # Lower bounds only grow (frontier, placed partners) and upper bounds only shrink, so
         # a signal whose window closed stays out for the rest of the walk.
@@ -443,11 +467,18 @@ class Attempt:
                 searched.add(name)
                 needed = ()
                 whole = (low, high, low + signal.shortest, min(high + signal.longest, plan.duration))
-                latest = None if not self.allows(signal, whole) else latest_start(
-                    lambda x: self.allows(signal, self.start_box(signal, x)),  # noqa: B023
-                    lambda: self.critical(signal, "start", None),  # noqa: B023
-                    low, high, previous.get(name, high),
-                )
+                before = previous.get(name, high)
+                latest = None
+                if any(not self.env.get(p) for p in plan.needs_before[name]):
+                    pass  # it waits for a prerequisite (order.py)
+                elif low <= before <= high and self.allows(signal, self.start_box(signal, before)):
+                    latest = before  # what latest_start would answer first: usually unchanged
+                elif self.allows(signal, whole):  # monotone: when the box fails, every start does
+                    latest = latest_start(
+                        lambda x: self.allows(signal, self.start_box(signal, x)),  # noqa: B023
+                        lambda: self.critical(signal, "start", None),  # noqa: B023
+                        low, high, before,
+                    )
                 if latest is None:
                     # It cannot be placed now; perhaps once other signals are placed before it
                     # (``exists(a) and precedes(a, b)`` with b owed): those become owed too,
@@ -507,7 +538,7 @@ class Attempt:
                     strict: dict[str, Box] = {}
                     for name in compiled.mentioned:
                         other = self.plan.by_id[name]
-                        early = self.future_box(other, low, None)
+                        early = self.future_box(other, low, None, bounded=False)
                         if early is not None and name != signal.id:
                             optional[name] = early
                         late = self.future_box(other, x, (signal, x))
@@ -555,7 +586,7 @@ class Attempt:
                 optional: dict[str, Box] = {}
                 for name in compiled.mentioned:
                     if name != signal.id:
-                        early = self.future_box(self.plan.by_id[name], low, None)
+                        early = self.future_box(self.plan.by_id[name], low, None, bounded=False)
                         if early is not None:
                             optional[name] = early
                 if not compiled.in_other_world(env, optional):

@@ -18,6 +18,7 @@ from typing import NamedTuple
 from mse.ir import model as ir
 from mse.ir.profile import RATE_UNIT
 from mse.ir.schedule import to_ticks
+from mse.solve.greedy.order import needs_before
 from mse.solve.greedy.partial import CompiledConstraint
 
 #: Default length of a time stamp in seconds (the original implementation's ~1 s).
@@ -78,8 +79,8 @@ class Plan:
     """Everything about one model, duration and slot that does not depend on the draws."""
 
     __slots__ = (
-        "bounds", "by_id", "by_signal", "constraints", "cumulative", "duration", "edges", "fixed",
-        "in_modality", "influence", "initial_owing", "partner_bounds", "related", "signals", "stamps", "table",
+        "bounds", "by_id", "by_signal", "constraints", "cumulative", "duration", "edges", "fixed", "in_modality",
+        "influence", "initial_owing", "needs_before", "partner_bounds", "related", "signals", "stamps", "table",
     )
 
     def __init__(
@@ -128,6 +129,9 @@ class Plan:
         self.bounds = bounds
         # earliest/latest start from the constant bounds alone
         self.fixed = {s.id: _fixed_window(s, bounds[s.id], duration) for s in signals}
+        lengths = {s.id: (s.shortest, s.longest) for s in signals}
+        # signals that must be placed before each one can start (order.py)
+        self.needs_before = {s.id: needs_before(s.id, by_signal[s.id], lengths, duration) for s in signals}
         # the bounds that name another signal, grouped by it, as (other, ((box index, delta,
         # upper), ...)) for speed: one lookup of the other's occurrences per partner
         self.partner_bounds = {s.id: _by_partner(bounds[s.id]) for s in signals}
@@ -215,12 +219,16 @@ def _relation_bounds(atom: ir.Relation, me: str, shortest: int) -> list[StartBou
 _FLIP = {"<": ">", ">": "<", "<=": ">=", ">=": "<=", "=": "="}
 
 
-def _compare_bounds(atom: ir.Compare, me: str, duration: int) -> list[StartBound]:
+def _compare_bounds(atom: ir.Compare, me: SignalPlan, duration: int) -> list[StartBound]:
+    """Bounds on start(me) from a comparison of one of its edges with a placed partner or a
+    constant.  A bound on the stop bounds the start through the length: stop <= x gives
+    start <= x - shortest, stop >= x gives start >= x - longest."""
     for mine, other, op in ((atom.left, atom.right, atom.op), (atom.right, atom.left, _FLIP[atom.op])):
-        if not (isinstance(mine, ir.SignalTime) and mine.signal == me and mine.edge == "start"):
+        if not (isinstance(mine, ir.SignalTime) and mine.signal == me.id):
             continue
+        upper_shift, lower_shift = (0, 0) if mine.edge == "start" else (me.shortest, me.longest)
         if isinstance(other, ir.SignalTime):
-            if other.signal == me:
+            if other.signal == me.id:
                 return []
             name: str | None = other.signal
             index, base = (0 if other.edge == "start" else 2), other.offset - mine.offset
@@ -228,15 +236,16 @@ def _compare_bounds(atom: ir.Compare, me: str, duration: int) -> list[StartBound
             name, index = None, 0
             base = (duration + other.offset if isinstance(other, ir.DurationTime) else other.value) - mine.offset
         if op == "<":
-            return [StartBound(name, index, base - 1, True)]
+            return [StartBound(name, index, base - 1 - upper_shift, True)]
         if op == "<=":
-            return [StartBound(name, index, base, True)]
+            return [StartBound(name, index, base - upper_shift, True)]
         if op == ">":
-            return [StartBound(name, index, base + 1, False)]
+            return [StartBound(name, index, base + 1 - lower_shift, False)]
         if op == ">=":
-            return [StartBound(name, index, base, False)]
+            return [StartBound(name, index, base - lower_shift, False)]
         tolerance = atom.tolerance
-        return [StartBound(name, index, base - tolerance, False), StartBound(name, index, base + tolerance, True)]
+        return [StartBound(name, index, base - tolerance - lower_shift, False),
+                StartBound(name, index, base + tolerance - upper_shift, True)]
     return []
 
 
@@ -247,7 +256,7 @@ def _bounds_of(signal: SignalPlan, constraints: Sequence[CompiledConstraint], du
             if isinstance(atom, ir.Relation) and signal.id in (atom.left, atom.right):
                 found.update(dict.fromkeys(_relation_bounds(atom, signal.id, signal.shortest)))
             elif isinstance(atom, ir.Compare):
-                found.update(dict.fromkeys(_compare_bounds(atom, signal.id, duration)))
+                found.update(dict.fromkeys(_compare_bounds(atom, signal, duration)))
     return tuple(found)
 
 
@@ -339,9 +348,10 @@ def build_plan(model: ir.Model, duration: int, slot: float, with_constraints: bo
     signals = tuple(_signal_plan(i, s, duration, model.exclusive_modalities) for i, s in enumerate(model.signals))
     columns = [_hazards(s, stamps, duration) for s in signals]
     table = tuple(tuple(column[j] for column in columns) for j in range(count))
-    constraints = (
-        tuple(CompiledConstraint(c, duration) for c in model.constraints) if with_constraints else ()
-    )
+    # Constraints that say the same thing (Greta's sets repeat some) are checked once: the
+    # walk's verdicts are the same, and the final check names every violated one anyway.
+    distinct = {c.expr: c for c in reversed(model.constraints)} if with_constraints else {}
+    constraints = tuple(CompiledConstraint(c, duration) for c in model.constraints if distinct.get(c.expr) is c)
     by_signal = {s.id: [c for c in constraints if s.id in c.mentioned] for s in signals}
     related = {
         s.id: tuple(sorted({name for c in by_signal[s.id] for name in c.mentioned} | {s.id})) for s in signals
