@@ -13,11 +13,16 @@ class Doomed(Exception):
 
 
 def latest_start(
-    check: Callable[[int], bool], points: Callable[[], Iterable[int]], low: int, high: int, previous: int
+    check: Callable[[int], bool],
+    points: Callable[[], Iterable[int]],
+    low: int,
+    high: int,
+    previous: int,
+    box: Callable[[int, int], bool] | None = None,
 ) -> int | None:
     """The latest start in [low, high] that ``check`` allows.  Placements rarely move a latest
     start later: probe below the ``previous`` one first, and the rest only when that fails."""
-    latest = latest_feasible(check, low, min(previous, high), points) if low <= previous else None
+    latest = latest_feasible(check, low, min(previous, high), points, box) if low <= previous else None
     if latest is None and previous < high:
-        latest = latest_feasible(check, max(low, previous + 1), high, points)
+        latest = latest_feasible(check, max(low, previous + 1), high, points, box)
     return latest

@@ -164,6 +164,10 @@ class Attempt:
     def start_box(self, signal: SignalPlan, start: int) -> Box:
         return (start, start, start + signal.shortest, min(start + signal.longest, self.plan.duration))
 
+    def starts_box(self, signal: SignalPlan, first: int, last: int) -> Box:
+        """Every occurrence starting in [first, last]."""
+        return (first, last, first + signal.shortest, min(last + signal.longest, self.plan.duration))
+
     def feasible_starts(self, signal: SignalPlan, low: int, high: int) -> Intervals:
         # One check of the box holding every start of [low, high] first: the partial check is
         # monotone (a larger box may only add truth values and optional worlds), so when it
@@ -478,6 +482,7 @@ class Attempt:
                         lambda x: self.allows(signal, self.start_box(signal, x)),  # noqa: B023
                         lambda: self.critical(signal, "start", None),  # noqa: B023
                         low, high, before,
+                        lambda a, b: self.allows(signal, self.starts_box(signal, a, b)),  # noqa: B023
                     )
                 if latest is None:
                     # It cannot be placed now; perhaps once other signals are placed before it
