@@ -60,7 +60,8 @@ def register(subparsers: Any) -> None:
     parser.add_argument("--stream", action="store_true", help="print each signal as a JSON line once decided")
     parser.add_argument("--realtime", action="store_true", help="with --stream: pace the lines to the clock")
     parser.add_argument("--slot", type=float, help="greedy: time-stamp length in seconds (default about 1)")
-    parser.add_argument("--max-restarts", type=int, default=50, help="greedy: restarts before giving up")
+    parser.add_argument("--max-restarts", type=int, default=20,
+                        help="greedy: backtracks without progress before the CP-SAT fallback (default 20)")
     wanted = parser.add_argument_group("requests", "A solver that cannot honour a request refuses it and says so.")
     pin_help = "SIG occurs from START to STOP seconds (repeatable)"
     wanted.add_argument("--pin", action="append", default=[], metavar="SIG@START-STOP", help=pin_help)

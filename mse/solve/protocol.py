@@ -48,7 +48,7 @@ class SolveRequest:
     workers: int = 1
     grid: float = 0.5  # csp backend: grid step in seconds
     slot: float | None = None  # greedy backend: time-stamp length (None: about 1 s)
-    max_restarts: int = 50
+    max_restarts: int = 20  # greedy: backtracks without progress before the fallback
     options: dict[str, object] = field(default_factory=dict)
 
     def features(self) -> frozenset[str]:

@@ -101,16 +101,21 @@ class Attempt:
         # candidate): a lower bound uses its lowest value, an upper bound its highest.
         env = self.env
         for other, rules in self.plan.partner_bounds[signal.id] if bounded else ():
-            for box in env.get(other, ()):
-                for index, delta, upper in rules:
-                    if upper:
-                        value = box[index + 1] + delta
-                        if value < high:
-                            high = value
-                    else:
-                        value = box[index] + delta
-                        if value > low:
-                            low = value
+            boxes = env.get(other)
+            if not boxes:
+                continue
+            # components never decrease along a signal's boxes: the first has the smallest
+            # values (upper bounds), the last the largest (lower bounds)
+            first_box, last_box = boxes[0], boxes[-1]
+            for index, delta, upper in rules:
+                if upper:
+                    value = first_box[index + 1] + delta
+                    if value < high:
+                        high = value
+                else:
+                    value = last_box[index] + delta
+                    if value > low:
+                        low = value
         if low > high:
             return None
         return (low, high, low + signal.shortest, self.plan.duration)
@@ -276,13 +281,15 @@ class Attempt:
             boxes = env.get(other)
             if not boxes:
                 continue
-            for box in boxes:
-                for index, delta, upper in rules:
-                    value = box[index] + delta
-                    if upper:
-                        if value < last_start:
-                            last_start = value
-                    elif value > first_start:
+            first_box, last_box = boxes[0], boxes[-1]  # placed points, in start order
+            for index, delta, upper in rules:
+                if upper:
+                    value = first_box[index] + delta
+                    if value < last_start:
+                        last_start = value
+                else:
+                    value = last_box[index] + delta
+                    if value > first_start:
                         first_start = value
         return first_start, last_start
 

@@ -128,14 +128,17 @@ def relation_mask(kind: str, a: Box, b: Box) -> int:
 # A relational atom over signals with several occurrences holds for every combination of them:
 # true is possible when every pair may be true, false when some pair may be false.  Each
 # relation but excludes is a conjunction of ``x <= y`` comparisons, so the fold only needs the
-# smallest and largest value of each box component (linear in the occurrences, at C speed,
-# instead of quadratic); excludes is a sweep over both lists, whose components never decrease
-# (occurrences of one signal are placed in start order and never overlap).  A repetitive
-# signal may occur hundreds of times in a long timeline: this keeps a check's cost nearly flat.
+# smallest and largest value of each box component; excludes is a sweep (or binary searches)
+# over both lists.  The components of a signal's boxes never decrease along its list
+# (occurrences of one signal are placed in start order and never overlap; a box still to be
+# decided comes last and starts after them), so the smallest and largest values are the
+# first and last box's.  A repetitive signal may occur hundreds of times in a long timeline:
+# this keeps a check's cost flat.
 def _spans(boxes: Sequence[Box]) -> tuple[tuple[int, int], tuple[int, int], tuple[int, int], tuple[int, int]]:
-    """(min, max) of each of the four box components."""
-    columns = tuple(zip(*boxes, strict=True))
-    return tuple((min(column), max(column)) for column in columns)  # type: ignore[return-value]
+    """(min, max) of each of the four box components: the first and the last box's, since the
+    components never decrease along the list (see above)."""
+    first, last = boxes[0], boxes[-1]
+    return (first[0], last[0]), (first[1], last[1]), (first[2], last[2]), (first[3], last[3])
 
 
 def _sweep_overlaps(left: Sequence[Box], right: Sequence[Box], lo: int, hi: int) -> bool:
@@ -200,9 +203,9 @@ def _fold_compare(op: str, left: tuple[int, int, int, int], right: tuple[int, in
 
 
 def _edge_span(boxes: Sequence[Box], low: int, high: int, offset: int) -> tuple[int, int, int, int]:
-    lows = [box[low] for box in boxes]
-    highs = [box[high] for box in boxes]
-    return min(lows) + offset, max(lows) + offset, min(highs) + offset, max(highs) + offset
+    """(min low, max low, min high, max high) of one edge: first and last box (see above)."""
+    first, last = boxes[0], boxes[-1]
+    return first[low] + offset, last[low] + offset, first[high] + offset, last[high] + offset
 
 
 def _for_each(pairs_mask: Callable[[Box, Box], int], boxes: Sequence[Box]) -> int:

@@ -80,7 +80,8 @@ class Plan:
 
     __slots__ = (
         "bounds", "by_id", "by_signal", "constraints", "cumulative", "duration", "edges", "fixed", "in_modality",
-        "influence", "initial_owing", "needs_before", "partner_bounds", "related", "signals", "stamps", "table",
+        "influence", "initial_owing", "masses", "needs_before", "partner_bounds", "related", "signals", "stamps",
+        "table",
     )
 
     def __init__(
@@ -103,6 +104,17 @@ class Plan:
         # candidacy instead of one per stamp; the same distribution as a trial per stamp).
         self.cumulative = tuple(_cumulative([row[s.index] for row in table]) for s in signals)
         self.signals = signals
+        # Per signal, the prefix sums of its profile's mass per stamp (p at the middle x the
+        # length): an owed signal is due in stamp j with probability mass_j / (mass of j up to
+        # its deadline), so that even a forced start follows the profile (walk.py).
+        self.masses = tuple(
+            tuple(itertools.accumulate(
+                (p * (last - first) for p, (first, last) in zip(
+                    _profile(s, stamps, duration), itertools.pairwise(stamps), strict=True)),
+                initial=0.0,
+            ))
+            for s in signals
+        )
         self.by_id = {s.id: s for s in signals}
         in_modality: dict[str, list[SignalPlan]] = {}
         for signal in signals:

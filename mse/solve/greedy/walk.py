@@ -38,7 +38,7 @@ _bisect_right = bisect.bisect_right
 
 #: A walk fails for good after ``budget`` failures without getting further than before, or
 #: after this many times ``budget + 1`` failures in all.
-TOTAL_FACTOR = 4
+TOTAL_FACTOR = 2
 #: Partial checks a walk may make, per stamp and per signal or constraint of the model, plus a
 #: constant; past it the walk gives up (a deterministic bound on effort: the default solver
 #: then falls back to CP-SAT).  Ordinary walks use a few percent of it.
@@ -180,9 +180,17 @@ def walk_stamp(attempt: Attempt, j: int) -> None:
             attempt.refresh_latest(expired_only=True)
         row = plan.table[j]
         for name in sorted(attempt.latest):
-            remaining = plan.stamp_of(attempt.latest[name]) - j + 1
-            if remaining >= 1 and rng.random() < max(row[plan.by_id[name].index], 1 / remaining):
-                queue.append(plan.by_id[name])
+            signal = plan.by_id[name]
+            due = plan.stamp_of(attempt.latest[name])
+            if due < j:
+                continue
+            # Due in this stamp with the profile's share of what is left before the deadline
+            # (certain at the deadline; evenly spread when the profile is 0 there).
+            masses = plan.masses[signal.index]
+            left = masses[due + 1] - masses[j]
+            share = (masses[j + 1] - masses[j]) / left if left > 0 else 1 / (due - j + 1)
+            if rng.random() < max(row[signal.index], share):
+                queue.append(signal)
     bucket = attempt.buckets[j]
     if not bucket and not queue:
         return
