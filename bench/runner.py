@@ -5,7 +5,8 @@ sampler in the same run, under the same load (``bench/sample.py --baseline-ref R
 A job is a list of items ``{"name", "model" (canonical IR JSON), "duration", "seeds",
 "solver", "warm"}``; the subprocess answers, per item, the CPU and wall time of sampling every
 seed (one request per seed, as ``mse sample --seed S`` would), how many timelines it returned
-and, when the solver counts them, its walks and backtracks.  The script run in the
+and, when the solver counts them, its walks and backtracks.  An item may carry a ``budget`` in
+seconds: once it is spent, its remaining seeds are skipped (and counted as such).  The script run in the
 subprocess uses only what both versions have: ``mse.ir.canonical.model_from_json``,
 ``mse.solve.protocol.get_solver`` and ``SolveRequest``.
 """
@@ -42,7 +43,11 @@ for item in job:
     ok = attempts = restarts = 0
     times = []
     cpu, wall = time.process_time(), time.perf_counter()
+    skipped = 0
     for seed in item["seeds"]:
+        if time.perf_counter() - wall > item.get("budget", float("inf")):
+            skipped += 1  # this item already took its time budget: the rest is not run
+            continue
         began = time.perf_counter()
         try:
             solver.solve(model, SolveRequest(duration=item["duration"], seed=seed))
@@ -53,7 +58,7 @@ for item in job:
         attempts += getattr(solver, "attempts", 0)
         restarts += getattr(solver, "restarts", 0)
     results.append({"name": item["name"], "cpu": time.process_time() - cpu, "wall": time.perf_counter() - wall,
-                    "ok": ok, "attempts": attempts, "restarts": restarts, "times": times,
+                    "ok": ok, "attempts": attempts, "restarts": restarts, "times": times, "skipped": skipped,
                     "methods": list(getattr(solver, "methods", []))})
 print(json.dumps(results))
 """

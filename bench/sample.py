@@ -213,8 +213,8 @@ def bench_growth(compare: Compare, models: int, seeds: int) -> None:
         xs, mine_medians, theirs_medians = [], [], []
         print(title)
         for x, n, m, duration in points:
-            job = [item(f"p{k}", planted_model(1000 * k + n + m, n, m, duration), duration, range(seeds), warm=1)
-                   for k in range(models)]
+            job = [{**item(f"p{k}", planted_model(1000 * k + n + m, n, m, duration), duration, range(seeds), warm=1),
+                    "budget": 120.0} for k in range(models)]
             results = compare.run(job)
             times = [t for r in results[0] for t in r["times"]]
             failed = sum(seeds - r["ok"] for r in results[0])
@@ -225,9 +225,11 @@ def bench_growth(compare: Compare, models: int, seeds: int) -> None:
                     f"p99 {percentile(times, 0.99) * 1000:8.1f} ms  failed {failed}  fallbacks {fallbacks}")
             if len(results) > 1:
                 old = [t for r in results[1] for t in r["times"]]
-                old_failed = sum(seeds - r["ok"] for r in results[1])
+                skipped = sum(r.get("skipped", 0) for r in results[1])
+                old_failed = sum(seeds - r["ok"] for r in results[1]) - skipped
                 theirs_medians.append(statistics.median(old))
                 line += (f"  | baseline p50 {statistics.median(old) * 1000:8.1f} ms failed {old_failed}"
+                         f"{f' (+{skipped} not run: 120 s per set spent)' if skipped else ''}"
                          f"  ratio {statistics.median(old) / statistics.median(times):5.2f}")
             print(line, flush=True)
         line = f"  growth exponent: {slope(xs, mine_medians):.2f}"

@@ -42,8 +42,8 @@ TOTAL_FACTOR = 2
 #: Partial checks a walk may make, per stamp and per signal or constraint of the model, plus a
 #: constant; past it the walk gives up (a deterministic bound on effort: the default solver
 #: then falls back to CP-SAT).  Ordinary walks use a few percent of it.
-WORK_PER_STAMP = 20
-WORK_BASE = 20_000
+WORK_PER_STAMP = 5
+WORK_BASE = 5_000
 
 
 class OutOfBudget(Exception):
