@@ -42,6 +42,7 @@ for item in job:
             pass
     ok = attempts = restarts = 0
     times = []
+    methods = []  # per seed: how the solver made it ("walk", "cpsat"), or "" when it failed
     cpu, wall = time.process_time(), time.perf_counter()
     skipped = 0
     for seed in item["seeds"]:
@@ -52,14 +53,15 @@ for item in job:
         try:
             solver.solve(model, SolveRequest(duration=item["duration"], seed=seed))
             ok += 1
+            methods.extend(getattr(solver, "methods", None) or ["?"])
         except NoSolution:
-            pass
+            methods.append("")
         times.append(time.perf_counter() - began)
         attempts += getattr(solver, "attempts", 0)
         restarts += getattr(solver, "restarts", 0)
     results.append({"name": item["name"], "cpu": time.process_time() - cpu, "wall": time.perf_counter() - wall,
                     "ok": ok, "attempts": attempts, "restarts": restarts, "times": times, "skipped": skipped,
-                    "methods": list(getattr(solver, "methods", []))})
+                    "methods": methods})
 print(json.dumps(results))
 """
 
