@@ -10,7 +10,7 @@ Stable API (other test modules import these names):
 Generated sets look like the paper's: durations of 0.1-4 s, probabilities on a 0.1 grid,
 constraints in the styles the bundled and Greta sets use (``exists(a) and includes(a, b)``,
 ``exists(b) implies exists(a)``, ``start(b) = stop(a) + 0.2``, ``start(x) > 2``,
-``equal(start(a), start(b), 0.3)``, excludes/precedes, ...), plus arbitrary nested
+``equal(start(a), start(b), 0.3)``, ``length(a) >= 1.5``, excludes/precedes, ...), plus arbitrary nested
 connectives (style ``"nested"``).  A generated set is well formed but need not admit a
 consistent timeline: solvers may answer "no solution" for some of them.
 """
@@ -36,6 +36,7 @@ ALL_STYLES = (
     "chain",  # start(b) = stop(a) + offset
     "offset",  # start(x) > 2 / stop(x) <= duration - 1
     "equal",  # equal(start(a), start(b), tol)
+    "length",  # length(a) >= 1.5 / 2 > length(a) / equal(length(a), 1, tol)
     "exists",  # exists(a)
     "nested",  # random connectives over random atoms
 )
@@ -106,7 +107,19 @@ def _atom(ids: Sequence[str]) -> st.SearchStrategy[ir.Expr]:
         st.builds(ir.Exists, names),
         st.builds(ir.Relation, st.sampled_from(list(RELATIONS)), names, names),
         compare,
+        names.flatmap(_length),
     )
+
+
+@st.composite
+def _length(draw: st.DrawFn, signal: str) -> ir.Compare:
+    """``length(a) op k`` or ``k op length(a)`` as the parser builds them (docs/semantics.md)."""
+    op = draw(st.sampled_from(list(COMPARE_OPS)))
+    k = draw(st.integers(0, 8)) * 250
+    tolerance = draw(st.sampled_from([0, 300])) if op == "=" else 0
+    if draw(st.booleans()):
+        return ir.Compare(op, ir.SignalTime(signal, "stop"), ir.SignalTime(signal, "start", k), tolerance)
+    return ir.Compare(op, ir.SignalTime(signal, "start", k), ir.SignalTime(signal, "stop"), tolerance)
 
 
 def _flat(kind: type[ir.And] | type[ir.Or], operands: tuple[ir.Expr, ...]) -> tuple[ir.Expr, ...]:
@@ -158,6 +171,8 @@ def constraint_exprs(draw: st.DrawFn, ids: Sequence[str], styles: Sequence[str] 
         return ir.Compare("=", ir.SignalTime(a, "start"), ir.SignalTime(b, "start"), tolerance=300)
     if style == "exists":
         return ir.Exists(a)
+    if style == "length":
+        return draw(_length(a))
     return draw(_nested(ids))
 
 

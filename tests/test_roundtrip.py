@@ -20,8 +20,14 @@ number = st.decimals(min_value=0, max_value=60, places=3).map(lambda d: format(d
 offset = st.lists(st.tuples(st.sampled_from("+-"), number), max_size=2).map(
     lambda parts: "".join(f" {sign} {value}" for sign, value in parts)
 )
+edge = st.sampled_from(["start", "stop"])
+#: length(s) and differences of two times: only ever compared with a number (E216 otherwise)
+difference = st.one_of(
+    st.builds(lambda s, o: f"length({s}){o}", signal, offset),
+    st.builds(lambda e, s, f, t, o: f"{e}({s}) - {f}({t}){o}", edge, signal, edge, signal, offset),
+)
 term = st.one_of(
-    st.builds(lambda e, s, o: f"{e}({s}){o}", st.sampled_from(["start", "stop"]), signal, offset),
+    st.builds(lambda e, s, o: f"{e}({s}){o}", edge, signal, offset),
     st.builds(lambda o: f"duration{o}", offset),
     st.builds(lambda neg, n: f"{'-' if neg else ''}{n}", st.booleans(), number),
 )
@@ -38,6 +44,14 @@ atom = st.one_of(
         lambda x, y, t: f"equal({x}, {y}{t})", term, term, st.one_of(st.just(""), number.map(lambda n: f", {n}"))
     ),
     st.builds(lambda x, op, y: f"{x} {op} {y}", term, st.sampled_from(["<", ">", "=", "<=", ">="]), term),
+    st.builds(
+        lambda x, op, y, flip: f"{y} {op} {x}" if flip else f"{x} {op} {y}",
+        difference,
+        st.sampled_from(["<", ">", "=", "<=", ">="]),
+        st.builds(lambda neg, n: f"{'-' if neg else ''}{n}", st.booleans(), number),
+        st.booleans(),
+    ),
+    st.builds(lambda x, y: f"equal({x}, {y}, 0.25)", difference, number),
 )
 
 

@@ -295,6 +295,7 @@ class _Resolver:
             edge: ir.Edge = "start" if node.edge == "start" else "stop"
             offset = self.ticks(node.offset, node.span, "offset")
             return ir.SignalTime(self.signal(node.signal), edge, offset, node.span)
+        assert not isinstance(node, ast.DifferenceNode), "differences are built by _difference"
         if isinstance(node, ast.DurationNode):
             return ir.DurationTime(self.ticks(node.offset, node.span, "offset"), node.span)
         return ir.Constant(self.ticks(node.value, node.span, "time"), node.span)
@@ -367,7 +368,40 @@ class _Resolver:
             else:
                 tolerance = self.ticks(node.tolerance.value, node.tolerance.span, "tolerance")
         op: ir.CompareOp = {"<": "<", ">": ">", "=": "=", "<=": "<=", ">=": ">="}[node.op]  # type: ignore[assignment]
+        if isinstance(node.left, ast.DifferenceNode) or isinstance(node.right, ast.DifferenceNode):
+            return self._difference(op, node, tolerance)
         return ir.Compare(op, self.term(node.left), self.term(node.right), tolerance, node.span)
+
+    def _difference(self, op: ir.CompareOp, node: ast.CompareNode, tolerance: int) -> ir.Expr:
+        """``stop(a) - start(b) + c op k`` (``length(a)`` is ``stop(a) - start(a)``) is the
+        comparison of two times ``stop(a) op start(b) + (k - c)``: the same atom, evaluated
+        and solved as every other one (docs/semantics.md).  A difference compared with
+        anything but a number would need more than two times and is refused (E216)."""
+        left, right = node.left, node.right
+        if isinstance(left, ast.DifferenceNode) and isinstance(right, ast.NumberNode):
+            shift = self.ticks(right.value - left.offset, right.span, "time")
+            return ir.Compare(
+                op, self._edge(left.minuend), self._edge(left.subtrahend, shift), tolerance, node.span
+            )
+        if isinstance(right, ast.DifferenceNode) and isinstance(left, ast.NumberNode):
+            shift = self.ticks(left.value - right.offset, left.span, "time")
+            return ir.Compare(
+                op, self._edge(right.subtrahend, shift), self._edge(right.minuend), tolerance, node.span
+            )
+        other = right if isinstance(left, ast.DifferenceNode) else left
+        self.checker.error(
+            "E216",
+            "a signal's length (length(s), or a difference such as stop(a) - start(b)) can only be "
+            f"compared with a number (constraint {self.constraint_id!r})",
+            other.span,
+        )
+        difference = left if isinstance(left, ast.DifferenceNode) else right
+        assert isinstance(difference, ast.DifferenceNode)
+        return ir.Exists(self.signal(difference.minuend.signal), node.span)  # a placeholder: E216 fails the build
+
+    def _edge(self, node: ast.SignalTimeNode, offset: int = 0) -> ir.SignalTime:
+        edge: ir.Edge = "start" if node.edge == "start" else "stop"
+        return ir.SignalTime(self.signal(node.signal), edge, offset, node.span)
 
 
 def _connective(node: ast.NotNode | ast.BinaryNode, operands: list[ir.Expr]) -> ir.Expr:

@@ -30,14 +30,34 @@ def term_text(term: ir.Term) -> str:
     return ("-" if term.value < 0 else "") + seconds(term.value)
 
 
+def _constant_text(ticks: int) -> str:
+    return ("-" if ticks < 0 else "") + seconds(ticks)
+
+
+def _length_sides(atom: ir.Compare) -> tuple[str, str] | None:
+    """``stop(a) op start(a) + k`` is what ``length(a) op k`` parses to (and ``start(a) + k op
+    stop(a)`` is ``k op length(a)``): print it the way it is written.  Other offsets are left
+    as two times, so that parsing the text gives back exactly this atom."""
+    left, right = atom.left, atom.right
+    if not (isinstance(left, ir.SignalTime) and isinstance(right, ir.SignalTime)) or left.signal != right.signal:
+        return None
+    length = f"length({left.signal})"
+    if left.edge == "stop" and right.edge == "start" and left.offset == 0:
+        return length, _constant_text(right.offset)
+    if left.edge == "start" and right.edge == "stop" and right.offset == 0:
+        return _constant_text(left.offset), length
+    return None
+
+
 def _atom_text(atom: ir.Atom) -> str:
     if isinstance(atom, ir.Exists):
         return f"exists({atom.signal})"
     if isinstance(atom, ir.Relation):
         return f"{atom.kind}({atom.left}, {atom.right})"
+    left, right = _length_sides(atom) or (term_text(atom.left), term_text(atom.right))
     if atom.op == "=" and atom.tolerance:
-        return f"equal({term_text(atom.left)}, {term_text(atom.right)}, {seconds(atom.tolerance)})"
-    return f"{term_text(atom.left)} {atom.op} {term_text(atom.right)}"
+        return f"equal({left}, {right}, {seconds(atom.tolerance)})"
+    return f"{left} {atom.op} {right}"
 
 
 def _level(expr: ir.Expr) -> int:

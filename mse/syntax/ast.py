@@ -37,7 +37,17 @@ class NumberNode:
     span: Span
 
 
-TermNode = SignalTimeNode | DurationNode | NumberNode
+@dataclass(frozen=True, slots=True)
+class DifferenceNode:
+    """``stop(a) - start(b) + offset``; ``length(a)`` is ``stop(a) - start(a)``."""
+
+    minuend: SignalTimeNode
+    subtrahend: SignalTimeNode
+    offset: float
+    span: Span
+
+
+TermNode = SignalTimeNode | DifferenceNode | DurationNode | NumberNode
 
 
 @dataclass(frozen=True, slots=True)

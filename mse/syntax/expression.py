@@ -27,7 +27,7 @@ Locate = Callable[[int], Span]
 
 KEYWORDS = (
     "exists", "includes", "excludes", "precedes", "rightincludes", "lessthan", "morethan", "equal",
-    "start", "stop", "duration", "and", "or", "not", "implies",
+    "start", "stop", "length", "duration", "and", "or", "not", "implies",
 )  # fmt: skip
 
 _TOKEN_LABELS = {
@@ -39,6 +39,7 @@ _TOKEN_LABELS = {
     "MINUS": "'-'",
     "PLUS": "'+'",
     "EDGE": "start(...) or stop(...)",
+    "LENGTH": "length(...)",
     "DURATION": "'duration'",
     "EXISTS": "'exists'",
     "RELATION": "includes/excludes/precedes/rightincludes",
@@ -74,8 +75,10 @@ def _syntax_error(error: UnexpectedInput, text: str, locate: Locate) -> Diagnost
         expected = _describe_expected(set(error.accepts or error.expected))
         message = f"unexpected {found} in constraint; expected {expected}"
         guess = difflib.get_close_matches(str(token), KEYWORDS, n=1, cutoff=0.75) if token.type == "SIG" else []
-        if guess:
+        if guess and guess[0] != str(token):
             message = f"unknown operator {str(token)!r} (did you mean {guess[0]!r}?)"
+        elif guess:  # a keyword where it cannot stand: never suggest the word itself
+            message = f"{str(token)!r} cannot stand here in a constraint; expected {expected}"
     elif isinstance(error, UnexpectedCharacters):
         position = error.pos_in_stream or 0
         message = f"unexpected character {text[position]!r} in constraint"
@@ -219,6 +222,19 @@ class _Builder:
         span = self.span(node)
         if kind == "signal_time":
             return ast.SignalTimeNode(self.name(_token(kids[1])), str(_token(kids[0])), self.offsets(kids[2:]), span)
+        if kind == "difference":
+            minuend = ast.SignalTimeNode(self.name(_token(kids[1])), str(_token(kids[0])), 0.0, span)
+            subtrahend_span = self.span(_token(kids[3]))
+            subtrahend = ast.SignalTimeNode(self.name(_token(kids[4])), str(_token(kids[3])), 0.0, subtrahend_span)
+            return ast.DifferenceNode(minuend, subtrahend, self.offsets(kids[5:]), span)
+        if kind == "length":
+            signal = self.name(_token(kids[1]))
+            return ast.DifferenceNode(
+                ast.SignalTimeNode(signal, "stop", 0.0, span),
+                ast.SignalTimeNode(signal, "start", 0.0, span),
+                self.offsets(kids[2:]),
+                span,
+            )
         if kind == "duration_time":
             return ast.DurationNode(self.offsets(kids[1:]), span)
         negative = kids[0] is not None
