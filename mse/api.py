@@ -20,6 +20,7 @@ from dataclasses import replace
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
+from mse import progress
 from mse.diagnostics import Diagnostic, MseError, Span, has_errors
 from mse.ir.evaluate import Violation, check_schedule
 from mse.ir.model import Model
@@ -267,7 +268,7 @@ def lint(
             continue
         if not files:
             found.append(Diagnostic("W300", "no behaviour-set file (*.xml) in this folder", Span(str(entry))))
-        for path in files:
+        for path in progress.each(files, "lint", unit="file"):
             model, diagnostics = compile_source(path)
             found.extend(diagnostics)
             if model is None:

@@ -17,6 +17,7 @@ LAYERS: dict[str, int] = {
     "mse.resources": 0,
     "mse.fileio": 0,
     "mse.limits": 0,
+    "mse.progress": 0,
     "mse.syntax": 1,
     "mse.ir": 2,
     "mse.solve": 3,

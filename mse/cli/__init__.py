@@ -56,8 +56,11 @@ def main(argv: Sequence[str] | None = None) -> int:
     if handler is None:
         parser.print_help(sys.stderr)
         return 2
+    from mse import progress
     from mse.fileio import Terminated
 
+    # Long work shows a bar on a terminal (never when piped, never under --quiet).
+    progress.enable(not getattr(args, "quiet", False))
     try:
         return int(handler(args))
     except KeyboardInterrupt:

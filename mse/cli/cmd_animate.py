@@ -13,6 +13,8 @@ if TYPE_CHECKING:
     from mse.ir.model import Model
     from mse.timeline import Timeline
 
+from mse.cli.common import add_quiet
+
 
 def register(subparsers: Any) -> None:
     parser = subparsers.add_parser(
@@ -24,6 +26,7 @@ def register(subparsers: Any) -> None:
         "missing from a library fall back to it with a warning.",
     )
     parser.add_argument("timeline", help="timeline JSON file ('-' for stdin)")
+    add_quiet(parser)
     parser.add_argument("-o", "--output", required=True, help="output folder")
     parser.add_argument(
         "--library",

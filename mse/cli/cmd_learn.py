@@ -12,6 +12,8 @@ import sys
 from pathlib import Path
 from typing import Any
 
+from mse.cli.common import add_quiet
+
 
 def register(subparsers: Any) -> None:
     parser = subparsers.add_parser(
@@ -21,6 +23,7 @@ def register(subparsers: Any) -> None:
         "Exit 1 on bad input; sequences that break a learned rule are listed on stderr.",
     )
     parser.add_argument("inputs", nargs="+", help=".eaf, .csv/.tsv, .json/.jsonl files or folders")
+    add_quiet(parser)
     parser.add_argument("--tiers", help="tiers to read, each TIER or TIER=MODALITY (e.g. face,'Gaze R=gaze'); "
                         "default: every tier, its name as modality")
     parser.add_argument("--mapping", metavar="FILE", help="TOML file with [tiers] (tier = modality) and "

@@ -6,7 +6,7 @@ import argparse
 import sys
 from typing import Any
 
-from mse.cli.common import emit, print_diagnostics
+from mse.cli.common import add_quiet, emit, print_diagnostics
 
 FORMATS = ("text", "json", "github", "sarif")
 
@@ -24,6 +24,7 @@ def register(subparsers: Any) -> None:
         "on errors, or on warnings with --strict; 2 when --select/--ignore names no rule code.",
     )
     parser.add_argument("paths", nargs="+", help="files, folders (searched for *.xml) or bundled names")
+    add_quiet(parser)
     parser.add_argument(
         "--format",
         choices=FORMATS,

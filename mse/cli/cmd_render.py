@@ -13,6 +13,8 @@ import re
 import sys
 from pathlib import Path
 
+from mse.cli.common import add_quiet
+
 _SIZE = re.compile(r"^(\d{1,5})x(\d{1,5})$")
 
 
@@ -51,6 +53,7 @@ def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) ->
     p.add_argument("--fps", type=float, default=25.0, help="frames per second (default 25)")
     p.add_argument("--at", type=float, default=0.0, metavar="SECONDS", help="time of the frame for a .png output")
     p.add_argument("--no-strip", action="store_true", help="leave out the timeline strip")
+    add_quiet(p)
     p.add_argument("--face-library", type=Path, metavar="FILE", help="Greta facelibrary.xml for face and gaze lexemes")
     add_face_arguments(p)
     p.add_argument(

@@ -11,7 +11,7 @@ import sys
 import time
 from typing import Any
 
-from mse.cli.common import emit, print_diagnostics, print_error, read_stdin_bytes
+from mse.cli.common import add_quiet, emit, print_diagnostics, print_error, read_stdin_bytes
 from mse.diagnostics import Diagnostic, MseError, Span
 from mse.limits import MAX_SECONDS, solve_duration_problem
 
@@ -36,6 +36,7 @@ def register(subparsers: Any) -> None:
         "2 when no timeline exists.",
     )
     parser.add_argument("source", nargs="?", help="behaviour-set file, bundled name, or '-' for stdin")
+    add_quiet(parser)
     parser.add_argument("-d", "--duration", type=float, default=10.0, help="timeline length in seconds (default 10)")
     parser.add_argument("--seed", type=int, help="random seed (default: fresh; recorded in the output)")
     parser.add_argument("-n", "--count", type=int, help="number of timelines (seeds seed, seed+1, ...)")

@@ -16,7 +16,7 @@ import time
 from collections.abc import Callable
 from typing import Any
 
-from mse.cli.common import print_error
+from mse.cli.common import add_quiet, print_error
 from mse.diagnostics import Diagnostic, MseError, Span
 from mse.fileio import refuse_inputs
 from mse.limits import MAX_MOTION_SECONDS, MAX_STEPS
@@ -39,6 +39,7 @@ def register(subparsers: Any) -> None:
         "(with --style: a model of that style alone, from its own takes). An unknown action or "
         "style is an error listing those the library has.",
     )
+    add_quiet(train)
     train.add_argument("--library", required=True, help="motion library folder or index")
     train.add_argument("--action", required=True, help="action label, e.g. walk or bow")
     train.add_argument(
@@ -66,6 +67,7 @@ def register(subparsers: Any) -> None:
         description="Adapt an average model (from 'mse style train') to one style of the library "
         "from a few takes of it: CMLLR, then MAP unless --no-map.",
     )
+    add_quiet(adapt)
     adapt.add_argument("model", help="average model file (from 'mse style train')")
     adapt.add_argument("--library", required=True, help="motion library folder or index")
     adapt.add_argument("--style", required=True, help="target style label, e.g. sad")
@@ -80,6 +82,7 @@ def register(subparsers: Any) -> None:
         description="Synthesize a BVH clip from an average or adapted model by maximum-likelihood "
         "parameter generation with global variance, for a number of steps or an exact duration.",
     )
+    add_quiet(synth)
     synth.add_argument("model", help="model file (average or adapted)")
     length = synth.add_mutually_exclusive_group()
     length.add_argument("--steps", type=int, help="number of steps (cyclic actions)")

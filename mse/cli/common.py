@@ -3,6 +3,7 @@ output to stdout or to a file written atomically."""
 
 from __future__ import annotations
 
+import argparse
 import os
 import sys
 from collections.abc import Iterable
@@ -17,6 +18,11 @@ if TYPE_CHECKING:
 
 _COLOURS = {"E": "\033[31m", "W": "\033[33m"}
 _RESET = "\033[0m"
+
+
+def add_quiet(parser: argparse.ArgumentParser) -> None:
+    """``-q/--quiet``: no progress bar (bars show only on a terminal anyway: mse/progress.py)."""
+    parser.add_argument("-q", "--quiet", action="store_true", help="no progress bar on the terminal")
 
 
 def use_colour(stream: TextIO) -> bool:

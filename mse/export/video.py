@@ -17,6 +17,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from mse import progress
 from mse.diagnostics import Diagnostic, MseError, Span
 from mse.export.options import ExportOptions
 from mse.fileio import atomic_path, staged_folder
@@ -94,7 +95,7 @@ def painter(
 
 def iter_frames(frames: FramePainter, times: np.ndarray) -> Iterator[Image.Image]:
     values = frames.track.values(times)
-    for index, time in enumerate(times):
+    for index, time in progress.each(list(enumerate(times)), "render", unit="frame"):
         yield frames.paint(float(time), values[index])
 
 

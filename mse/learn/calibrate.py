@@ -15,6 +15,7 @@ from __future__ import annotations
 from collections.abc import Mapping
 from dataclasses import dataclass, replace
 
+from mse import progress
 from mse.ir import model as ir
 from mse.ir.schedule import Schedule, to_seconds
 from mse.learn.corpus import Corpus
@@ -77,7 +78,7 @@ def calibrate(
     best: tuple[float, ir.Model] | None = None
     notes: list[str] = []
     current = model
-    for round_number in range(rounds + 1):
+    for round_number in progress.each(range(rounds + 1), "calibrate", unit="round"):
         try:
             schedules = solver.solve(current, SolveRequest(duration=duration, seed=seed + round_number * samples,
                                                            count=samples))

@@ -10,6 +10,7 @@ from __future__ import annotations
 from collections.abc import Iterable
 from pathlib import Path
 
+from mse import progress
 from mse.diagnostics import Diagnostic, MseError, Span, has_errors
 from mse.ir.schedule import to_ticks
 from mse.learn.corpus import DEFAULT_MAPPING, Annotation, Corpus, RawSequence, TierMapping, build_corpus
@@ -93,7 +94,7 @@ def read_corpus(paths: Iterable[str | Path], mapping: TierMapping = DEFAULT_MAPP
     """The corpus of every input; raises MseError (every problem, with file:line) on bad input."""
     files, found = expand_inputs(paths)
     raw: list[RawSequence] = []
-    for path in files:
+    for path in progress.each(files, "read", unit="file"):
         kind = SUFFIXES[path.suffix.lower()]
         data, problems = _read(path, kind)
         found.extend(problems)

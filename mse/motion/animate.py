@@ -33,6 +33,7 @@ from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
+from mse import progress
 from mse.diagnostics import Span
 from mse.fileio import write_atomic
 from mse.ir.model import Model, MotionLeaf
@@ -146,7 +147,7 @@ def animate(
     tracks: list[Track] = []
     features: dict[str, Any] = {}
     warned: set[str] = set()
-    for entry in timeline.signals:
+    for entry in progress.each(timeline.signals, "animate", unit="signal"):
         declared = model.signal_by_id.get(entry.id)
         leaf = declared.motion if declared is not None else None
         if leaf is None or entry.stop <= entry.start:
@@ -200,7 +201,7 @@ def _check_limits(timeline: Timeline, model: Model) -> None:
         message = f"a timeline of {timeline.duration:g} s is too long to animate (at most {MAX_ANIMATE_SECONDS:g} s)"
         raise MseError([Diagnostic("E215", message, Span("<timeline>"))])
     total = 0.0
-    for entry in timeline.signals:
+    for entry in progress.each(timeline.signals, "animate", unit="signal"):
         declared = model.signal_by_id.get(entry.id)
         if declared is None or declared.motion is None:
             continue

@@ -27,6 +27,7 @@ from __future__ import annotations
 from collections.abc import Iterator
 from dataclasses import replace
 
+from mse import progress
 from mse.ir import model as ir
 from mse.ir.profile import never_occurs
 from mse.ir.schedule import Occurrence, Schedule
@@ -56,7 +57,7 @@ class DefaultSolver:
         self._validate(model, request)
         self.methods, self.attempts, self.restarts = [], 0, 0
         schedules = []
-        for index in range(request.count):
+        for index in progress.each(range(request.count), "sample", unit="timeline"):
             schedule, method = self.one(model, request, derive_seed(request.seed, index))
             schedules.append(schedule)
             self.methods.append(method)

@@ -28,6 +28,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from mse import progress
 from mse.motion.hsmm.features import FloatArray
 from mse.motion.hsmm.model import (
     DURATION_VARIANCE_FLOOR,
@@ -321,7 +322,22 @@ def adaptive_training(
     ``soft``: transforms and re-estimation from occupancy-weighted statistics (HTS), after
     the segmental-k-means start; else from Viterbi alignments.
     """
+    with progress.bar(1 + rounds, "train", unit="round") as steps:
+        return _adaptive_training(instances, states, floor, blocks, rounds, prior, soft, steps)
+
+
+def _adaptive_training(
+    instances: Sequence[Instance],
+    states: int,
+    floor: FloatArray,
+    blocks: Sequence[np.ndarray],
+    rounds: int,
+    prior: float,
+    soft: bool,
+    steps: progress.Bar,
+) -> tuple[dict[str, UnitModel], dict[str, tuple[AffineTransform, AffineTransform]]]:
     units, aligned = train_units(instances, states, floor=floor)
+    steps.update()
     transforms: dict[str, tuple[AffineTransform, AffineTransform]] = {}
     styles = sorted({i.style for i in instances})
     if soft:
@@ -342,6 +358,7 @@ def adaptive_training(
                 transform=lambda style, o: transforms[style][0].apply(o),
                 duration_transform=lambda style, d: transforms[style][1].apply(d),
             )
+            steps.update()
         return units, transforms
     for _ in range(rounds):
         for style in styles:
@@ -365,4 +382,5 @@ def adaptive_training(
             Instance(i.unit, i.style, i.observations, n.bounds)
             for i, n in zip(aligned, realign(normalised, units), strict=True)
         ]
+        steps.update()
     return units, transforms

@@ -14,6 +14,7 @@ from collections.abc import Callable
 from dataclasses import replace
 from pathlib import Path
 
+from mse import progress
 from mse.diagnostics import Diagnostic, MseError, Span
 from mse.fileio import user_cache_dir
 from mse.motion.base.bvh import Motion
@@ -51,7 +52,7 @@ def _style_takes(
         raise _no_clips(where, f"clips of action {action!r}", library.actions())
     if takes is not None:
         chosen = chosen[: max(1, takes)]
-    return [library.motion(c) for c in chosen]
+    return [library.motion(c) for c in progress.each(chosen, "read clips", unit="clip")]
 
 
 def train_from_library(
@@ -67,7 +68,8 @@ def train_from_library(
     if style is not None:
         motions = _style_takes(library, source, action, style, takes)
         return train_scratch([(m, style) for m in motions], action, options)
-    clips = [(library.motion(c), c.style) for c in library.select(action=action)]
+    selected = list(library.select(action=action))
+    clips = [(library.motion(c), c.style) for c in progress.each(selected, "read clips", unit="clip")]
     if not clips:
         raise _no_clips(source, f"clips of action {action!r}", library.actions())
     return train_average(clips, action, options)
