@@ -13,7 +13,8 @@ checkout's) and ``docs/images/`` (empty: the pictures' recipe writes there), and
 takes "your own set" and its timeline as given: :func:`_prepare` writes ``my_set.xml`` (the
 bundled anger) and ``timeline.json`` (sampled from it).  Commands of one page run in order in that
 folder (a later line may read what an earlier one wrote).  A command whose trailing comment
-starts with ``# exit N`` must exit with N; every other one must exit 0.
+starts with ``# exit N`` must exit with N; every other one must exit 0.  The page's
+```python blocks then run, in that folder, in one namespace (docs/api.md's have their own test).
 """
 
 from __future__ import annotations
@@ -134,8 +135,18 @@ def _environment() -> dict[str, str]:
     return {**os.environ, "PATH": path, "PYTHONPATH": str(REPO_ROOT), "COLUMNS": "100"}
 
 
-@pytest.mark.parametrize("page", [p for p in PAGES if commands(p)], ids=lambda p: p.name)
-def test_every_shell_example_runs(page: Path, tmp_path: Path, shared_dir: Path) -> None:
+def python_blocks(page: Path) -> list[Block]:
+    """Python blocks of the page (docs/api.md has its own test: tests/test_cli_newcomer.py)."""
+    if page.name == "api.md":
+        return []
+    return [b for b in blocks(page) if b.language == "python" and b.marker is None]
+
+
+@pytest.mark.parametrize("page", [p for p in PAGES if commands(p) or python_blocks(p)], ids=lambda p: p.name)
+def test_every_shell_example_runs(
+    page: Path, tmp_path: Path, shared_dir: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """The page's shell commands in order, then its Python blocks in the same folder."""
     work = _prepare(tmp_path, shared_dir)
     environment = _environment()
     report: list[str] = []
@@ -156,6 +167,10 @@ def test_every_shell_example_runs(page: Path, tmp_path: Path, shared_dir: Path) 
             f"expected {command.expected_exit}\n{result.stderr.decode(errors='replace')[-2000:]}"
         )
     print("\n".join(report))
+    monkeypatch.chdir(work)
+    namespace: dict[str, object] = {}
+    for block in python_blocks(page):
+        exec(compile("\n".join(block.body), f"{block.page}:{block.line} (python)", "exec"), namespace)
 
 
 def test_examples_are_found_and_markers_are_rare() -> None:
