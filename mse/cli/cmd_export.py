@@ -22,7 +22,7 @@ if TYPE_CHECKING:
 def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     p = subparsers.add_parser(
         "export",
-        help="write a saved timeline as BML, Greta BML, SVG, HTML or ELAN (eaf)",
+        help="write a saved timeline as BML, Greta BML, SVG, HTML, ELAN (eaf) or video",
         description="Write a timeline (mse-timeline/1 JSON) in another format.",
     )
     p.add_argument("timeline", help="timeline JSON file ('-' reads standard input)")

@@ -16,7 +16,7 @@ def register(subparsers: Any) -> None:
         "clip, for the whole body and per body part (Samadani et al., §III-A).",
     )
     parser.add_argument("clip", nargs="+", help="BVH file(s)")
-    parser.add_argument("--format", choices=("json", "text"), default="json", help="output format")
+    parser.add_argument("--format", choices=("json", "text"), default="json", help="json (default) or text")
     parser.add_argument("-o", "--output", help="write to this file instead of stdout")
     parser.set_defaults(handler=run)
 

@@ -79,7 +79,7 @@ def register(subparsers: Any) -> None:
     )
     exact.add_argument("--diverse", action="store_true", help="with --count: maximally different timelines")
     exact.add_argument("--time-limit", type=float, default=10.0, help="seconds (default 10)")
-    exact.add_argument("--workers", type=int, default=1, help="CP-SAT search workers")
+    exact.add_argument("--workers", type=int, default=1, help="CP-SAT search workers (default 1: reproducible)")
     exact.add_argument("--grid", type=float, default=0.5, help="csp: grid step in seconds (default 0.5)")
     out = parser.add_argument_group("motion and export")
     out.add_argument("--animate", metavar="DIR", help="generate motion for every motion leaf into DIR")

@@ -85,7 +85,9 @@ def register(subparsers: Any) -> None:
     add_quiet(synth)
     synth.add_argument("model", help="model file (average or adapted)")
     length = synth.add_mutually_exclusive_group()
-    length.add_argument("--steps", type=int, help="number of steps (cyclic actions)")
+    length.add_argument(
+        "--steps", type=int, help="number of steps (cyclic actions; default 2: a first and a last step)"
+    )
     length.add_argument("--duration", type=float, help="exact length in seconds")
     synth.add_argument("--no-gv", action="store_true", help="no global-variance compensation")
     synth.add_argument("--seed", type=int, help="vary the state durations reproducibly")

@@ -43,7 +43,8 @@ def validate(model: ir.Model, request: SolveRequest) -> None:
         raise _error(f"unknown mode {request.mode!r} (known: consistent, constraint-less)")
     unknown = sorted({*request.require, *request.forbid} - set(model.signal_by_id))
     if unknown:
-        raise _error(f"unknown signal(s) {', '.join(unknown)} in require/forbid for {model.name!r}")
+        known = ", ".join(s.id for s in model.signals)
+        raise _error(f"unknown signal(s) {', '.join(unknown)} in require/forbid for {model.name!r} (known: {known})")
     both = sorted(set(request.require) & set(request.forbid))
     if both:
         raise _error(f"signal(s) {', '.join(both)} both required and forbidden")
