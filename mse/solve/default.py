@@ -52,10 +52,15 @@ class DefaultSolver:
         #: Walks and backtracks of the last :meth:`solve` (the bench reads them).
         self.attempts = 0
         self.restarts = 0
+        # What one solve() learnt of its request, whatever the seed (:meth:`one`): no timeline
+        # exists without the never-occurring signals; one exists with them.
+        self._zeros_needed = False
+        self._exists_with_zeros = False
 
     def solve(self, model: ir.Model, request: SolveRequest) -> list[Schedule]:
         self._validate(model, request)
         self.methods, self.attempts, self.restarts = [], 0, 0
+        self._zeros_needed = self._exists_with_zeros = False
         schedules = []
         for index in progress.each(range(request.count), "sample", unit="timeline"):
             schedule, method = self.one(model, request, derive_seed(request.seed, index))
@@ -68,6 +73,7 @@ class DefaultSolver:
         walk gives up before its first checkpoint, the fallback's timeline at once."""
         self._validate(model, request)
         self.methods = []
+        self._zeros_needed = self._exists_with_zeros = False
         seed = derive_seed(request.seed, 0)
         if not request.pinned:
             first = replace(request, forbid=self._forbidden(model, request))
@@ -90,29 +96,58 @@ class DefaultSolver:
         """One timeline for ``seed`` and how it was made; NoSolution (a proof, when CP-SAT
         gives one) when there is none."""
         zeros = self._zeros(model, request)
-        try:
-            return self._pass(model, replace(request, forbid=(*request.forbid, *zeros)), seed, walk)
-        except NoSolution as failure:
-            if not (zeros and failure.proven):
-                raise
-        # No timeline without the never-occurring signals: a constraint demands some of them.
-        return self._pass(model, request, seed, walk)
+        if not self._zeros_needed:
+            try:
+                return self._pass(model, replace(request, forbid=(*request.forbid, *zeros)), seed, walk)
+            except NoSolution as failure:
+                if not (zeros and failure.proven):
+                    raise
+                self._zeros_needed = True  # a proof: true of every seed of this request
+        # No timeline without the never-occurring signals: a constraint may demand some of them.
+        # CP-SAT first says whether any timeline exists at all (once per request: the answer
+        # does not depend on the seed): when none does, its proof is the answer at once (a
+        # second walk would only spend its whole budget failing again).
+        found: Schedule | NoSolution | None = None
+        if not self._exists_with_zeros:
+            try:
+                found = self._complete(model, request, seed)
+                self._exists_with_zeros = True
+            except NoSolution as failure:
+                if failure.proven:
+                    raise
+                found = failure  # undecided in the time limit: the walk may still find one
+        if walk and not request.pinned:
+            try:
+                return self._walk(model, request, seed), "walk"
+            except NoSolution:
+                pass
+        if isinstance(found, NoSolution):
+            raise found
+        return (found if found is not None else self._complete(model, request, seed)), FALLBACK
 
     def _pass(self, model: ir.Model, request: SolveRequest, seed: int, walk: bool) -> tuple[Schedule, str]:
         if walk and not request.pinned:
-            single = replace(request, seed=seed, count=1)
             try:
-                schedule = self.walker.one(model, single, seed)
-                return schedule, "walk"
+                return self._walk(model, request, seed), "walk"
             except NoSolution:
                 pass
-            finally:
-                self.attempts += self.walker.attempts
-                self.restarts += self.walker.restarts
-                self.walker.attempts = self.walker.restarts = 0
+        return self._complete(model, request, seed), FALLBACK
+
+    def _walk(self, model: ir.Model, request: SolveRequest, seed: int) -> Schedule:
+        single = replace(request, seed=seed, count=1)
+        try:
+            return self.walker.one(model, single, seed)
+        finally:
+            self.attempts += self.walker.attempts
+            self.restarts += self.walker.restarts
+            self.walker.attempts = self.walker.restarts = 0
+
+    @staticmethod
+    def _complete(model: ir.Model, request: SolveRequest, seed: int) -> Schedule:
+        """CP-SAT's timeline for ``seed``; NoSolution (a proof when it has one) otherwise."""
         fallback = get_solver(FALLBACK)
         complete = replace(request, seed=seed, count=1, objective=None, diverse=False)
-        return fallback.solve(model, complete)[0], FALLBACK
+        return fallback.solve(model, complete)[0]
 
     # -- requests -------------------------------------------------------------------------------
     def _validate(self, model: ir.Model, request: SolveRequest) -> None:

@@ -20,7 +20,7 @@ import random
 from mse.ir.schedule import Occurrence
 from mse.solve.greedy.debts import Doomed, latest_start
 from mse.solve.greedy.partial import Box, CompiledConstraint
-from mse.solve.greedy.plan import Plan, SignalPlan
+from mse.solve.greedy.plan import InitialDebts, Plan, SignalPlan
 from mse.solve.greedy.windows import (
     Intervals,
     critical_points,
@@ -438,6 +438,28 @@ class Attempt:
             if compiled.id in owing:
                 owed.update(name for name in compiled.mentioned if name not in self.forbid)
         return owed
+
+    def initial_debts(self) -> None:
+        """:meth:`refresh_latest` on the empty timeline at stamp 0, computed once per plan and
+        request (``Plan.initial_debts``) and copied into this walk: the same result, state
+        and work count as computing it (it draws nothing)."""
+        key = (self.forbid, self.require)
+        found = self.plan.initial_debts.get(key)
+        if found is None:
+            work = self.work
+            try:
+                self.refresh_latest()
+                doomed = None
+            except Doomed as failure:
+                doomed = str(failure)
+            found = InitialDebts(doomed, dict(self.latest), dict(self.needs), self.stuck, self.checked,
+                                 self.work - work)
+            self.plan.initial_debts[key] = found
+            self.work -= found.work
+        self.work += found.work
+        self.latest, self.needs, self.stuck, self.checked = dict(found.latest), dict(found.needs), found.stuck, found.checked
+        if found.doomed is not None:
+            raise Doomed(found.doomed)
 
     def refresh_latest(self, changed: str | None = None, *, expired_only: bool = False) -> None:
         """Latest useful start of every owed signal (the ad-hoc inference over the rest of

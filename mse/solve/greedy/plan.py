@@ -56,6 +56,18 @@ class StartBound(NamedTuple):
 
 # Plain classes with __slots__ rather than dataclasses: `mse sample` imports this module at
 # start-up, and each dataclass costs about a millisecond to create.
+class InitialDebts(NamedTuple):
+    """What :meth:`Attempt.refresh_latest` finds on the empty timeline at stamp 0: the same for
+    every walk of a plan and request (it draws nothing), so it is computed once."""
+
+    doomed: str | None  # the Doomed message, when no walk can pay
+    latest: dict[str, int]
+    needs: dict[str, tuple[str, ...]]
+    stuck: frozenset[str]
+    checked: tuple[str, tuple[int, int, int, int], list[str]] | None
+    work: int  # partial checks it made (the walk's work bound counts them on every walk)
+
+
 class SignalPlan:
     """One signal in ticks: what the walk needs of it."""
 
@@ -80,7 +92,7 @@ class Plan:
 
     __slots__ = (
         "bounds", "by_id", "by_signal", "constraints", "cumulative", "duration", "edges", "fixed", "in_modality",
-        "influence", "initial_owing", "masses", "needs_before", "partner_bounds", "related", "signals", "stamps",
+        "influence", "initial_debts", "initial_owing", "masses", "needs_before", "partner_bounds", "related", "signals", "stamps",
         "table",
     )
 
@@ -124,6 +136,9 @@ class Plan:
         self.constraints = constraints
         # Constraints violated while nothing is placed (every attempt starts owing them).
         self.initial_owing = frozenset(c.id for c in constraints if c.violated({}))
+        # (forbid, require) -> the obligations of the empty timeline at stamp 0 (deterministic:
+        # no draw), computed by the first walk and reused by the others (Attempt.initial_debts)
+        self.initial_debts: dict[tuple[frozenset[str], frozenset[str]], InitialDebts] = {}
         # Lists, reordered by the sampler (most recently failing first: order never changes results)
         self.by_signal = by_signal
         self.related = related  # signals sharing a constraint with it (itself too)

@@ -101,7 +101,7 @@ def walk_steps(
     attempt.owing = set(plan.initial_owing)  # what an empty timeline violates, once per plan
     start_candidacies(attempt, 0)
     if plan.initial_owing or attempt.require:
-        attempt.refresh_latest()  # Doomed here: no walk can pay (the caller falls back)
+        attempt.initial_debts()  # Doomed here: no walk can pay (the caller falls back)
     # checkpoints[i]: the state at the start of stamp checkpoints[i].stamp (increasing); the
     # first one is the start of the walk or, when streaming, the last commit.
     checkpoints: list[Checkpoint] = []
