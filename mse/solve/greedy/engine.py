@@ -35,6 +35,13 @@ from mse.solve.greedy.windows import (
 _sqrt = math.sqrt
 
 
+#: What :meth:`Attempt.commit` restores when a placement is taken back: last stop of the
+#: signal, when its modality is free, frontier, owing, latest, needs, stuck.
+_Saved = tuple[
+    int | None, int | None, int, set[str], dict[str, int], dict[str, tuple[str, ...]], frozenset[str]
+]
+
+
 class Attempt:
     """The mutable state of one walk: placed occurrences, frontier, obligations."""
 
@@ -253,8 +260,13 @@ class Attempt:
         # try a few other stops of the allowed window, nearest to the drawn one first.
         if window == [(stop, stop)]:
             window = [(start + signal.shortest, min(start + signal.longest, self.plan.duration))]
-        others = sorted(probes(window), key=lambda y: (abs(y - stop), y))
-        return any(self.commit(signal, start, y) for y in others if y != stop)
+        others = [y for y in sorted(probes(window), key=lambda y: (abs(y - stop), y)) if y != stop]
+        # One trial with the stop open over all of them first: the lookahead is monotone in
+        # the candidate's box, so when even that leaves an unpayable debt, every stop does
+        # (the usual case: a debt the stop does not settle), and the placements are skipped.
+        if len(others) > 1 and not self.open_stop_may_pay(signal, start, min(others), max(others)):
+            return False
+        return any(self.commit(signal, start, y) for y in others)
 
     def start_window(self, signal: SignalPlan) -> tuple[int, int]:
         """Earliest and latest start allowed by the occurrence rules and the necessary bounds
@@ -281,10 +293,12 @@ class Attempt:
             boxes = env.get(other)
             if not boxes:
                 continue
-            first_box, last_box = boxes[0], boxes[-1]  # placed points, in start order
+            # placed points, in start order (and an open-stop trial's box: the upper bound
+            # takes its highest value, the lower bound its lowest, as in future_box)
+            first_box, last_box = boxes[0], boxes[-1]
             for index, delta, upper in rules:
                 if upper:
-                    value = first_box[index] + delta
+                    value = first_box[index + 1] + delta
                     if value < last_start:
                         last_start = value
                 else:
@@ -310,35 +324,61 @@ class Attempt:
     # -- placing and taking back -----------------------------------------------------------------
     def commit(self, signal: SignalPlan, start: int, stop: int) -> bool:
         """Place the occurrence unless that leaves an obligation nothing can meet."""
-        saved = (
-            self.last_stop.get(signal.id), self.modality_free.get(signal.exclusive or ""), self.frontier,
-            self.owing, self.latest, self.needs, self.stuck,  # replaced, never mutated, once saved
-        )
+        saved = self._saved(signal)
         try:
             self.place(signal, start, stop)
         except Doomed:
-            last_stop, free, self.frontier, self.owing, self.latest, self.needs, self.stuck = saved
-            self.env[signal.id].pop()
-            self.count[signal.id] -= 1
-            if signal.id not in self.forbid:
-                self.dead.discard(signal.id)  # it was alive: try_place checked its window
-            self.occurrences.pop()
-            self.placements -= 1
-            if last_stop is None:
-                del self.last_stop[signal.id]
-            else:
-                self.last_stop[signal.id] = last_stop
-            if signal.exclusive is not None:
-                if free is None:
-                    del self.modality_free[signal.exclusive]
-                else:
-                    self.modality_free[signal.exclusive] = free
+            self._undo(signal, saved)
             return False
         return True
 
-    def place(self, signal: SignalPlan, start: int, stop: int) -> None:
+    def open_stop_may_pay(self, signal: SignalPlan, start: int, low: int, high: int) -> bool:
+        """Whether placing ``signal`` at ``start`` with its stop anywhere in [low, high] may
+        leave every obligation payable; the state is left as it was.  False means that no
+        stop of [low, high] can be committed (the checks are monotone in boxes: a box holding
+        every stop may only add truth values and room)."""
+        saved, checked, work = self._saved(signal), self.checked, self.work
+        self.checked = None
+        try:
+            self.place(signal, start, low, high)
+        except Doomed:
+            return False
+        finally:
+            self._undo(signal, saved)
+            self.checked, self.work = checked, work + 1
+        return True
+
+    def _saved(self, signal: SignalPlan) -> _Saved:
+        return (
+            self.last_stop.get(signal.id), self.modality_free.get(signal.exclusive or ""), self.frontier,
+            self.owing, self.latest, self.needs, self.stuck,  # replaced, never mutated, once saved
+        )
+
+    def _undo(self, signal: SignalPlan, saved: _Saved) -> None:
+        """Take back the occurrence :meth:`place` just added (``saved``: :meth:`_saved` before)."""
+        last_stop, free, frontier, owing, latest, needs, stuck = saved
+        self.frontier, self.owing, self.latest, self.needs, self.stuck = frontier, owing, latest, needs, stuck
+        self.env[signal.id].pop()
+        self.count[signal.id] -= 1
+        if signal.id not in self.forbid:
+            self.dead.discard(signal.id)  # it was alive: try_place checked its window
+        self.occurrences.pop()
+        self.placements -= 1
+        if last_stop is None:
+            del self.last_stop[signal.id]
+        else:
+            self.last_stop[signal.id] = last_stop
+        if signal.exclusive is not None:
+            if free is None:
+                del self.modality_free[signal.exclusive]
+            else:
+                self.modality_free[signal.exclusive] = free
+
+    def place(self, signal: SignalPlan, start: int, stop: int, stop_high: int | None = None) -> None:
+        """Place an occurrence (with ``stop_high``: a trial whose stop is anywhere in
+        [stop, stop_high]; :meth:`open_stop_may_pay` takes it back)."""
         sid = signal.id
-        box = (start, start, stop, stop)
+        box = (start, start, stop, stop if stop_high is None else stop_high)
         boxes = self.env.get(sid)
         if boxes is None:
             self.env[sid] = [box]
@@ -457,7 +497,8 @@ class Attempt:
             self.plan.initial_debts[key] = found
             self.work -= found.work
         self.work += found.work
-        self.latest, self.needs, self.stuck, self.checked = dict(found.latest), dict(found.needs), found.stuck, found.checked
+        self.latest, self.needs = dict(found.latest), dict(found.needs)
+        self.stuck, self.checked = found.stuck, found.checked
         if found.doomed is not None:
             raise Doomed(found.doomed)
 

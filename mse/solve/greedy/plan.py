@@ -92,8 +92,8 @@ class Plan:
 
     __slots__ = (
         "bounds", "by_id", "by_signal", "constraints", "cumulative", "duration", "edges", "fixed", "in_modality",
-        "influence", "initial_debts", "initial_owing", "masses", "needs_before", "partner_bounds", "related", "signals", "stamps",
-        "table",
+        "influence", "initial_debts", "initial_owing", "masses", "needs_before", "partner_bounds", "related",
+        "signals", "stamps", "table",
     )
 
     def __init__(

@@ -38,6 +38,8 @@ def critical_points(
             boxes = env.get(edge.other_signal, ())
             index = 0 if edge.other_edge == "start" else 2
             values = [box[index] + edge.other_offset for box in boxes]
+            # a range (an open-stop trial, engine.open_stop_may_pay): both of its ends
+            values += [box[index + 1] + edge.other_offset for box in boxes if box[index + 1] != box[index]]
         shifts = [0]
         if variable == "start" and edge.my_edge == "stop":
             shifts = [signal.shortest, signal.longest]
