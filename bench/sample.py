@@ -3,6 +3,7 @@
     python bench/sample.py --sets                       # every bundled and Greta set, 10 s
     python bench/sample.py --corpus                     # random sets, CP-SAT as ground truth
     python bench/sample.py --growth                     # growth exponents, 200/400 at 10 s
+    python bench/sample.py --scale                      # 200 signals / 400 constraints at 10 s only
     python bench/sample.py --long                       # one-hour timelines: rate, memory, stream
     python bench/sample.py --infeasible                 # time to a proof (CLI, up to 50 signals)
     python bench/sample.py --fidelity                   # per-signal rates against the definition
@@ -239,6 +240,37 @@ def bench_growth(compare: Compare, models: int, seeds: int) -> None:
     print(load_line())
 
 
+# -- --scale: the 200 signals / 400 constraints point alone, repeated (issue 12) --------------------
+def bench_scale(compare: Compare, models: int, seeds: int, repeat: int) -> None:
+    """The 200/400 point of --growth, ``repeat`` times, this tree and the baseline alternately:
+    p50/p99 per timeline, failures, fallbacks, backtracks per timeline, ratio of the medians."""
+    print(f"== scale: planted sets of 200 signals / 400 constraints at 10 s (bench/corpus.py), {models} sets x "
+          f"{seeds} seeds, {repeat} rounds; the first timeline of each set (plan building) not counted; "
+          f"{load_line()}")
+    job = [{**item(f"p{k}", planted_model(1000 * k + 600, 200, 400, 10.0), 10.0, range(seeds), warm=1),
+            "budget": 300.0} for k in range(models)]
+    ratios = []
+    for round_ in range(repeat):
+        results = compare.run(job)
+        line = f"  round {round_ + 1}:"
+        medians = []
+        for label, result in zip(("default", f"baseline {compare.baseline}"), results, strict=False):
+            times = [t for r in result for t in r["times"]]
+            failed = sum(seeds - r["ok"] for r in result) - sum(r.get("skipped", 0) for r in result)
+            fallbacks = sum(r["methods"].count("cpsat") for r in result)
+            restarts = sum(r["restarts"] for r in result) / max(1, len(times))
+            medians.append(statistics.median(times))
+            line += (f"  {label}: p50 {medians[-1] * 1000:7.1f} ms p99 {percentile(times, 0.99) * 1000:8.1f} ms "
+                     f"failed {failed} fallbacks {fallbacks} backtracks/tl {restarts:5.1f} |")
+        if len(medians) > 1:
+            ratios.append(medians[1] / medians[0])
+            line += f" ratio {ratios[-1]:.2f}"
+        print(line, flush=True)
+    if ratios:
+        print(f"  baseline/default ratio of the p50: median {statistics.median(ratios):.2f} over {repeat} rounds")
+    print(f"target: p50 <= 50 ms, no failure; {load_line()}")
+
+
 # -- --long: one-hour timelines ---------------------------------------------------------------------
 LONG_SCRIPT = r"""
 import json, sys, time, resource
@@ -306,7 +338,18 @@ def bench_long(duration: float, names: Sequence[str]) -> None:
 
 
 # -- --infeasible: proofs ----------------------------------------------------------------------------
-def bench_infeasible(count: int, seed: int, time_limit: float) -> None:
+def cli_run(root: Path, args: list[str]) -> tuple[subprocess.CompletedProcess[str], float, float]:
+    """``mse ARGS`` with the package of the tree at ``root`` in a fresh interpreter: the
+    process, its wall time and its CPU time."""
+    code = f"import sys; sys.path.insert(0, {str(root)!r}); from mse.cli import main; sys.exit(main({args!r}))"
+    began, usage = time.perf_counter(), resource.getrusage(resource.RUSAGE_CHILDREN)
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=False)
+    wall = time.perf_counter() - began
+    after = resource.getrusage(resource.RUSAGE_CHILDREN)
+    return done, wall, after.ru_utime + after.ru_stime - usage.ru_utime - usage.ru_stime
+
+
+def bench_infeasible(compare: Compare, count: int, seed: int, time_limit: float, repeat: int) -> None:
     cpsat = get_solver("cpsat")
     found: list[tuple[ir.Model, float]] = []
     for model_seed, n, m, duration in corpus_sizes(count * 10, seed + 7):
@@ -330,26 +373,36 @@ def bench_infeasible(count: int, seed: int, time_limit: float) -> None:
         except NoSolution as failure:
             if failure.proven:
                 found.append((model, 10.0))
-    print(f"== infeasible sets: `mse sample SET.json --seed 1` (compiled IR), wall and CPU time to the proof; "
+    print(f"== infeasible sets: `mse sample SET.json --seed 1` (compiled IR), wall and CPU time to the proof, "
+          f"best of {repeat} runs{f', and the baseline {compare.baseline} alternately' if compare.baseline else ''}; "
           f"{load_line()}")
-    walls, cpus = [], []
+    walls, cpus, ratios = [], [], []
     with tempfile.TemporaryDirectory() as folder:
         for model, duration in found:
             path = Path(folder) / f"{model.name}.json"
             path.write_text(json.dumps(model_to_json(model)), encoding="utf-8")
-            began, usage = time.perf_counter(), resource.getrusage(resource.RUSAGE_CHILDREN)
-            done = subprocess.run([sys.executable, "-m", "mse", "sample", str(path), "--seed", "1",
-                                   "--duration", str(duration)], capture_output=True, text=True, check=False)
-            wall = time.perf_counter() - began
-            after = resource.getrusage(resource.RUSAGE_CHILDREN)
-            cpu = after.ru_utime + after.ru_stime - usage.ru_utime - usage.ru_stime
+            args = ["sample", str(path), "--seed", "1", "--duration", str(duration)]
+            runs: dict[str, list[tuple[subprocess.CompletedProcess[str], float, float]]] = {"mine": [], "base": []}
+            for _ in range(repeat):
+                runs["mine"].append(cli_run(REPO, args))
+                if compare.baseline_root is not None:
+                    runs["base"].append(cli_run(compare.baseline_root, args))
+            done = runs["mine"][0][0]
+            wall, cpu = min(r[1] for r in runs["mine"]), min(r[2] for r in runs["mine"])
             walls.append(wall)
             cpus.append(cpu)
             proof = "no timeline of" in done.stderr
-            line = done.stderr.strip().splitlines()[0][:110] if done.stderr.strip() else ""
-            print(f"  {len(model.signals):3d} signals {len(model.constraints):3d} constraints {duration:4g} s: "
-                  f"exit {done.returncode} wall {wall:5.2f} s CPU {cpu:5.2f} s proof {proof}  {line}", flush=True)
-    print(f"max wall {max(walls):.2f} s, max CPU {max(cpus):.2f} s (target 2 s); {load_line()}")
+            line = done.stderr.strip().splitlines()[0][:80] if done.stderr.strip() else ""
+            text = (f"  {len(model.signals):3d} signals {len(model.constraints):3d} constraints {duration:4g} s: "
+                    f"exit {done.returncode} wall {wall:5.2f} s CPU {cpu:5.2f} s proof {proof}")
+            if runs["base"]:
+                base_wall, base_cpu = min(r[1] for r in runs["base"]), min(r[2] for r in runs["base"])
+                ratios.append(base_cpu / cpu)
+                text += f" | baseline wall {base_wall:5.2f} s CPU {base_cpu:5.2f} s, CPU ratio {ratios[-1]:4.2f}"
+            print(f"{text}  {line}", flush=True)
+    print(f"max wall {max(walls):.2f} s, max CPU {max(cpus):.2f} s (target 2 s)"
+          + (f"; baseline/default CPU ratio: median {statistics.median(ratios):.2f}, min {min(ratios):.2f}"
+             if ratios else "") + f"; {load_line()}")
 
 
 # -- --fidelity -------------------------------------------------------------------------------------
@@ -469,7 +522,7 @@ def bench_cli(repeat: int) -> None:
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     modes: dict[str, Callable[[], None]] = {}
-    for flag in ("sets", "corpus", "growth", "long", "infeasible", "fidelity", "constraint-less", "cli"):
+    for flag in ("sets", "corpus", "growth", "scale", "long", "infeasible", "fidelity", "constraint-less", "cli"):
         parser.add_argument(f"--{flag}", action="store_true")
     parser.add_argument("--baseline-ref", default="14df718", help="revision to compare with ('' for none)")
     parser.add_argument("--count", type=int, default=2000, help="--sets: timelines per set")
@@ -482,18 +535,20 @@ def main() -> None:
     parser.add_argument("--sets-only", nargs="*", default=None, help="--long, --fidelity: these sets only")
     parser.add_argument("--draws", type=int, default=20000, help="--fidelity: prior draws per set")
     parser.add_argument("--repeat", type=int, default=7)
+    parser.add_argument("--rounds", type=int, default=2, help="--scale, --infeasible: repetitions")
     args = parser.parse_args()
 
     print(load_line(" before"))
     with tempfile.TemporaryDirectory() as folder:
-        needs_compare = args.sets or args.corpus or args.growth
+        needs_compare = args.sets or args.corpus or args.growth or args.scale or args.infeasible
         compare = Compare(args.baseline_ref or None, Path(folder)) if needs_compare else Compare(None, Path(folder))
         modes = {
             "sets": lambda: bench_sets(compare, args.count, args.duration or 10.0),
             "corpus": lambda: bench_corpus(compare, args.corpus_size, args.seeds, args.seed, args.time_limit),
             "growth": lambda: bench_growth(compare, args.models, args.seeds),
             "long": lambda: bench_long(args.duration or 3600.0, args.sets_only or list(all_sets())),
-            "infeasible": lambda: bench_infeasible(10, args.seed, args.time_limit),
+            "scale": lambda: bench_scale(compare, args.models, args.seeds, args.rounds),
+            "infeasible": lambda: bench_infeasible(compare, 10, args.seed, args.time_limit, args.rounds),
             "fidelity": lambda: bench_fidelity(1000, 200, args.duration or 10.0, args.draws, args.sets_only),
             "constraint_less": lambda: bench_constraint_less(200),
             "cli": lambda: bench_cli(args.repeat),

@@ -121,6 +121,55 @@ def test_never_occurring_signals_occur_only_when_a_constraint_demands_them() -> 
     assert "q" in {o.signal for o in schedule.occurrences} and consistent(needed, schedule)
 
 
+def test_what_one_solve_learns_of_the_never_occurring_signals_holds_for_every_seed(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    # c1 demands q (probabilities 0/0): the pass without q is proven impossible once, and
+    # CP-SAT asked once whether a timeline exists with q; the walk makes every timeline.
+    quiet = ir.Signal("q", "face", "q", 0.5, 1.0, probability_start=0.0, probability_end=0.0)
+    loud = ir.Signal("l", "head", "l", 0.5, 1.0)
+    needed = ir.Model("zero", (quiet, loud), (ir.Constraint("c1", ir.Exists("q")),))
+    solver = DefaultSolver()
+    calls: list[int] = []
+    complete = DefaultSolver._complete
+
+    def counted(model: ir.Model, request: SolveRequest, seed: int) -> Schedule:
+        calls.append(seed)
+        return complete(model, request, seed)
+
+    monkeypatch.setattr(DefaultSolver, "_complete", staticmethod(counted))
+    schedules = solver.solve(needed, SolveRequest(duration=5, seed=1, count=6))
+    assert len(calls) == 2  # the proof without q (seed 1), the existence check with q
+    assert solver.methods == ["walk"] * 6
+    assert all("q" in {o.signal for o in s.occurrences} and consistent(needed, s) for s in schedules)
+    # the same timelines as one seed at a time
+    for index, schedule in enumerate(schedules):
+        assert DefaultSolver().solve(needed, SolveRequest(duration=5, seed=1 + index))[0] == schedule
+
+
+def test_no_timeline_even_with_the_never_occurring_signals_is_proven_without_a_second_walk(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    quiet = ir.Signal("q", "face", "q", 0.5, 1.0, probability_start=0.0, probability_end=0.0)
+    loud = ir.Signal("l", "head", "l", 0.5, 1.0)
+    model = ir.Model("zero", (quiet, loud), (
+        ir.Constraint("c1", ir.Exists("q")), ir.Constraint("c2", ir.Not(ir.Exists("q"))),
+    ))
+    solver = DefaultSolver()
+    walks: list[int] = []
+    walk = DefaultSolver._walk
+
+    def counted(self: DefaultSolver, model: ir.Model, request: SolveRequest, seed: int) -> Schedule:
+        walks.append(seed)
+        return walk(self, model, request, seed)
+
+    monkeypatch.setattr(DefaultSolver, "_walk", counted)
+    with pytest.raises(NoSolution) as caught:
+        solver.solve(model, SolveRequest(duration=5, seed=1))
+    assert caught.value.proven and "c1" in caught.value.reason and "c2" in caught.value.reason
+    assert len(walks) == 1
+
+
 def test_stream_hands_out_occurrences_before_the_walk_ends(monkeypatch: pytest.MonkeyPatch) -> None:
     """Streaming commits at settled stamps: the first occurrences come long before the end."""
     import mse.solve.greedy.walk as walk_module

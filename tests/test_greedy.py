@@ -361,3 +361,59 @@ def test_output_is_identical_across_processes() -> None:
                                 check=True)
         outputs.append(result.stdout)
     assert outputs[0] == outputs[1]
+
+
+def test_empty_timeline_debts_are_computed_once_per_plan_with_the_same_timelines() -> None:
+    # relief --require relief_smile owes from the start: the first walk computes the debts of
+    # the empty timeline, the next ones reuse them; a fresh model (a fresh plan) agrees.
+    request = SolveRequest(duration=10, seed=3, count=5, require=("relief_smile",))
+    first = GreedySolver().solve(api.load("relief"), request)
+    again = GreedySolver().solve(api.load("relief"), request)
+    assert first == again
+    model = api.load("relief")
+    one_by_one = [GreedySolver().solve(model, SolveRequest(duration=10, seed=3 + i, require=("relief_smile",)))[0]
+                  for i in range(5)]
+    assert one_by_one == first
+
+
+def test_open_stop_trial_agrees_with_every_stop_and_leaves_the_state_alone() -> None:
+    import random
+
+    from mse.solve.greedy.debts import Doomed
+    from mse.solve.greedy.engine import Attempt
+    from mse.solve.greedy.plan import plan_for
+
+    def state(attempt: Attempt) -> tuple[object, ...]:
+        return ({k: list(v) for k, v in attempt.env.items() if v}, attempt.frontier, set(attempt.owing),
+                dict(attempt.latest), attempt.placements, dict(attempt.last_stop), dict(attempt.modality_free))
+
+    refused = 0
+    for name in ("relief", "tension", "anger", "cheerfulness", "embarrassment"):
+        model = api.load(name)
+        plan = plan_for(model, 10_000, 1.0)
+        rng = random.Random(5)
+        for _ in range(10):
+            attempt = Attempt(plan, rng, frozenset(), frozenset())
+            attempt.owing = set(plan.initial_owing)
+            try:
+                attempt.initial_debts()
+            except Doomed:
+                break
+            for signal in rng.sample(list(plan.signals), len(plan.signals)):
+                start = max(attempt.frontier, rng.randrange(0, 6000))
+                low, high = start + signal.shortest, min(start + signal.longest, plan.duration)
+                if low > high or not attempt.can_add(signal):
+                    continue
+                before = state(attempt)
+                trial = attempt.open_stop_may_pay(signal, start, low, high)
+                assert state(attempt) == before
+                for stop in sorted({low, high, (low + high) // 2}):
+                    saved = attempt._saved(signal)
+                    if attempt.commit(signal, start, stop):
+                        assert trial, (name, signal.id, start, stop)  # monotone: the trial allowed it
+                        attempt._undo(signal, saved)
+                    assert state(attempt) == before
+                refused += not trial
+                if rng.random() < 0.5:
+                    attempt.commit(signal, start, high)  # keep some: later trials see a fuller state
+    assert refused  # the trial does refuse sometimes

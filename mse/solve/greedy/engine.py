@@ -474,9 +474,9 @@ class Attempt:
         owing = self.owing
         if not owing:
             return owed
-        for compiled in self.plan.constraints:
-            if compiled.id in owing:
-                owed.update(name for name in compiled.mentioned if name not in self.forbid)
+        by_id, forbid = self.plan.by_constraint_id, self.forbid
+        for cid in owing:
+            owed.update(name for name in by_id[cid].mentioned if name not in forbid)
         return owed
 
     def initial_debts(self) -> None:

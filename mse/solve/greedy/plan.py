@@ -91,9 +91,9 @@ class Plan:
     """Everything about one model, duration and slot that does not depend on the draws."""
 
     __slots__ = (
-        "bounds", "by_id", "by_signal", "constraints", "cumulative", "duration", "edges", "fixed", "in_modality",
-        "influence", "initial_debts", "initial_owing", "masses", "needs_before", "partner_bounds", "related",
-        "signals", "stamps", "table",
+        "bounds", "by_constraint_id", "by_id", "by_signal", "constraints", "cumulative", "duration", "edges", "fixed",
+        "in_modality", "influence", "initial_debts", "initial_owing", "masses", "needs_before", "partner_bounds",
+        "related", "signals", "stamps", "table",
     )
 
     def __init__(
@@ -134,6 +134,7 @@ class Plan:
                 in_modality.setdefault(signal.exclusive, []).append(signal)
         self.in_modality = {name: tuple(members) for name, members in in_modality.items()}
         self.constraints = constraints
+        self.by_constraint_id = {c.id: c for c in constraints}
         # Constraints violated while nothing is placed (every attempt starts owing them).
         self.initial_owing = frozenset(c.id for c in constraints if c.violated({}))
         # (forbid, require) -> the obligations of the empty timeline at stamp 0 (deterministic:
