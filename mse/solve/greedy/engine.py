@@ -337,7 +337,7 @@ class Attempt:
         leave every obligation payable; the state is left as it was.  False means that no
         stop of [low, high] can be committed (the checks are monotone in boxes: a box holding
         every stop may only add truth values and room)."""
-        saved, checked, work = self._saved(signal), self.checked, self.work
+        saved, checked = self._saved(signal), self.checked
         self.checked = None
         try:
             self.place(signal, start, low, high)
@@ -345,7 +345,7 @@ class Attempt:
             return False
         finally:
             self._undo(signal, saved)
-            self.checked, self.work = checked, work + 1
+            self.checked = checked  # its checks still count in self.work (the walk's bound)
         return True
 
     def _saved(self, signal: SignalPlan) -> _Saved:
