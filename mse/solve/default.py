@@ -98,7 +98,8 @@ class DefaultSolver:
         zeros = self._zeros(model, request)
         if not self._zeros_needed:
             try:
-                return self._pass(model, replace(request, forbid=(*request.forbid, *zeros)), seed, walk)
+                first = replace(request, forbid=(*request.forbid, *zeros)) if zeros else request
+                return self._pass(model, first, seed, walk)
             except NoSolution as failure:
                 if not (zeros and failure.proven):
                     raise
@@ -134,9 +135,8 @@ class DefaultSolver:
         return self._complete(model, request, seed), FALLBACK
 
     def _walk(self, model: ir.Model, request: SolveRequest, seed: int) -> Schedule:
-        single = replace(request, seed=seed, count=1)
         try:
-            return self.walker.one(model, single, seed)
+            return self.walker.one(model, request, seed)  # it reads the seed from ``seed`` alone
         finally:
             self.attempts += self.walker.attempts
             self.restarts += self.walker.restarts
