@@ -32,12 +32,12 @@ def test_observations_equal_window_matrix_times_statics() -> None:
     stacked = window_matrix(17) @ statics  # (3T, D), stream-major rows
     expected = np.concatenate([stacked[s * 17 : (s + 1) * 17] for s in range(3)], axis=1)
     assert np.allclose(observations(statics), expected, atol=1e-12)
-    # Interior frames follow the paper's windows exactly (eq. 2–3).
+    # Interior frames follow HTS's windows exactly ([-0.5, 0, 0.5] and [1, -2, 1]).
     t = 8
     delta = observations(statics)[t, 4:8]
     assert np.allclose(delta, 0.5 * (statics[t + 1] - statics[t - 1]))
     accel = observations(statics)[t, 8:12]
-    assert np.allclose(accel, 0.25 * (statics[t + 2] - 2 * statics[t] + statics[t - 2]))
+    assert np.allclose(accel, statics[t + 1] - 2 * statics[t] + statics[t - 1])
 
 
 @pytest.mark.parametrize("frames", [1, 2, 5, 40, 120])

@@ -10,9 +10,10 @@ Two on-disk layouts are read by :func:`load_library`:
                   "performer": "p1", "id": "optional, defaults to the file stem"}]}
 
   or ``library.csv`` with the header ``file,action,style,performer``;
-- the Bandai Namco dataset layout: ``data/dataset-1_{action}_{style}_{id}.bvh`` with a JSON
-  sidecar ``{"content": i, "style": j}`` of 0-based indices into ``cfg/content_label.txt`` and
-  ``cfg/style_label.txt`` (labels there read ``dataset-1_bow``; the prefix is dropped). The
+- the Bandai Namco dataset layout: ``data/dataset-N_{action}_{style}_{id}.bvh`` (N = 1 or 2)
+  with a JSON sidecar ``{"content": i, "style": j}`` of 0-based indices into
+  ``cfg/content_label.txt`` and ``cfg/style_label.txt`` (labels there read ``dataset-1_bow``;
+  the prefix is dropped). The
   sidecar wins over the file name. Bandai does not say which of its three actors performed a
   clip, so every clip is its own performance (``performer`` = the clip id).
 
@@ -97,6 +98,11 @@ def style_for_emotion(emotion: str, overrides: Mapping[str, str] | None = None) 
     return table.get(key, DEFAULT_STYLE)
 
 
+class MotionUnavailable(Exception):
+    """A library cannot serve a request (no clip of the action or style); callers may fall
+    back (to the starter library, to another method)."""
+
+
 @dataclass(frozen=True, slots=True)
 class Clip:
     """One labelled clip; ``source`` is its file, or ``starter:<id>`` for generated clips."""
@@ -166,22 +172,26 @@ def _error(message: str, path: str | os.PathLike[str], line: int = 0) -> MseErro
     return MseError([Diagnostic("E100", message, Span(os.fspath(path), line, 1 if line else 0))])
 
 
+_DATASET_PREFIX = re.compile(r"^dataset-\d+_")
+
+
 def _label(text: str) -> str:
-    return text.strip().removeprefix("dataset-1_")
+    return _DATASET_PREFIX.sub("", text.strip())
 
 
-_BANDAI_NAME = re.compile(r"^dataset-1_(?P<action>.+)_(?P<style>[^_]+)_(?P<take>\d+)$")
+_BANDAI_NAME = re.compile(r"^dataset-\d+_(?P<action>.+)_(?P<style>[^_]+)_(?P<take>\d+)$")
 
 
 def read_bandai(root: str | os.PathLike[str]) -> MotionLibrary:
-    """The Bandai layout: ``cfg/*_label.txt`` and ``data/dataset-1_*.bvh`` + JSON sidecars."""
+    """The Bandai layout: ``cfg/*_label.txt`` and ``data/dataset-N_*.bvh`` + JSON sidecars
+    (dataset 1 and dataset 2 share it)."""
     base = Path(root)
     data = base / "data" if (base / "data").is_dir() else base
     cfg = base / "cfg"
     contents = [_label(x) for x in _read_text(cfg / "content_label.txt").split("\n") if x.strip()]
     styles = [_label(x) for x in _read_text(cfg / "style_label.txt").split("\n") if x.strip()]
     clips = []
-    for path in sorted(data.glob("dataset-1_*.bvh")):
+    for path in sorted(data.glob("dataset-*_*.bvh")):
         match = _BANDAI_NAME.match(path.stem)
         if match is None:
             continue
@@ -201,7 +211,7 @@ def read_bandai(root: str | os.PathLike[str]) -> MotionLibrary:
                 raise _error(f"invalid Bandai label sidecar: {error}", sidecar, 1) from None
         clips.append(Clip(path.stem, action, style, path.stem, str(path)))
     if not clips:
-        raise _error("no dataset-1_*.bvh clips found", data)
+        raise _error("no dataset-N_*.bvh clips found", data)
     return MotionLibrary(base.name or str(base), tuple(clips))
 
 

@@ -9,8 +9,12 @@ usual choice), ``joint`` (3×3 per joint and stream, the most robust to tiny dat
 ``full``; adaptation picks stream or joint blocks by the amount of data (:func:`auto_blocks`).
 A Gaussian prior centred on the identity (weight ``prior``) keeps rows with little data near
 identity; per-leg regression classes then get their own transforms with the global one as
-prior centre (the structural-MAP idea of CSMAPLR).  The same estimator adapts the duration
-Gaussians (one S×S transform).
+prior centre (the structural-MAP idea of CSMAPLR).  Durations get a transform that cannot
+collapse (:func:`estimate_duration_scale`): a diagonal one, each state's scale shrunk towards
+the global tempo of the data and kept within a factor :data:`DURATION_SCALE_RANGE` of it (a
+full 5×5 CMLLR estimated from one bow take had turned the state durations into
+[63, 1, 1, 1, 24] frames, and the adapted bows barely bowed); MAP then keeps every state at
+least :data:`DURATION_FLOOR` of its transformed mean.
 
 Statistics are occupancy-weighted (forward-backward over each unit's state runs,
 :mod:`mse.motion.hsmm.occupancy`) as in HTS; ``soft=False`` uses one Viterbi alignment.
@@ -64,6 +68,33 @@ class AffineTransform:
         adapted_means = (means - self.bias) @ inverse.T
         adapted_variances = variances @ (inverse**2).T
         return adapted_means, adapted_variances
+
+
+#: a state's duration scale stays within this factor of the global tempo
+DURATION_SCALE_RANGE = 2.0
+#: MAP keeps a state's mean duration at least this share of its prior (transformed) mean
+DURATION_FLOOR = 0.5
+
+
+def estimate_duration_scale(stats: Sequence[GaussianStats], prior: float = 1.0) -> AffineTransform:
+    """A diagonal feature-space duration transform (``x̂ = A x``, ``A = diag(1 / a_s)``).
+
+    The global tempo ``a`` is the ratio of the observed frames to the frames the model
+    expects for the same unit instances; each state's scale ``a_s`` is the MAP estimate with
+    a prior of ``prior`` instances at ``a``, clipped to ``[a / r, a r]`` with
+    ``r`` = :data:`DURATION_SCALE_RANGE`.  No state can shrink to nothing.
+    """
+    states = stats[0].mean.shape[0]
+    counts = np.array([s.count for s in stats])
+    if counts.sum() <= 0:
+        return AffineTransform.identity(states)
+    observed = np.sum([s.total for s in stats], axis=0)  # (S,) frames per state
+    expected = np.sum([s.count * s.mean for s in stats], axis=0)  # (S,)
+    tempo = float(observed.sum() / max(expected.sum(), 1e-9))
+    per_instance = expected / counts.sum()
+    scales = (observed + prior * tempo * per_instance) / (expected + prior * per_instance)
+    scales = np.clip(scales, tempo / DURATION_SCALE_RANGE, tempo * DURATION_SCALE_RANGE)
+    return AffineTransform(np.diag(1.0 / scales), np.zeros(states))
 
 
 def auto_blocks(static_dims: int, frames: int) -> str:
@@ -249,6 +280,7 @@ def map_update(
                 + np.diag(ds.scatter)
             ) / (tau_duration + ds.count)
             d_vars = np.maximum(second - d_means**2, DURATION_VARIANCE_FLOOR)
+            d_means = np.maximum(d_means, DURATION_FLOOR * unit.duration_means)
         out[name] = UnitModel(means, variances, np.maximum(d_means, 1.0), d_vars)
     return out
 
@@ -283,7 +315,7 @@ def adapt_units(
         # model's Gaussians, which the transforms map onto the data.
         stats, dstats = collect_stats(instances, units, adapted, soft)
         output = estimate_cmllr(list(stats.values()), blocks, prior)
-        duration = estimate_cmllr(list(dstats.values()), [np.arange(states)], prior)
+        duration = estimate_duration_scale(list(dstats.values()), prior)
         classes: dict[str, AffineTransform] = {}
         groups: dict[str, list[GaussianStats]] = {}
         for (name, _state), st in stats.items():
@@ -349,7 +381,7 @@ def _adaptive_training(
                 stats, dstats = collect_stats([i for i in aligned if i.style == style], units, units, True)
                 transforms[style] = (
                     estimate_cmllr(list(stats.values()), blocks, prior),
-                    estimate_cmllr(list(dstats.values()), [np.arange(states)], prior),
+                    estimate_duration_scale(list(dstats.values()), prior),
                 )
             units = estimate_units_soft(
                 aligned,
@@ -364,9 +396,7 @@ def _adaptive_training(
         for style in styles:
             mine = [i for i in aligned if i.style == style]
             output = estimate_cmllr(list(output_stats(mine, units).values()), blocks, prior)
-            duration = estimate_cmllr(
-                list(duration_stats(mine, units).values()), [np.arange(states)], prior
-            )
+            duration = estimate_duration_scale(list(duration_stats(mine, units).values()), prior)
             transforms[style] = (output, duration)
         normalised = [
             Instance(i.unit, i.style, transforms[i.style][0].apply(i.observations), i.bounds)

@@ -186,15 +186,35 @@ def _gv_stats(statics: Sequence[FloatArray]) -> tuple[FloatArray, FloatArray]:
     return mean, var
 
 
+#: one-shot actions get one state per this many frames of their typical length (a step unit
+#: of a Bandai walk has 5 states over 15-20 frames), between ``Options.states`` and
+#: :data:`MAX_STATES`
+FRAMES_PER_STATE = 4
+MAX_STATES = 60
+
+
+def unit_states(cyclic: bool, lengths: Sequence[int], options: Options) -> int:
+    """States per unit: ``options.states`` for steps; for a one-shot action, scaled to the
+    action's median length, so that a 4-second bow is not drawn through 5 poses."""
+    if cyclic or not lengths:
+        return options.states
+    return int(min(MAX_STATES, max(options.states, round(float(np.median(lengths)) / FRAMES_PER_STATE))))
+
+
 def _prepare(
     clips: Sequence[tuple[Motion, str]], action: str, options: Options, segmentation: Segmentation
-) -> tuple[bool, Template, list[Instance], list[FloatArray], FloatArray]:
+) -> tuple[bool, Template, list[Instance], list[FloatArray], FloatArray, Options]:
     """What both trainings start from: cyclic?, skeleton template, unit instances, static
-    features and the variance floor."""
+    features, the variance floor and the options with the states per unit."""
     cyclic = is_cyclic(action)
     template = build_template([m for m, _ in clips])
+    if segmentation is not None:
+        lengths = [s.length for segments in segmentation if segments for s in segments]
+    else:
+        lengths = [m.frame_count for m, _ in clips]
+    options = replace(options, states=unit_states(cyclic, lengths, options))
     instances, statics = _gather(clips, template, cyclic, options.states, segmentation)
-    return cyclic, template, instances, statics, variance_floor(instances)
+    return cyclic, template, instances, statics, variance_floor(instances), options
 
 
 @one_blas_thread
@@ -205,7 +225,7 @@ def train_average(
     segmentation: Segmentation = None,
 ) -> HsmmModel:
     """Average model over (motion, style) clips with style-adaptive training."""
-    cyclic, template, instances, statics, floor = _prepare(clips, action, options, segmentation)
+    cyclic, template, instances, statics, floor, options = _prepare(clips, action, options, segmentation)
     blocks = blocks_for(template.feature_count, options.blocks)
     units, _ = adaptive_training(
         instances,
@@ -240,7 +260,7 @@ def train_scratch(
 ) -> HsmmModel:
     """A style model trained on its own data only, without an average model (the bench's
     baseline; as good as adaptation on this data from about two steps on, docs/hsmm.md)."""
-    cyclic, template, instances, statics, floor = _prepare(clips, action, options, segmentation)
+    cyclic, template, instances, statics, floor, options = _prepare(clips, action, options, segmentation)
     if options.soft_training:
         from mse.motion.hsmm.soft_training import train_units_soft
 

@@ -2,7 +2,7 @@
 
 With diagonal covariances every static dimension is independent: the static trajectory
 ``c`` maximising ``N(W c; μ, Σ)`` solves ``(Wᵀ Σ⁻¹ W) c = Wᵀ Σ⁻¹ μ``.  ``Wᵀ Σ⁻¹ W`` is
-symmetric positive definite and banded (half bandwidth ``2 × WINDOW_REACH`` = 4), so a banded
+symmetric positive definite and banded (half bandwidth ``2 × WINDOW_REACH`` = 2), so a banded
 Cholesky solve (``scipy.linalg.solveh_banded``) costs O(T) per dimension.
 
 Global variance (Toda & Tokuda 2007): maximise ``ω log N(W c; μ, Σ) + log N(v(c); μ_v, σ_v²)``

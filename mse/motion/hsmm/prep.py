@@ -19,6 +19,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from mse.motion.base.bvh import Motion, Skeleton
+from mse.motion.base.contacts import find_root_joint
 from mse.motion.base.kinematics import forward_kinematics
 from mse.motion.hsmm.features import (
     FloatArray,
@@ -61,24 +62,6 @@ def _chain_end(skeleton: Skeleton, joint: int) -> list[int]:
     while skeleton.children(chain[-1]):
         chain.append(skeleton.children(chain[-1])[0])
     return chain
-
-
-def find_root_joint(motion: Motion) -> int:
-    """The joint carrying the translation: among the joints with position channels that
-    branch (the legs hang from it), the one that moves most.
-
-    Branching matters on short windows: Bandai's ``joint_Root`` (one child) sometimes moves
-    more than ``Hips`` for a second, but the legs are children of ``Hips``.
-    """
-    skeleton = motion.skeleton
-    movable = [j for j in range(skeleton.joint_count) if skeleton.position_columns(j)]
-    if not movable:
-        return 0
-    candidates = [j for j in movable if len(skeleton.children(j)) >= 2] or movable
-    spread = np.sum(np.var(motion.translations()[:, candidates], axis=0), axis=1)
-    if float(np.max(spread)) <= 1e-9:  # nothing moves: the first candidate
-        return candidates[0]
-    return candidates[int(np.argmax(spread))]
 
 
 def find_legs(

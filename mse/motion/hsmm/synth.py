@@ -7,10 +7,9 @@
   recomputed), then rounded keeping the total exact.  With a seed, the means are first drawn
   from the duration Gaussians so that repeated leaves differ slightly.
 * Parameters: MLPG with global variance (option off), exponential maps → local rotations.
-* Root: its height puts the lowest contact point (foot/toes) at the training contact
-  height.  Walks move the root so that the lowest contact point does not slide (the stance
-  foot is pinned: no foot sliding); in-place actions keep the mean of the contact points
-  fixed, so the body does not travel.
+* Root: :func:`mse.motion.base.contacts.root_track`: the lowest contact point (foot/toes)
+  sits at the training contact height and is pinned while it is the lowest (the stance foot
+  does not slide), then the track is low-passed (no jolt when the lowest point switches).
 """
 
 from __future__ import annotations
@@ -19,6 +18,7 @@ import numpy as np
 
 from mse.limits import MAX_MOTION_SECONDS, MAX_STEPS
 from mse.motion.base.bvh import Motion
+from mse.motion.base.contacts import root_track
 from mse.motion.base.kinematics import forward_kinematics, matrix_to_euler
 from mse.motion.hsmm.features import FloatArray
 from mse.motion.hsmm.mlpg import generate_with_gv, mlpg
@@ -107,24 +107,10 @@ def generate_statics(
     return mlpg(mean_seq, var_seq)
 
 
-def root_positions(relative: FloatArray, template: Template, travel: bool) -> FloatArray:
+def root_positions(relative: FloatArray, template: Template) -> FloatArray:
     """(T, 3) world root positions from joint positions relative to the root (T, J, 3)."""
-    contacts = list(template.contacts[0] + template.contacts[1])
-    points = relative[:, contacts]
-    frames = relative.shape[0]
-    root = np.zeros((frames, 3))
-    root[:, 1] = template.contact_height - points[:, :, 1].min(axis=1)
-    if travel:
-        stance = np.argmin(points[:, :, 1], axis=1)
-        for t in range(1, frames):
-            k = stance[t]
-            root[t, [0, 2]] = root[t - 1, [0, 2]] - (
-                points[t, k, [0, 2]] - points[t - 1, k, [0, 2]]
-            )
-    else:
-        centre = points[:, :, [0, 2]].mean(axis=1)
-        root[:, [0, 2]] = centre[0] - centre
-    return root
+    contacts = template.contacts[0] + template.contacts[1]
+    return root_track(relative, contacts, template.contact_height, template.frame_time)
 
 
 def statics_to_motion(statics: FloatArray, model: HsmmModel) -> Motion:
@@ -138,7 +124,7 @@ def statics_to_motion(statics: FloatArray, model: HsmmModel) -> Motion:
     positions, world = forward_kinematics(skeleton.parents, translations, rotations)
     root_world = positions[:, template.root_joint]
     relative = positions - root_world[:, None, :]
-    target = root_positions(relative, template, travel=model.cyclic)
+    target = root_positions(relative, template)
     parent = skeleton.parents[template.root_joint]
     local = (
         np.einsum("fba,fb->fa", world[:, parent], target - root_world) if parent >= 0 else target

@@ -6,45 +6,63 @@
    action's ``normal`` clip (else its first clip); its own style is the original emotion;
 2. LMA features of the clips (cached), RMLR saliency (cached) -> the affectively
    non-discriminative components for (original, target) (eq. 12);
-3. the ε-neighbourhood of X_d among the target-style clips of the same action, at least one;
-4. HMM_NN trained on the neighbours plus ``nd`` copies of X_d (:mod:`mse.motion.lma_hmm.hmm`);
-5. Viterbi state sequence of X_d (moved onto the neighbours' mean posture and spread first),
-   sequence of state means (ramps between the midpoints of state runs), zero-phase low-pass
-   filter (Butterworth, 3 Hz); ``GenerationParams(regenerate="frames")`` instead plays the
-   neighbours' own frames of each state in X_d's state order and timing
-   (:func:`mse.motion.lma_hmm.hmm.state_aligned_frames`);
-6. time-warp (linear resampling) to the requested duration: the frame count is
-   ``round(duration / frame_time)`` and the frame time is adjusted so that the clip lasts
-   exactly ``duration``.
+3. the ε-neighbourhood of X_d among the target-style clips of the same action, at least
+   ``min_neighbours`` (the nearest) and at most ``max_neighbours``;
+4. HMM_NN trained on the neighbours plus ``nd`` copies of X_d, in the phase space of
+   :mod:`mse.motion.lma_hmm.pose` (:mod:`mse.motion.lma_hmm.hmm`);
+5. Viterbi state sequence of X_d; the sequence of state means (the states' mean joint
+   rotations over the neighbours, ramps between the midpoints of state runs), zero-phase
+   low-pass filter (Butterworth, 3 Hz); ``GenerationParams(regenerate="frames")`` instead
+   plays the neighbours' own frames of each state in X_d's state order and timing;
+6. time-warp (linear resampling of the rotation vectors, never of Euler angles) to the
+   requested duration: ``round(duration / frame_time)`` frames, the frame time adjusted so
+   that the clip lasts exactly ``duration``;
+7. the root from the feet (:func:`mse.motion.base.contacts.ground`): the lowest foot point
+   on the floor and pinned, so the stance foot never slides and walks travel by their steps.
 
-Steps 1-5 are cached per (library fingerprint, action, style, desired clip, parameters), so a
-repeated leaf costs only the time-warp. Rotations are generated, never positions, so the
-bone lengths of the desired path's skeleton are preserved.
+Steps 1-5 are cached per (library fingerprint, action, style, desired clip, parameters) in
+memory and, when ``cache_dir`` is given, on disk (``lma-hmm/*.npz``, no pickle), so a leaf
+seen before costs the time-warp and the grounding only. Rotations are generated, never
+positions: bone lengths are the desired path's.
 """
 
 from __future__ import annotations
 
+import contextlib
+import hashlib
+import json
+import os
 import time
 from collections.abc import Sequence
-from dataclasses import dataclass, field
+from dataclasses import asdict, dataclass, field
+from pathlib import Path
 
 import numpy as np
 
 from mse.diagnostics import Diagnostic, MseError, Span
+from mse.fileio import write_atomic
 from mse.motion.base.bvh import Motion, Skeleton
+from mse.motion.base.contacts import contact_height, ground
 from mse.motion.base.kinematics import FloatArray
-from mse.motion.base.library import Clip, MotionLibrary
+from mse.motion.base.library import Clip, MotionLibrary, MotionUnavailable
 from mse.motion.base.lma import FEATURE_NAMES
 from mse.motion.lma_hmm.hmm import (
+    TOPOLOGIES,
     Encoding,
     decode,
     encode,
     encoding_for,
+    resample,
     smooth,
     state_aligned_frames,
+    state_means,
     state_path,
     train_hmm,
 )
+from mse.motion.lma_hmm.pose import PhaseSpace, phase_space, pose_features
+
+__all__ = ["Generated", "GenerationParams", "MotionUnavailable", "generate_motion", "time_warp"]
+
 from mse.motion.lma_hmm.search import (
     EPSILON_FRACTION,
     clip_features,
@@ -54,35 +72,42 @@ from mse.motion.lma_hmm.search import (
 )
 
 
-class MotionUnavailable(Exception):
-    """The library has no clip for this action (or style); callers may fall back."""
-
-
 @dataclass(frozen=True, slots=True)
 class GenerationParams:
     states: int = 12
     nd: int = 0
     epsilon_fraction: float = EPSILON_FRACTION
     cutoff_hz: float = 3.0
-    n_iter: int = 8
+    n_iter: int = 10
     #: "means": the paper's sequence of state means; "frames": the neighbours' own frames of
     #: each state in the desired path's state order and timing (keeps within-state motion)
     regenerate: str = "means"
+    #: HMM topology: "auto" (fully connected when the neighbours cycle, else left-to-right),
+    #: "full" (the paper's), "left-to-right"
+    topology: str = "auto"
+    #: the ε-neighbourhood is widened to the nearest ``min_neighbours`` and cut to the nearest
+    #: ``max_neighbours`` (the HMM's cost grows with them)
+    min_neighbours: int = 3
+    max_neighbours: int = 8
 
     def __post_init__(self) -> None:
         if self.regenerate not in ("means", "frames"):
             raise ValueError(f"regenerate must be 'means' or 'frames', not {self.regenerate!r}")
+        if self.topology not in TOPOLOGIES:
+            raise ValueError(f"topology must be one of {', '.join(TOPOLOGIES)}, not {self.topology!r}")
 
 
 @dataclass(frozen=True, eq=False)
 class _Modulated:
-    """Cached result of steps 1-5: the modulated path at the desired path's frame rate."""
+    """Cached result of steps 1-5: the modulated rotation path at the desired frame rate."""
 
-    skeleton: Skeleton
+    encoding: Encoding
     frame_time: float
-    values: FloatArray
+    path: FloatArray  # (frames, 3 x rotated joints) rotation vectors
+    height: float  # contact height of the neighbours
     neighbours: tuple[str, ...]
     components: tuple[str, ...]
+    cyclic: bool
     timings: dict[str, float]
 
 
@@ -96,13 +121,17 @@ class Generated:
     search_components: tuple[str, ...]
     timings: dict[str, float] = field(default_factory=dict)
     cached: bool = False
+    cyclic: bool = False
 
 
-_CACHE: dict[tuple[object, ...], _Modulated] = {}
+_CACHE: dict[str, _Modulated] = {}
+_POSES: dict[tuple[str, str], FloatArray] = {}
+_DISK_FORMAT = "mse-lma-hmm-path/1"
 
 
 def clear_cache() -> None:
     _CACHE.clear()
+    _POSES.clear()
 
 
 def _pick_desired(library: MotionLibrary, action: str, clip_id: str | None) -> Clip:
@@ -125,7 +154,16 @@ def _rmlr_clips(library: MotionLibrary, action: str, exclude: set[str]) -> list[
     return [c for c in library.clips if c.id not in exclude]
 
 
-def _modulate(
+def _pose(library: MotionLibrary, clip: Clip) -> FloatArray:
+    key = (library.content_hash, clip.id)
+    features = _POSES.get(key)
+    if features is None:
+        features = pose_features(library.motion(clip))
+        _POSES[key] = features
+    return features
+
+
+def _neighbours(
     library: MotionLibrary,
     action: str,
     style: str,
@@ -133,8 +171,8 @@ def _modulate(
     original: str | None,
     params: GenerationParams,
     exclude: set[str],
-) -> _Modulated:
-    timings: dict[str, float] = {}
+    timings: dict[str, float],
+) -> tuple[list[Clip], tuple[str, ...]]:
     clock = time.perf_counter()
     desired = library.motion(desired_clip)
     candidates = [
@@ -145,7 +183,7 @@ def _modulate(
     if not candidates:
         if desired_clip.style != style:
             raise MotionUnavailable(f"no {style!r} clip of action {action!r}")
-        candidates = [desired_clip]
+        return [desired_clip], ()
     desired_features = clip_features(library, desired_clip)
     candidate_features = feature_table(library, candidates)
     training = _rmlr_clips(library, action, exclude)
@@ -158,73 +196,161 @@ def _modulate(
     timings["rmlr"] = time.perf_counter() - clock
 
     clock = time.perf_counter()
-    chosen = nearest_neighbours(desired_features, candidate_features, components, saliency, params.epsilon_fraction)
-    neighbours = [candidates[i] for i in chosen]
+    chosen = nearest_neighbours(
+        desired_features,
+        candidate_features,
+        components,
+        saliency,
+        params.epsilon_fraction,
+        minimum=params.min_neighbours,
+        maximum=params.max_neighbours,
+    )
     timings["nn_search"] = time.perf_counter() - clock
+    return [candidates[i] for i in chosen], tuple(FEATURE_NAMES[i] for i in components)
+
+
+def _modulate(
+    library: MotionLibrary,
+    action: str,
+    style: str,
+    desired_clip: Clip,
+    original: str | None,
+    params: GenerationParams,
+    exclude: set[str],
+) -> _Modulated:
+    timings: dict[str, float] = {"lma": 0.0, "rmlr": 0.0, "nn_search": 0.0}
+    desired = library.motion(desired_clip)
+    neighbours, components = _neighbours(library, action, style, desired_clip, original, params, exclude, timings)
+    motions = [library.motion(c) for c in neighbours]
 
     clock = time.perf_counter()
-    neighbour_motions = [library.motion(c) for c in neighbours]
-    encoding = encoding_for(desired.skeleton, neighbour_motions, desired)
-    values = _hmm_path(encoding, desired, neighbour_motions, params, timings)
-    timings["filter"] = time.perf_counter() - clock - timings["hmm_fit"] - timings["viterbi"]
+    encoding = encoding_for(desired)
+    poses = [_pose(library, c) for c in neighbours]
+    space: PhaseSpace = phase_space(poses)
+    phases = [space.observe(p) for p in poses]
+    desired_phase = space.observe(_pose(library, desired_clip))
+    rotations = [encode(encoding, m) for m in motions]
+    copies = max(0, params.nd)
+    trained = train_hmm(
+        phases + [desired_phase] * copies,
+        params.states,
+        topology=params.topology,
+        n_iter=params.n_iter,
+        decide_on=len(phases),
+    )
+    timings["hmm_fit"] = time.perf_counter() - clock
+
+    clock = time.perf_counter()
+    states = trained.viterbi(desired_phase)
+    training_rotations = rotations + [encode(encoding, desired)] * copies
+    means = state_means(trained, phases + [desired_phase] * copies, training_rotations)
+    if params.regenerate == "frames":
+        labels = [trained.viterbi(p) for p in phases]
+        frames = state_aligned_frames(states, means, rotations, labels)
+    timings["viterbi"] = time.perf_counter() - clock
+
+    clock = time.perf_counter()
+    raw = frames if params.regenerate == "frames" else state_path(means, states)
+    path = smooth(raw, desired.frame_time, cutoff(params.cutoff_hz, len(raw), trained.states, desired.frame_time))
+    timings["filter"] = time.perf_counter() - clock
     return _Modulated(
-        desired.skeleton,
+        encoding,
         desired.frame_time,
-        values,
+        path,
+        contact_height(motions),
         tuple(c.id for c in neighbours),
-        tuple(FEATURE_NAMES[i] for i in components),
+        components,
+        trained.cyclic,
         timings,
     )
 
 
-def _hmm_path(
-    encoding: Encoding,
-    desired: Motion,
-    neighbours: Sequence[Motion],
-    params: GenerationParams,
-    timings: dict[str, float],
-) -> FloatArray:
-    if encoding.dimension == 0:  # nothing to model: the desired path is the answer
-        timings["hmm_fit"] = timings["viterbi"] = 0.0
-        return desired.values.copy()
-    desired_obs = encode(encoding, desired)
-    sequences = [encode(encoding, m) for m in neighbours]
-    sequences += [desired_obs] * max(0, params.nd)
-    clock = time.perf_counter()
-    trained = train_hmm(sequences, params.states, n_iter=params.n_iter)
-    timings["hmm_fit"] = time.perf_counter() - clock
-    clock = time.perf_counter()
-    # Align on movement, not stance: the desired path is moved onto the training data's mean
-    # and spread per dimension before Viterbi, else a performer's different posture pins
-    # every frame to one state (the paper's data all started from one T-pose).
-    pooled = np.vstack(sequences)
-    spread = desired_obs.std(axis=0)
-    aligned = (desired_obs - desired_obs.mean(axis=0)) / np.where(spread > 1e-9, spread, 1.0)
-    aligned = aligned * pooled.std(axis=0) + pooled.mean(axis=0)
-    states = trained.viterbi(aligned).astype(int)
-    if params.regenerate == "frames":
-        training = sequences[: len(neighbours)]
-        labels = [trained.viterbi(sequence).astype(int) for sequence in training]
-        frames = state_aligned_frames(states, trained.means, training, labels)
-    timings["viterbi"] = time.perf_counter() - clock
-    if params.regenerate == "frames":
-        path = smooth(frames, desired.frame_time, params.cutoff_hz)
-    else:
-        path = smooth(state_path(trained.means, states), desired.frame_time, params.cutoff_hz)
-    return decode(encoding, path, desired.values[0])
+def cutoff(base_hz: float, frames: int, states: int, frame_time: float) -> float:
+    """The low-pass cut-off: ``base_hz``, raised to half the rate of state changes when the
+    states are shorter than that (the filter smooths the joins between states; on a
+    20-frame Bandai dash with 12 states, 3 Hz also took away half of the stride: 168 cm/s
+    of travel generated from the 430 cm/s clip itself)."""
+    state_rate = states / max(frames * frame_time, 1e-9)
+    return max(base_hz, 0.5 * state_rate)
 
 
 def time_warp(values: FloatArray, frame_time: float, duration: float) -> tuple[FloatArray, float]:
     """Resample ``values`` linearly to last exactly ``duration`` seconds."""
     frames = max(2, round(duration / frame_time))
-    source = np.linspace(0.0, 1.0, len(values))
-    target = np.linspace(0.0, 1.0, frames)
     if len(values) == 1:
         return np.repeat(values, frames, axis=0), duration / frames
-    warped = np.empty((frames, values.shape[1]))
-    for column in range(values.shape[1]):
-        warped[:, column] = np.interp(target, source, values[:, column])
-    return warped, duration / frames
+    return resample(values, frames), duration / frames
+
+
+def _key(library: MotionLibrary, action: str, style: str, desired: str, original: str, params: GenerationParams,
+         exclude: set[str]) -> str:
+    text = json.dumps(
+        [_DISK_FORMAT, library.content_hash, action, style, desired, original, asdict(params), sorted(exclude)]
+    )
+    return hashlib.sha256(text.encode()).hexdigest()[:24]
+
+
+def _save(path: Path, modulated: _Modulated) -> None:
+    import io
+
+    skeleton = modulated.encoding.skeleton
+    meta = {
+        "format": _DISK_FORMAT,
+        "names": list(skeleton.names),
+        "parents": list(skeleton.parents),
+        "channels": [list(c) for c in skeleton.channels],
+        "end_sites": [list(e) if e is not None else None for e in skeleton.end_sites],
+        "rotated": list(modulated.encoding.rotated),
+        "frame_time": modulated.frame_time,
+        "height": modulated.height,
+        "neighbours": list(modulated.neighbours),
+        "components": list(modulated.components),
+        "cyclic": modulated.cyclic,
+        "timings": modulated.timings,
+    }
+    buffer = io.BytesIO()
+    np.savez_compressed(
+        buffer,
+        meta=np.array(json.dumps(meta)),
+        offsets=skeleton.offsets,
+        references=modulated.encoding.references,
+        template=modulated.encoding.template,
+        path=modulated.path,
+    )
+    write_atomic(path, buffer.getvalue())
+
+
+def _load(path: Path) -> _Modulated | None:
+    try:
+        with np.load(path, allow_pickle=False) as archive:
+            meta = json.loads(str(archive["meta"]))
+            if meta.get("format") != _DISK_FORMAT:
+                return None
+            skeleton = Skeleton(
+                tuple(meta["names"]),
+                tuple(int(p) for p in meta["parents"]),
+                np.asarray(archive["offsets"], dtype=np.float64),
+                tuple(tuple(c) for c in meta["channels"]),
+                tuple((float(e[0]), float(e[1]), float(e[2])) if e is not None else None for e in meta["end_sites"]),
+            )
+            encoding = Encoding(
+                skeleton,
+                tuple(int(j) for j in meta["rotated"]),
+                np.asarray(archive["references"], dtype=np.float64),
+                np.asarray(archive["template"], dtype=np.float64),
+            )
+            return _Modulated(
+                encoding,
+                float(meta["frame_time"]),
+                np.asarray(archive["path"], dtype=np.float64),
+                float(meta["height"]),
+                tuple(meta["neighbours"]),
+                tuple(meta["components"]),
+                bool(meta["cyclic"]),
+                {str(k): float(v) for k, v in meta["timings"].items()},
+            )
+    except (OSError, ValueError, KeyError, TypeError, IndexError):
+        return None  # a stale or broken cache entry: regenerate
 
 
 def generate_motion(
@@ -237,9 +363,11 @@ def generate_motion(
     original_style: str | None = None,
     params: GenerationParams | None = None,
     exclude: Sequence[str] = (),
+    cache_dir: str | os.PathLike[str] | None = None,
 ) -> Generated:
     """Generate ``action`` in ``style`` (see the module docstring); ``exclude`` lists clip
-    ids that must not be used (leave-one-out evaluation)."""
+    ids that must not be used (leave-one-out evaluation); ``cache_dir`` keeps the modulated
+    paths on disk between runs."""
     params = params or GenerationParams()
     if not library.select(action):
         raise MotionUnavailable(f"no clip of action {action!r}")
@@ -247,19 +375,29 @@ def generate_motion(
     desired_clip = _pick_desired(library, action, clip)
     original = original_style or desired_clip.style
     excluded = set(exclude)
-    key = (library.content_hash, action, style, desired_clip.id, original, params, tuple(sorted(excluded)))
+    key = _key(library, action, style, desired_clip.id, original, params, excluded)
     modulated = _CACHE.get(key)
     cached = modulated is not None
+    disk = Path(cache_dir) / "lma-hmm" / f"{key}.npz" if cache_dir is not None else None
+    if modulated is None and disk is not None and disk.is_file():
+        modulated = _load(disk)
+        cached = modulated is not None
     if modulated is None:
         modulated = _modulate(library, action, style, desired_clip, original, params, excluded)
-        _CACHE[key] = modulated
-    values, frame_time = modulated.values, modulated.frame_time
+        if disk is not None:
+            with contextlib.suppress(OSError):  # the cache is an optimisation only
+                _save(disk, modulated)
+    _CACHE[key] = modulated
+    path, frame_time = modulated.path, modulated.frame_time
     if duration is not None:
-        values, frame_time = time_warp(values, frame_time, duration)
+        path, frame_time = time_warp(path, frame_time, duration)
+    encoding = modulated.encoding
+    motion = Motion(encoding.skeleton, frame_time, decode(encoding, path))
+    motion = ground(motion, modulated.height)
     timings = dict(modulated.timings) if not cached else {}
     timings["total"] = time.perf_counter() - started
     return Generated(
-        Motion(modulated.skeleton, frame_time, values),
+        motion,
         action,
         style,
         desired_clip.id,
@@ -267,4 +405,5 @@ def generate_motion(
         modulated.components,
         timings,
         cached,
+        modulated.cyclic,
     )

@@ -1,25 +1,40 @@
-"""Observations for the HMM and the HMM_NN step of the paper's Fig. 2.
+"""HMM_NN of the paper's Fig. 2: states, Viterbi of the desired path, regeneration.
 
-Observations are joint *rotations* (rotation vectors relative to the desired path's mean
-rotation of each joint) plus the position channels that vary (the root's), taken relative to
-the clip's first frame in the floor plane. Constant channels (e.g. Bandai's
-bone-offset position channels) are not modelled: they are copied from the desired path, so
-forward kinematics on the result keeps the skeleton's bone lengths.
+Two spaces:
 
-HMM (hmmlearn ``GaussianHMM``): fully connected, full covariances, ``states`` states (12 by
-default, fewer when the data are shorter); means and covariances initialised from equal time
-segments of the training sequences; start and transition probabilities set uniform by hand
-(``init_params=""``: hmmlearn's random start can draw zeros that never recover); an identity
-covariance prior with weight dimension + 2 on z-scored observations, so that one neighbour
-does not make covariances singular; BLAS limited to one thread while fitting.
+- **phases** (:mod:`mse.motion.lma_hmm.pose`): the HMM is trained and decoded on the
+  neighbours' body-frame poses, each clip z-scored by itself;
+- **rotations** (:class:`Encoding`): every state also has the mean of the neighbours' joint
+  rotations (rotation vectors relative to the desired path's mean rotation of each joint),
+  weighted by the state posteriors; the generated path is made of those, so bone lengths
+  are kept and the style's posture comes from the neighbours. Euler angles are never
+  averaged (Bandai's bones lie along X, its ZXY middle angle sits near 90 degrees).
+
+HMM (hmmlearn ``GaussianHMM``, diagonal covariances on the decorrelated phase components):
+
+- ``topology="full"``: fully connected as in the paper, means initialised by k-means on the
+  pooled frames (equal time segments make a walk's states slices of time instead of phases
+  of a step), start probabilities learned from the neighbours' first frames (the paper's
+  π₁ = 1 for clips that share a start pose, when they do);
+- ``topology="left-to-right"``: each state goes to itself or the next, the first state
+  starts and Viterbi ends in the last one: the desired path goes through every phase of
+  the neighbours in order;
+- ``topology="auto"`` (default): fully connected when the neighbours *cycle* (their own
+  Viterbi paths under the fully connected model re-enter states: at least
+  :data:`CYCLIC_RUNS_PER_STATE` runs per visited state, as steps and waves do; clips of
+  fewer than :data:`CYCLIC_FRAMES_PER_STATE` frames per state, such as Bandai's one-stride
+  dashes, cannot show it and are left-to-right), else left-to-right. Measured on Bandai:
+  fully connected models of one-shot actions let the desired path skip the neighbour's key
+  phase (an angry bow generated from a normal one kept the head within 0.5 cm where real
+  bows dip 14 cm).
 
 Regeneration: :func:`state_path` (the paper's sequence of state means, with ramps) or
-:func:`state_aligned_frames` (the neighbours' own frames of each state, in the desired path's
-state order and timing).
+:func:`state_aligned_frames` (the neighbours' own frames of each state).
 """
 
 from __future__ import annotations
 
+import contextlib
 import logging
 import os
 import warnings
@@ -32,72 +47,49 @@ import numpy.typing as npt
 
 from mse.motion.base.bvh import Motion, Skeleton
 from mse.motion.base.filters import zero_phase_lowpass
-from mse.motion.base.kinematics import (
-    FloatArray,
-    matrix_to_euler,
-    mean_rotation,
-    rotation_exp,
-    rotation_log,
-)
+from mse.motion.base.kinematics import FloatArray, matrix_to_euler, mean_rotation, rotation_exp, rotation_log
 
-_VARYING = 1e-6
+TOPOLOGIES = ("auto", "full", "left-to-right")
+#: neighbours whose Viterbi paths have at least this many runs per visited state cycle
+CYCLIC_RUNS_PER_STATE = 1.5
+#: ... when they are long enough to repeat anything: this many frames per state on average
+CYCLIC_FRAMES_PER_STATE = 4
+_MIN_COVAR = 1e-3
 
 
 @dataclass(frozen=True, eq=False)
 class Encoding:
-    """Which channels the HMM sees, and how to map observations back to channel values.
-
-    Rotations are encoded as rotation vectors relative to a per-joint reference (the desired
-    path's mean rotation): continuous, unlike Euler angles near gimbal lock (Bandai's bones
-    lie along X, so its ZXY middle angles sit near 90 degrees).
-    """
+    """Rotation channels as rotation vectors relative to per-joint references; every other
+    channel is copied from ``template`` (bone offsets; the root is placed afterwards)."""
 
     skeleton: Skeleton
     rotated: tuple[int, ...]  # joints with three rotation channels
     references: FloatArray  # (len(rotated), 3, 3)
-    positions: tuple[int, ...]  # varying position channels that are modelled
-    floor_root: tuple[int, ...]  # of those, the ones taken relative to the first frame
-    template: FloatArray  # (channels,) values of the unmodelled channels
+    template: FloatArray  # (channels,)
 
     @property
     def dimension(self) -> int:
-        return 3 * len(self.rotated) + len(self.positions)
+        return 3 * len(self.rotated)
 
 
-def encoding_for(skeleton: Skeleton, sequences: Sequence[Motion], desired: Motion) -> Encoding:
-    pooled = np.vstack([m.values for m in sequences] + [desired.values])
+def encoding_for(desired: Motion) -> Encoding:
+    skeleton = desired.skeleton
     rotated = tuple(j for j in range(skeleton.joint_count) if len(skeleton.rotation_order(j)) == 3)
     local = desired.local_rotations()
     references = np.array([mean_rotation(local[:, j]) for j in rotated]).reshape(-1, 3, 3)
-    positions = tuple(
-        c
-        for j in range(skeleton.joint_count)
-        for c in skeleton.position_columns(j)
-        if float(pooled[:, c].std()) > _VARYING
-    )
-    floor: list[int] = []
-    for joint in range(skeleton.joint_count):
-        columns = skeleton.position_columns(joint)
-        if columns and columns[0] in positions:
-            floor += [columns[0], columns[2]]  # X and Z: Y is up
-    return Encoding(skeleton, rotated, references, positions, tuple(floor), desired.values.mean(axis=0))
+    return Encoding(skeleton, rotated, references, desired.values.mean(axis=0))
 
 
 def encode(encoding: Encoding, motion: Motion) -> FloatArray:
-    """(frames, dims) observations: rotation vectors, then the modelled positions."""
+    """(frames, 3 x rotated joints) rotation vectors relative to the references."""
     local = motion.local_rotations()[:, list(encoding.rotated)]
     relative = np.swapaxes(encoding.references, -1, -2)[None] @ local
-    vectors = rotation_log(relative).reshape(motion.frame_count, -1)
-    positions = motion.values[:, list(encoding.positions)].copy()
-    for k, column in enumerate(encoding.positions):
-        if column in encoding.floor_root:
-            positions[:, k] -= positions[0, k]
-    return np.hstack([vectors, positions])
+    result: FloatArray = rotation_log(relative).reshape(motion.frame_count, -1)
+    return result
 
 
-def decode(encoding: Encoding, observations: FloatArray, origin: FloatArray) -> FloatArray:
-    """Channel values (frames, channels) from observations; ``origin``: the desired path's
-    first-frame values, to put the root back where the desired path starts."""
+def decode(encoding: Encoding, observations: FloatArray) -> FloatArray:
+    """Channel values (frames, channels) from rotation vectors."""
     frames = len(observations)
     values = np.tile(encoding.template, (frames, 1))
     count = len(encoding.rotated)
@@ -107,10 +99,6 @@ def decode(encoding: Encoding, observations: FloatArray, origin: FloatArray) -> 
     for k, joint in enumerate(encoding.rotated):
         angles = matrix_to_euler(matrices[:, k], skeleton.rotation_order(joint))
         values[:, list(skeleton.rotation_columns(joint))] = angles
-    for k, column in enumerate(encoding.positions):
-        values[:, column] = observations[:, 3 * count + k]
-        if column in encoding.floor_root:
-            values[:, column] += origin[column]
     return values
 
 
@@ -138,113 +126,183 @@ def single_thread_blas() -> Iterator[None]:
 
 @dataclass(frozen=True, eq=False)
 class TrainedHmm:
-    means: FloatArray  # (states, dims) in observation units
-    model: object | None  # hmmlearn GaussianHMM on the z-scored active dimensions
-    active: tuple[int, ...]  # dimensions that vary in the training data
-    mean: FloatArray
-    scale: FloatArray
-    converged: bool
+    model: object | None  # hmmlearn GaussianHMM on the phase observations; None: one state
+    states: int
+    cyclic: bool
 
-    def viterbi(self, observations: FloatArray) -> FloatArray:
-        """Most likely state sequence of ``observations`` (as float indices)."""
+    def log_likelihoods(self, observations: FloatArray) -> FloatArray:
+        """(frames, states) log densities of every frame under every state."""
         if self.model is None:
-            return np.zeros(len(observations))
-        columns = list(self.active)
-        z = (observations[:, columns] - self.mean[columns]) / self.scale[columns]
-        _, states = self.model.decode(z, algorithm="viterbi")  # type: ignore[attr-defined]
-        return np.asarray(states, dtype=np.float64)
+            return np.zeros((len(observations), 1))
+        result: FloatArray = self.model._compute_log_likelihood(observations)  # type: ignore[attr-defined]
+        return result
+
+    def posteriors(self, observations: FloatArray) -> FloatArray:
+        if self.model is None or len(observations) == 0:
+            return np.ones((len(observations), 1))
+        result: FloatArray = self.model.predict_proba(observations)  # type: ignore[attr-defined]
+        return result
+
+    def viterbi(self, observations: FloatArray) -> npt.NDArray[np.int_]:
+        """Most likely state sequence; a left-to-right model starts in the first state and
+        ends in the last one (when the sequence is long enough to reach it)."""
+        if self.model is None or len(observations) == 0:
+            return np.zeros(len(observations), dtype=np.int_)
+        model = self.model
+        with np.errstate(divide="ignore"):
+            transitions = np.log(model.transmat_)  # type: ignore[attr-defined]
+            start = np.log(model.startprob_)  # type: ignore[attr-defined]
+        end = self.states - 1 if not self.cyclic and len(observations) >= self.states else None
+        return viterbi(self.log_likelihoods(observations), transitions, start, end)
 
 
-def _segment_init(sequences: Sequence[FloatArray], states: int) -> tuple[FloatArray, FloatArray]:
-    dims = sequences[0].shape[1]
-    pooled: list[list[FloatArray]] = [[] for _ in range(states)]
-    for sequence in sequences:
-        for state, segment in enumerate(np.array_split(sequence, states)):
-            if len(segment):
-                pooled[state].append(segment)
-    everything = np.vstack(sequences)
-    global_cov = np.cov(everything, rowvar=False, bias=True).reshape(dims, dims)
-    means = np.empty((states, dims))
-    covars = np.empty((states, dims, dims))
-    for state in range(states):
-        frames = np.vstack(pooled[state]) if pooled[state] else everything
-        means[state] = frames.mean(axis=0)
-        n = len(frames)
-        cov = np.cov(frames, rowvar=False, bias=True).reshape(dims, dims) if n > 1 else 0.0
-        # shrink towards the global covariance and the identity prior: never singular
-        covars[state] = (n * cov + 2.0 * global_cov + np.eye(dims)) / (n + 3.0)
-    return means, covars
+def viterbi(
+    loglik: FloatArray, transitions: FloatArray, start: FloatArray, end: int | None = None
+) -> npt.NDArray[np.int_]:
+    """Viterbi path of (frames, states) log likelihoods; ``end`` forces the last state."""
+    frames, states = loglik.shape
+    score = start + loglik[0]
+    back = np.zeros((frames, states), dtype=np.int_)
+    columns = np.arange(states)
+    for t in range(1, frames):
+        candidates = score[:, None] + transitions
+        back[t] = np.argmax(candidates, axis=0)
+        score = candidates[back[t], columns] + loglik[t]
+    last = end if end is not None and np.isfinite(score[end]) else int(np.argmax(score))
+    path = np.empty(frames, dtype=np.int_)
+    path[-1] = last
+    for t in range(frames - 1, 0, -1):
+        path[t - 1] = back[t, path[t]]
+    return path
+
+
+def _left_to_right(states: int) -> FloatArray:
+    transitions = np.zeros((states, states))
+    for state in range(states - 1):
+        transitions[state, state] = transitions[state, state + 1] = 0.5
+    transitions[-1, -1] = 1.0
+    return transitions
+
+
+def _segment_means(sequences: Sequence[FloatArray], states: int) -> FloatArray:
+    parts = [np.array_split(s, states) for s in sequences]
+    pooled = np.vstack(sequences)
+    means = np.tile(pooled.mean(axis=0), (states, 1))
+    for k in range(states):
+        chunks = [p[k] for p in parts if len(p[k])]
+        if chunks:
+            means[k] = np.vstack(chunks).mean(axis=0)
+    return means
+
+
+def _kmeans_means(sequences: Sequence[FloatArray], states: int, seed: int) -> FloatArray:
+    """k-means centres of the pooled frames, ordered by their mean relative time."""
+    from sklearn.cluster import KMeans
+
+    pooled = np.vstack(sequences)
+    times = np.concatenate([np.linspace(0.0, 1.0, len(s)) for s in sequences])
+    fitted = KMeans(states, n_init=3, random_state=seed).fit(pooled)
+    labels = fitted.labels_
+    order = np.argsort([times[labels == k].mean() if np.any(labels == k) else 2.0 for k in range(states)])
+    centres: FloatArray = fitted.cluster_centers_[order]
+    return centres
+
+
+def _fit(sequences: Sequence[FloatArray], states: int, cyclic: bool, n_iter: int, seed: int) -> object:
+    from hmmlearn.hmm import GaussianHMM
+
+    pooled = np.vstack(sequences)
+    model = GaussianHMM(
+        n_components=states,
+        covariance_type="diag",
+        min_covar=_MIN_COVAR,
+        n_iter=n_iter,
+        tol=1e-2,
+        init_params="",
+        params="stmc" if cyclic else "tmc",
+        random_state=seed,
+        implementation="log",
+    )
+    if cyclic:
+        model.startprob_ = np.full(states, 1.0 / states)
+        model.transmat_ = np.full((states, states), 1.0 / states)
+        model.means_ = _kmeans_means(sequences, states, seed)
+    else:
+        model.startprob_ = np.eye(states)[0]
+        model.transmat_ = _left_to_right(states)
+        model.means_ = _segment_means(sequences, states)
+    model.n_features = pooled.shape[1]
+    model.covars_ = np.tile(np.maximum(pooled.var(axis=0), _MIN_COVAR), (states, 1))
+    logger = logging.getLogger("hmmlearn")
+    level = logger.level
+    logger.setLevel(logging.ERROR)  # hmmlearn warns about states that EM leaves empty
+    try:
+        with single_thread_blas(), warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            snapshot = (model.startprob_.copy(), model.transmat_.copy(), model.means_.copy(), model._covars_.copy())
+            with contextlib.suppress(ValueError, np.linalg.LinAlgError):  # degenerate data
+                model.fit(pooled, [len(s) for s in sequences])
+            finite = all(
+                np.all(np.isfinite(x)) for x in (model.startprob_, model.transmat_, model.means_, model._covars_)
+            )
+            rows = np.asarray(model.transmat_).sum(axis=1)
+            if not finite or not np.allclose(rows, 1.0) or not np.isclose(np.sum(model.startprob_), 1.0):
+                model.startprob_, model.transmat_, model.means_, model._covars_ = snapshot
+    finally:
+        logger.setLevel(level)
+    return model
+
+
+def runs_per_state(path: npt.NDArray[np.int_]) -> float:
+    """Runs of equal states per distinct state visited (1 for a path that never returns)."""
+    if len(path) == 0:
+        return 1.0
+    runs = 1 + int(np.count_nonzero(np.diff(path)))
+    return runs / len(set(path.tolist()))
 
 
 def train_hmm(
     sequences: Sequence[FloatArray],
     states: int,
     *,
-    n_iter: int = 8,
+    topology: str = "auto",
+    n_iter: int = 10,
     seed: int = 0,
-    also_scale: FloatArray | None = None,
-    prior_frames: float | None = None,
+    decide_on: int | None = None,
 ) -> TrainedHmm:
-    """Fit the HMM_NN on ``sequences`` (each frames x dims).
-
-    Observations are z-scored over the sequences (plus ``also_scale``, the desired path, so
-    that its offsets from the neighbours do not look like outliers); the identity covariance
-    prior weighs ``prior_frames`` frames (default: the mean frames per state).
-    """
-    from hmmlearn.hmm import GaussianHMM
-
+    """Fit the HMM_NN on phase observations (each frames x k); ``decide_on``: how many of
+    the first sequences are the neighbours whose paths decide the topology (default all)."""
+    if topology not in TOPOLOGIES:
+        raise ValueError(f"topology must be one of {', '.join(TOPOLOGIES)}, not {topology!r}")
     pooled = np.vstack(sequences)
-    scaling = pooled if also_scale is None else np.vstack([pooled, also_scale])
-    mean = scaling.mean(axis=0)
-    scale = scaling.std(axis=0)
-    # constant dimensions are left out: with a covariance prior they would reward the states
-    # with the most frames (smaller prior share) and collapse EM onto one state
-    active = tuple(int(d) for d in np.flatnonzero(pooled.std(axis=0) > 1e-7))
-    scale[scale < 1e-9] = 1.0
-    if not active:
-        return TrainedHmm(pooled.mean(axis=0)[None, :], None, (), mean, scale, True)
-    columns = list(active)
-    dims = len(columns)
-    z_sequences = [(s[:, columns] - mean[columns]) / scale[columns] for s in sequences]
     shortest = min(len(s) for s in sequences)
-    states = max(1, min(states, len(pooled) // 3, max(2, shortest)))
-    init_means, init_covars = _segment_init(z_sequences, states)
-    kappa = max(2.0, prior_frames if prior_frames is not None else len(pooled) / states)
-    model = GaussianHMM(
-        n_components=states,
-        covariance_type="full",
-        covars_prior=kappa * np.eye(dims),
-        covars_weight=dims + kappa,
-        n_iter=n_iter,
-        tol=1e-2,
-        init_params="",
-        params="stmc",
-        random_state=seed,
-        implementation="log",
-    )
-    uniform_start, uniform_transitions = np.full(states, 1.0 / states), np.full((states, states), 1.0 / states)
-    model.startprob_, model.transmat_ = uniform_start, uniform_transitions
-    model.means_, model.covars_ = init_means, init_covars
-    converged = False
-    # hmmlearn logs a warning whenever the prior makes the (prior-free) likelihood drop
-    logger = logging.getLogger("hmmlearn")
-    level = logger.level
-    logger.setLevel(logging.ERROR)
-    with single_thread_blas(), warnings.catch_warnings():
-        warnings.simplefilter("ignore")
-        try:
-            model.fit(np.vstack(z_sequences), [len(s) for s in z_sequences])
-            converged = bool(model.monitor_.converged)
-        except (ValueError, np.linalg.LinAlgError):
-            pass  # degenerate data: the segment initialisation below is a valid model
-        finally:
-            logger.setLevel(level)
-    if not all(np.all(np.isfinite(x)) for x in (model.means_, model.transmat_, model.startprob_)):
-        model.startprob_, model.transmat_ = uniform_start, uniform_transitions
-        model.means_, model.covars_ = init_means, init_covars
-    means = np.tile(mean, (states, 1))
-    means[:, columns] = np.asarray(model.means_, dtype=np.float64) * scale[columns] + mean[columns]
-    return TrainedHmm(means, model, active, mean, scale, converged)
+    states = max(1, min(states, len(pooled) // 3, max(1, shortest)))
+    if states < 2:
+        return TrainedHmm(None, 1, False)
+    judged = sequences[: decide_on or len(sequences)]
+    short = float(np.mean([len(s) for s in judged])) < CYCLIC_FRAMES_PER_STATE * states
+    if topology == "left-to-right" or (topology == "auto" and short):
+        return TrainedHmm(_fit(sequences, states, False, n_iter, seed), states, False)
+    full = TrainedHmm(_fit(sequences, states, True, n_iter, seed), states, True)
+    if topology == "full":
+        return full
+    cycling = float(np.mean([runs_per_state(full.viterbi(s)) for s in judged]))
+    if cycling >= CYCLIC_RUNS_PER_STATE:
+        return full
+    return TrainedHmm(_fit(sequences, states, False, n_iter, seed), states, False)
+
+
+def state_means(trained: TrainedHmm, phases: Sequence[FloatArray], values: Sequence[FloatArray]) -> FloatArray:
+    """(states, dims): every state's mean of ``values`` (rotations), weighted by the state
+    posteriors of the matching ``phases``; a state without weight gets the overall mean."""
+    weights = np.vstack([trained.posteriors(p) for p in phases])
+    stacked = np.vstack(values)
+    mass = weights.sum(axis=0)
+    means = (weights.T @ stacked) / np.maximum(mass[:, None], 1e-12)
+    empty = mass < 1e-9
+    means[empty] = stacked.mean(axis=0)
+    result: FloatArray = means
+    return result
 
 
 def smooth(sequence: FloatArray, frame_time: float, cutoff_hz: float = 3.0) -> FloatArray:
@@ -283,7 +341,10 @@ def _runs(states: npt.NDArray[np.int_]) -> list[tuple[int, int, int]]:
     return [(int(a), int(b), int(states[a])) for a, b in zip(starts, stops, strict=True)]
 
 
-def _resample(segment: FloatArray, frames: int) -> FloatArray:
+def resample(segment: FloatArray, frames: int) -> FloatArray:
+    """Linear resampling of (n, dims) to (frames, dims)."""
+    if len(segment) == frames:
+        return segment.copy()
     if len(segment) == 1 or frames == 1:
         return np.repeat(segment[len(segment) // 2 : len(segment) // 2 + 1], frames, axis=0)
     source = np.linspace(0.0, 1.0, len(segment))
@@ -320,5 +381,5 @@ def state_aligned_frames(
             out[start:stop] = means[state]
             continue
         _, segment = min(candidates, key=lambda item: abs(item[0] - centre))
-        out[start:stop] = _resample(segment, stop - start)
+        out[start:stop] = resample(segment, stop - start)
     return out

@@ -11,7 +11,8 @@
   original emotion, ``L \\ L2``. At least :data:`MIN_SEARCH_DIMENSIONS` components are kept
   (the least salient ones are added back) so that the distance stays meaningful.
 - Neighbours: target-style clips whose distance to the desired path is within ε = 10 % of
-  the distance to the farthest target-style clip; at least the nearest one.
+  the distance to the farthest target-style clip; at least the nearest one (the generator
+  asks for at least three when the library has them, and at most eight).
 """
 
 from __future__ import annotations
@@ -156,8 +157,12 @@ def nearest_neighbours(
     components: Sequence[int],
     saliency: Saliency,
     epsilon_fraction: float = EPSILON_FRACTION,
+    *,
+    minimum: int = 1,
+    maximum: int | None = None,
 ) -> list[int]:
-    """Indices (into ``candidates``) within ε of ``desired``, nearest first; at least one."""
+    """Indices (into ``candidates``) within ε of ``desired``, nearest first; at least the
+    nearest ``minimum`` (when there are that many), at most ``maximum``."""
     if len(candidates) == 0:
         return []
     columns = list(components)
@@ -167,4 +172,6 @@ def nearest_neighbours(
     order = np.argsort(distances, kind="stable")
     radius = epsilon_fraction * float(distances.max())
     chosen = [int(i) for i in order if distances[i] <= radius]
-    return chosen or [int(order[0])]
+    if len(chosen) < minimum:
+        chosen = [int(i) for i in order[: max(1, minimum)]]
+    return chosen[:maximum] if maximum else chosen

@@ -1,0 +1,306 @@
+"""Action fidelity: does a clip perform its action, and is its motion clean?
+
+Measures are computed on world joint positions (forward kinematics), in the clip's own body
+frame (first-frame hips: X to the body's left, Y up, Z forward; file units, cm for Bandai and
+the starter) so that performers facing different ways compare:
+
+=====================  ================================================================
+``head_dip``           head height: 95th percentile minus minimum (a bow dips the head)
+``head_forward``       head travel forward of the feet: maximum minus 5th percentile
+``hand_to_head``       closest approach of a wrist to the head over the clip
+``wrists_over_head``   highest frame of the *lower* wrist, relative to the head top
+``hand_range``         largest range of motion of a wrist relative to the chest
+``wave_frequency``     side-to-side cycles per second of the wrists (relative to the chest)
+``wave_amplitude``     their peak-to-peak amplitude
+``forward_speed``      root travel along the first-frame forward axis per second
+``side_speed``         root travel to the body's left (first frame) per second
+``foot_slip``          median horizontal speed of the lowest foot point while it is on the
+                       floor (within 2 cm of its lowest height): the stance foot
+``jerk``               RMS jerk of head and wrists (third differences of positions)
+``reversals``          share of moving frames where a wrist's velocity turns back by more
+                       than 90 degrees from one frame to the next (jitter)
+``bone_error``         largest relative change of a bone length over the clip
+=====================  ================================================================
+
+Which measures say that a clip *performs* an action, and their admitted spread, come from
+the real clips of that action (:func:`reference`): :data:`ACTION_SIGNATURES` names them
+for the actions whose gist is known (bow: head dip and forward travel; hand to mouth: wrist
+near the head; raise hands: wrists over the head; wave: frequency and amplitude; walks:
+forward progress); any other action is checked on the ranges that every one of its real
+clips covers (wrist range of motion, head dip, head forward travel: those of at least
+:data:`TELLING_SHARE` arm lengths). Quality is checked for every action: foot slip and jerk
+at most :data:`QUALITY_FACTOR` times the real clips' median, bone lengths constant.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterable, Mapping, Sequence
+from dataclasses import dataclass
+
+import numpy as np
+
+from mse.motion.base.bodyparts import BodyMap, body_map
+from mse.motion.base.bvh import Motion
+from mse.motion.base.contacts import contact_joints
+from mse.motion.base.kinematics import FloatArray
+from mse.motion.base.lma import UP_AXIS, arm_length
+
+MEASURES: tuple[str, ...] = (
+    "head_dip",
+    "head_forward",
+    "hand_to_head",
+    "wrists_over_head",
+    "hand_range",
+    "wave_frequency",
+    "wave_amplitude",
+    "forward_speed",
+    "side_speed",
+    "foot_slip",
+    "jerk",
+    "reversals",
+    "bone_error",
+)
+
+#: The measures that say an action is performed, per action (others: :data:`DEFAULT_SIGNATURE`).
+ACTION_SIGNATURES: Mapping[str, tuple[str, ...]] = {
+    "bow": ("head_dip", "head_forward"),
+    "head_down": ("head_dip",),
+    "lean_forward": ("head_forward",),
+    "hand_on_mouth": ("hand_to_head",),
+    "hand_on_face": ("hand_to_head",),
+    "arms_raised": ("wrists_over_head",),
+    "raise-up-both-hands": ("wrists_over_head",),
+    "wave-both-hands": ("wave_frequency", "wave_amplitude"),
+    "walk": ("forward_speed",),
+    "walk-back": ("forward_speed",),
+    "walk-left": ("side_speed",),
+    "walk-right": ("side_speed",),
+    "run": ("forward_speed",),
+    "dash": ("forward_speed",),
+}
+#: candidates for the actions without a named signature: the ranges every real clip of the
+#: action covers by at least :data:`TELLING_SHARE` arm lengths are its signature (else the
+#: candidate with the largest minimum)
+DEFAULT_CANDIDATES: tuple[str, ...] = ("hand_range", "head_dip", "head_forward")
+TELLING_SHARE = 0.2
+#: foot slip and jerk may be this many times the real clips' median
+QUALITY_FACTOR = 2.0
+#: the admitted spread of an action measure: the real clips' range, each end moved out by
+#: this share of its size
+SPREAD_MARGIN = 0.15
+#: the medians that foot slip is compared with are at least this many arm lengths per second
+#: (a standing performer's feet "slide" 0.1-0.5 cm/s in the capture noise)
+SLIP_FLOOR_ARM_LENGTHS = 0.01
+#: bones may stretch by this share at most
+BONE_TOLERANCE = 0.01
+_CONTACT_BAND = 2.0  # cm above a foot's lowest point still counts as on the floor
+_WAVE_WINDOW_S = 1.0  # detrending window of the wave measures
+
+
+@dataclass(frozen=True, slots=True)
+class Body:
+    """World positions in the body frame, with the joints the measures use."""
+
+    positions: FloatArray  # (F, J, 3)
+    frame_time: float
+    body: BodyMap
+    feet: tuple[int, ...]  # foot joints and their children (toes)
+    chest: int
+    scale: float  # arm length (file units)
+
+
+def _body_frame(positions: FloatArray, body: BodyMap) -> FloatArray:
+    lateral = positions[0, body.left_hip] - positions[0, body.right_hip]
+    lateral[UP_AXIS] = 0.0
+    norm = float(np.linalg.norm(lateral))
+    lateral = lateral / norm if norm > 1e-9 else np.array([1.0, 0.0, 0.0])
+    up = np.zeros(3)
+    up[UP_AXIS] = 1.0
+    forward = np.cross(lateral, up)
+    basis = np.stack([lateral, up, forward])
+    origin = 0.5 * (positions[0, body.left_hip] + positions[0, body.right_hip])
+    origin[UP_AXIS] = 0.0
+    result: FloatArray = (positions - origin) @ basis.T
+    return result
+
+
+def body_of(motion: Motion, path: str = "<motion>") -> Body:
+    """The clip's positions in its body frame and the joints the measures need."""
+    skeleton = motion.skeleton
+    body = body_map(skeleton, path)
+    positions = motion.positions()
+    feet = contact_joints(skeleton)
+    return Body(_body_frame(positions, body), motion.frame_time, body, feet, body.torso, arm_length(positions, body))
+
+
+def _wave(relative: FloatArray, frame_time: float) -> tuple[float, float]:
+    """(cycles per second, peak-to-peak amplitude) of a side-to-side signal."""
+    frames = len(relative)
+    window = max(3, round(_WAVE_WINDOW_S / frame_time) | 1)
+    if frames < window + 4:
+        return 0.0, 0.0
+    kernel = np.ones(window) / window
+    padded = np.pad(relative, (window // 2, window // 2), mode="edge")
+    detrended = relative - np.convolve(padded, kernel, mode="valid")
+    spread = float(np.std(detrended))
+    if spread < 1e-9:
+        return 0.0, 0.0
+    threshold = 0.5 * spread
+    crossings, side = 0, 0
+    for value in detrended:  # zero crossings with hysteresis
+        now = 1 if value > threshold else -1 if value < -threshold else 0
+        if now and side and now != side:
+            crossings += 1
+        side = now or side
+    frequency = 0.5 * crossings / (frames * frame_time)
+    return frequency, 2.0 * np.sqrt(2.0) * spread
+
+
+def _bones(motion: Motion) -> float:
+    """Largest relative change of a bone length; the bones to joints whose position channels
+    move (the root's translation, e.g. Bandai's joint_Root -> Hips) are no bones."""
+    positions = motion.positions()
+    skeleton = motion.skeleton
+    translations = motion.translations()
+    worst = 0.0
+    for joint, parent in enumerate(skeleton.parents):
+        if parent < 0:
+            continue
+        if skeleton.position_columns(joint) and float(np.ptp(translations[:, joint], axis=0).max()) > 1e-6:
+            continue
+        length = np.linalg.norm(positions[:, joint] - positions[:, parent], axis=-1)
+        typical = float(np.median(length))
+        if typical > 1e-6:
+            worst = max(worst, float(np.max(np.abs(length - typical))) / typical)
+    return worst
+
+
+def measure(motion: Motion, path: str = "<motion>") -> dict[str, float]:
+    """Every measure of :data:`MEASURES` for one clip."""
+    data = body_of(motion, path)
+    p, dt, body = data.positions, data.frame_time, data.body
+    head = p[:, body.head]
+    hands = p[:, [body.left_hand, body.right_hand]]  # (F, 2, 3)
+    chest = p[:, data.chest]
+    feet = p[:, list(data.feet)]
+    feet_centre_z = feet[:, :, 2].mean(axis=1)
+    values: dict[str, float] = {}
+    values["head_dip"] = float(np.percentile(head[:, 1], 95) - head[:, 1].min())
+    forward = head[:, 2] - feet_centre_z
+    values["head_forward"] = float(forward.max() - np.percentile(forward, 5))
+    values["hand_to_head"] = float(np.min(np.linalg.norm(hands - head[:, None], axis=-1)))
+    values["wrists_over_head"] = float(np.max(hands[:, :, 1].min(axis=1) - head[:, 1]))
+    relative = hands - chest[:, None]
+    values["hand_range"] = float(
+        max(np.max(np.linalg.norm(relative[:, k] - relative[:, k].mean(axis=0), axis=-1)) for k in (0, 1))
+    )
+    waves = [_wave(relative[:, k, 0], dt) for k in (0, 1)]
+    values["wave_frequency"] = float(np.mean([w[0] for w in waves]))
+    values["wave_amplitude"] = float(np.mean([w[1] for w in waves]))
+    root = 0.5 * (p[:, body.left_hip] + p[:, body.right_hip])
+    span = max(motion.duration - dt, dt)
+    values["forward_speed"] = float((root[-1, 2] - root[0, 2]) / span)
+    values["side_speed"] = float((root[-1, 0] - root[0, 0]) / span)
+    lowest = np.argmin(feet[:, :, 1], axis=1)
+    floor = feet[:, :, 1].min(axis=0)  # each foot point's lowest height
+    point = feet[np.arange(len(feet)), lowest]  # (F, 3)
+    on_floor = point[:, 1] <= floor[lowest] + _CONTACT_BAND
+    same = lowest[1:] == lowest[:-1]
+    horizontal = np.linalg.norm(np.diff(point[:, [0, 2]], axis=0), axis=-1) / dt
+    stance = same & on_floor[1:] & on_floor[:-1]
+    values["foot_slip"] = float(np.median(horizontal[stance])) if stance.any() else 0.0
+    effectors = np.concatenate([head[:, None], hands], axis=1)
+    if len(effectors) >= 4:
+        jerk = np.diff(effectors, n=3, axis=0) / dt**3
+        values["jerk"] = float(np.sqrt(np.mean(np.sum(jerk**2, axis=-1))))
+    else:
+        values["jerk"] = 0.0
+    velocity = np.diff(hands, axis=0) / dt  # (F-1, 2, 3)
+    speed = np.linalg.norm(velocity, axis=-1)
+    moving = (speed[1:] > 0.05 * data.scale) & (speed[:-1] > 0.05 * data.scale)
+    turned = np.sum(velocity[1:] * velocity[:-1], axis=-1) < 0.0
+    values["reversals"] = float(np.mean(turned[moving])) if moving.any() else 0.0
+    values["bone_error"] = _bones(motion)
+    return values
+
+
+@dataclass(frozen=True, slots=True)
+class Reference:
+    """What real clips of one action do: per measure, the values of the real clips, and
+    their performers' arm length (file units)."""
+
+    action: str
+    values: Mapping[str, tuple[float, ...]]
+    scale: float
+
+    @property
+    def signature(self) -> tuple[str, ...]:
+        named = ACTION_SIGNATURES.get(self.action)
+        if named is not None:
+            return named
+        lows = {name: min(self.values[name]) for name in DEFAULT_CANDIDATES}
+        telling = tuple(name for name in DEFAULT_CANDIDATES if lows[name] >= TELLING_SHARE * self.scale)
+        return telling or (max(lows, key=lambda name: lows[name]),)
+
+    def spread(self, name: str) -> tuple[float, float]:
+        """The admitted range of an action measure: the real range, each end moved out by
+        :data:`SPREAD_MARGIN` of its own size."""
+        values = np.asarray(self.values[name])
+        low, high = float(values.min()), float(values.max())
+        return low - SPREAD_MARGIN * abs(low), high + SPREAD_MARGIN * abs(high)
+
+    def median(self, name: str) -> float:
+        return float(np.median(self.values[name]))
+
+
+def reference(action: str, clips: Iterable[Motion]) -> Reference:
+    """The reference of ``action`` from its real clips."""
+    motions = list(clips)
+    if not motions:
+        raise ValueError(f"no real clip of {action!r}")
+    measured = [measure(m) for m in motions]
+    scale = float(np.median([body_of(m).scale for m in motions]))
+    return Reference(action, {name: tuple(m[name] for m in measured) for name in MEASURES}, scale)
+
+
+@dataclass(frozen=True, slots=True)
+class Check:
+    """One check of one clip: the measure, its value, the admitted range, passed or not."""
+
+    name: str
+    value: float
+    low: float
+    high: float
+
+    @property
+    def passed(self) -> bool:
+        return self.low <= self.value <= self.high
+
+
+def check(
+    values: Mapping[str, float],
+    action_reference: Reference,
+    style_reference: Reference | None = None,
+) -> list[Check]:
+    """The action checks (spread of ``action_reference``) and the quality checks: foot slip
+    and jerk at most :data:`QUALITY_FACTOR` times the larger of the medians of the style's
+    real clips and of the action's (a slow style's clip generated on a faster desired path
+    is not held to the slow style's jerk alone), foot slip against at least
+    :data:`SLIP_FLOOR_ARM_LENGTHS`."""
+    checks = []
+    for name in action_reference.signature:
+        low, high = action_reference.spread(name)
+        checks.append(Check(name, values[name], low, high))
+    floors = {"foot_slip": SLIP_FLOOR_ARM_LENGTHS * action_reference.scale, "jerk": 0.0}
+    for name in ("foot_slip", "jerk"):
+        medians = [action_reference.median(name)]
+        if style_reference is not None:
+            medians.append(style_reference.median(name))
+        limit = QUALITY_FACTOR * max(*medians, floors[name])
+        checks.append(Check(name, values[name], -np.inf, limit))
+    checks.append(Check("bone_error", values["bone_error"], -np.inf, BONE_TOLERANCE))
+    return checks
+
+
+def failed(checks: Sequence[Check]) -> list[Check]:
+    return [c for c in checks if not c.passed]
