@@ -41,3 +41,11 @@ def bandai_dir(shared_dir: Path) -> Path:
     if not path.is_dir():
         pytest.skip(f"Bandai motion data not found in {shared_dir}")
     return path
+
+
+@pytest.fixture(autouse=True, scope="session")
+def _private_motion_cache(tmp_path_factory: pytest.TempPathFactory) -> None:
+    """Trained motion models and paths go to a test folder, never the user's cache (unless
+    MSE_CACHE_DIR names one)."""
+    if not os.environ.get("MSE_CACHE_DIR"):
+        os.environ["MSE_CACHE_DIR"] = str(tmp_path_factory.mktemp("mse-cache"))

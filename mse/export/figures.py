@@ -9,8 +9,12 @@ The page gets a JSON object (the format is ours, documented in docs/export.md)::
 
 Positions are a three-quarter view (35° yaw; y up; BVH units, rounded to 0.1) resampled at
 ``fps``.
-Clips are read from the BVH files that motion generation wrote (``signal.motion["file"]``)
-through :mod:`mse.motion.base.bvh`, imported only when a timeline has motion.
+The player shows **one body**: when the timeline was animated (``extra["animation"]
+["timeline_bvh"]``, the whole timeline composed by body part) that file is the only clip
+(``signal`` ``"timeline"``), so overlapping leaves are seen together and never one clip hiding
+another; timelines without it (older outputs) get one clip per signal's BVH
+(``signal.motion["file"]``). Files are read through :mod:`mse.motion.base.bvh`, imported only
+when a timeline has motion.
 """
 
 from __future__ import annotations
@@ -116,8 +120,29 @@ def motion_file(signal: TimelineSignal, base_dir: Path | None) -> Path | None:
     return path if not inside.exists() and path.exists() else inside
 
 
+#: the composite clip's caption in the player
+COMPOSITE_LABEL = "all motion leaves on one body"
+
+
+def composite_file(timeline: Timeline, base_dir: Path | None) -> Path | None:
+    """The whole-timeline BVH of an animated timeline, if it names one that exists."""
+    animation = timeline.extra.get("animation")
+    name = animation.get("timeline_bvh") if isinstance(animation, dict) else None
+    if not isinstance(name, str) or not name.strip():
+        return None
+    path = Path(name)
+    if not path.is_absolute() and base_dir is not None:
+        path = base_dir / path
+    return path if path.is_file() else None
+
+
 def clips_from_timeline(timeline: Timeline, base_dir: Path | None) -> list[FigureClip]:
-    """Read every motion file the timeline names; bad files raise MseError (E100)."""
+    """The composite clip of an animated timeline, else every motion file the timeline
+    names; bad files raise MseError (E100)."""
+    composite = composite_file(timeline, base_dir)
+    if composite is not None and any(motion_file(s, base_dir) for s in timeline.signals):
+        fps, joints, parents, positions = _read_bvh_positions(composite)
+        return [FigureClip("timeline", COMPOSITE_LABEL, 0.0, timeline.duration, fps, joints, parents, positions)]
     clips: list[FigureClip] = []
     for signal in timeline.signals:
         path = motion_file(signal, base_dir)

@@ -3,25 +3,28 @@
 ``animate(timeline, model, out_dir, library=None)`` writes into ``out_dir``:
 
 - one BVH per motion occurrence, ``<signal>_<start ms>.bvh``, lasting exactly the
-  occurrence's scheduled duration (frame time adjusted, see :func:`generate.time_warp`);
-- ``timeline.bvh``: the whole timeline, every track composed over a rest pose
-  (:mod:`mse.motion.base.compose`). Its skeleton is the one most generated clips use; clips on
-  another skeleton (e.g. starter fallbacks next to Bandai clips) are left out of it with a
-  warning. The rest pose is the starter's for the starter skeleton, else the first frame of
-  the first clip;
+  occurrence's scheduled duration (frame count ``round(duration / frame_time)``, frame time
+  adjusted);
+- ``timeline.bvh``: the whole timeline on one body, the overlapping tracks composed by body
+  part with blends at their edges (:mod:`mse.motion.base.compose`). Its skeleton is the one
+  most generated clips use; clips on another skeleton (e.g. starter fallbacks next to Bandai
+  clips) are left out of it with a warning. The rest pose is the starter's for the starter
+  skeleton, else the first frame of the first clip;
 - ``lma.json``: the LMA Effort/Shape components of each generated clip, by file name;
 
-and returns the timeline with ``"motion": {"action", "emotion", "style", "file"}`` on those
-signals (``emotion`` is the expression's, ``style`` the library label it mapped to).
+and returns the timeline with ``"motion": {"action", "emotion", "style", "method", "file"}``
+on those signals (``emotion`` is the expression's, ``style`` the library label it mapped to,
+``method`` the one that made the clip).
 
-The emotion of the expression (``timeline.expression``, else ``model.name``; a leaf's own
-``emotion`` attribute wins) maps to a style
-through :data:`mse.motion.base.library.EMOTION_STYLES`, overridden by the library index and then
-by ``emotion_styles``. When the library lacks the leaf's action (or that style of it), the
-starter library is used with a :class:`MotionWarning` naming the action. ``method="hsmm"``
-leaves go to :func:`mse.motion.hsmm.leaf.synthesize_leaf` (falling back to lma-hmm with a
-warning when it cannot serve them). Warnings go through
-:mod:`warnings` so that front-ends decide how to show them.
+Clips come from :func:`mse.motion.generator.generator_for` (the leaf's ``method``: lma-hmm
+or hsmm), with trained models and paths cached on disk (``cache_dir``; default the user
+cache). The emotion of the expression (``timeline.expression``, else ``model.name``; a leaf's
+own ``emotion`` attribute wins) maps to a style through
+:data:`mse.motion.base.library.EMOTION_STYLES`, overridden by the library index and then by
+``emotion_styles``. Fallbacks, each with a :class:`MotionWarning` naming the action: an hsmm
+leaf the HSMM method cannot serve goes to lma-hmm; an action (or style) the library lacks
+goes to the starter library. Warnings go through :mod:`warnings` so that front-ends decide
+how to show them.
 """
 
 from __future__ import annotations
@@ -30,6 +33,7 @@ import json
 import os
 import warnings
 from collections.abc import Mapping
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
@@ -39,10 +43,10 @@ from mse.fileio import write_atomic
 from mse.ir.model import Model, MotionLeaf
 from mse.motion.base.bvh import Motion, write_bvh
 from mse.motion.base.compose import Track, compose
-from mse.motion.base.library import MotionLibrary
+from mse.motion.base.library import MotionLibrary, MotionUnavailable
 from mse.motion.base.lma import lma_features
 from mse.motion.base.starter import STYLE_EFFORT, rest_motion, starter_library, unknown_action_error
-from mse.motion.lma_hmm.generate import GenerationParams, MotionUnavailable, generate_motion
+from mse.motion.generator import GenerationRequest, generator_for
 from mse.timeline import Timeline, TimelineSignal
 
 TIMELINE_BVH = "timeline.bvh"
@@ -63,70 +67,53 @@ def _where(leaf: MotionLeaf) -> str:
     return "" if span.path == "<none>" else f"{span.render()}: "
 
 
-def _generate_leaf(
-    leaf: MotionLeaf,
-    style: str,
-    duration: float,
-    library: MotionLibrary,
-    warned: set[str],
-) -> tuple[Motion, str, str]:
-    """(motion, library name used, style used) for one occurrence."""
-    params = GenerationParams(states=leaf.states, nd=leaf.nd)
-    if leaf.method == "hsmm":
-        hsmm = _generate_hsmm(leaf, style, duration, library, warned)
-        if hsmm is not None:
-            return hsmm, library.name, style
-    if library is not starter_library():
-        try:
-            clip = leaf.clip if leaf.clip and library.clip(leaf.clip) else None
-            if leaf.clip and clip is None and f"clip:{leaf.clip}" not in warned:
-                warned.add(f"clip:{leaf.clip}")
-                message = f"{_where(leaf)}clip {leaf.clip!r} is not in {library.name!r}; using the default"
-                warnings.warn(MotionWarning(message), stacklevel=3)
-            result = generate_motion(library, leaf.action, style, duration=duration, clip=clip, params=params)
-            return result.motion, library.name, style
-        except MotionUnavailable as reason:
-            if leaf.action not in warned:  # once per action and call
-                warned.add(leaf.action)
-                warnings.warn(
-                    MotionWarning(
-                        f"{_where(leaf)}motion library {library.name!r} lacks action "
-                        f"{leaf.action!r} ({reason}); using the starter library"
-                    ),
-                    stacklevel=3,
-                )
-    starter = starter_library()
-    if not starter.select(leaf.action):
-        raise unknown_action_error(leaf.action, leaf.span)
-    if style not in STYLE_EFFORT:
-        if f"style:{style}" not in warned:
-            warned.add(f"style:{style}")
-            warnings.warn(
-                MotionWarning(f"the starter library has no style {style!r}; using 'normal'"),
-                stacklevel=3,
-            )
-        style = "normal"
-    result = generate_motion(starter, leaf.action, style, duration=duration, params=params)
-    return result.motion, starter.name, style
+@dataclass
+class _Leaves:
+    """Generation of the leaves of one call: generators, warnings already given."""
 
+    library: MotionLibrary
+    cache_dir: str | os.PathLike[str] | None
+    warned: set[str] = field(default_factory=set)
 
-def _generate_hsmm(
-    leaf: MotionLeaf, style: str, duration: float, library: MotionLibrary, warned: set[str]
-) -> Motion | None:
-    """``method="hsmm"``: the HSMM method (:mod:`mse.motion.hsmm`); None -> use lma-hmm."""
-    from mse.diagnostics import MseError
-    from mse.motion.hsmm.leaf import synthesize_leaf
+    def warn(self, key: str, message: str) -> None:
+        if key not in self.warned:  # once per call
+            self.warned.add(key)
+            warnings.warn(MotionWarning(message), stacklevel=4)
 
-    try:
-        return synthesize_leaf(library, leaf.action, style, duration, seed=0)
-    except (MseError, ValueError) as reason:
-        if f"hsmm:{leaf.action}" not in warned:
-            warned.add(f"hsmm:{leaf.action}")
-            warnings.warn(
-                MotionWarning(f"{_where(leaf)}the HSMM method cannot serve {leaf.action!r} ({reason}); using lma-hmm"),
-                stacklevel=4,
-            )
-        return None
+    def generate(self, leaf: MotionLeaf, style: str, duration: float, seed: int) -> tuple[Motion, str, str, str]:
+        """(motion, library name used, style used, method used) for one occurrence."""
+        library = self.library
+        clip = leaf.clip if leaf.clip and library.clip(leaf.clip) else None
+        if leaf.clip and clip is None and library is not starter_library():
+            message = f"{_where(leaf)}clip {leaf.clip!r} is not in {library.name!r}; using the default"
+            self.warn(f"clip:{leaf.clip}", message)
+        request = GenerationRequest(leaf.action, style, duration, clip, leaf.states, leaf.nd, seed)
+        methods = [leaf.method] + (["lma-hmm"] if leaf.method != "lma-hmm" else [])
+        for method in methods:
+            try:
+                motion = generator_for(method, self.cache_dir).generate(library, request)
+                return motion, library.name, style, method
+            except MotionUnavailable as reason:
+                if method != "lma-hmm":
+                    self.warn(
+                        f"{method}:{leaf.action}",
+                        f"{_where(leaf)}the {method} method cannot serve {leaf.action!r} ({reason}); using lma-hmm",
+                    )
+                elif library is not starter_library():
+                    self.warn(
+                        leaf.action,
+                        f"{_where(leaf)}motion library {library.name!r} lacks action {leaf.action!r} "
+                        f"({reason}); using the starter library",
+                    )
+        starter = starter_library()
+        if not starter.select(leaf.action):
+            raise unknown_action_error(leaf.action, leaf.span)
+        if style not in STYLE_EFFORT:
+            self.warn(f"style:{style}", f"the starter library has no style {style!r}; using 'normal'")
+            style = "normal"
+        request = GenerationRequest(leaf.action, style, duration, None, leaf.states, leaf.nd, seed)
+        motion = generator_for("lma-hmm", self.cache_dir).generate(starter, request)
+        return motion, starter.name, style, "lma-hmm"
 
 
 def animate(
@@ -136,17 +123,19 @@ def animate(
     library: MotionLibrary | None = None,
     *,
     emotion_styles: Mapping[str, str] | None = None,
+    cache_dir: str | os.PathLike[str] | None = "default",
 ) -> Timeline:
-    """Generate and write the motion of every motion-leaf occurrence (module docstring)."""
+    """Generate and write the motion of every motion-leaf occurrence (module docstring);
+    ``cache_dir``: see :func:`mse.motion.generator.generator_for`."""
     _check_limits(timeline, model)
     library = library or starter_library()
+    leaves = _Leaves(library, cache_dir)
     out = Path(out_dir)
     emotion = timeline.expression or model.name
     style = library.style_for(emotion, emotion_styles)
     signals: list[TimelineSignal] = []
     tracks: list[Track] = []
     features: dict[str, Any] = {}
-    warned: set[str] = set()
     for entry in progress.each(timeline.signals, "animate", unit="signal"):
         declared = model.signal_by_id.get(entry.id)
         leaf = declared.motion if declared is not None else None
@@ -156,13 +145,14 @@ def animate(
         duration = entry.stop - entry.start
         leaf_emotion = leaf.attributes.get("emotion") or emotion  # a leaf may set its own
         leaf_style = library.style_for(leaf_emotion, emotion_styles) if leaf_emotion != emotion else style
-        motion, used_library, used_style = _generate_leaf(leaf, leaf_style, duration, library, warned)
+        motion, used_library, used_style, method = leaves.generate(leaf, leaf_style, duration, len(tracks))
         name = f"{entry.id}_{round(entry.start * 1000)}ms.bvh"
         write_bvh(out / name, motion)
         features[name] = {
             "signal": entry.id,
             "action": leaf.action,
             "style": used_style,
+            "method": method,
             "library": used_library,
             "start": round(entry.start, 3),
             "stop": round(entry.stop, 3),
@@ -170,7 +160,7 @@ def animate(
         }
         tracks.append(Track(entry.start, motion))
         annotation = dict(entry.motion or {})
-        annotation.update(action=leaf.action, emotion=leaf_emotion, style=used_style, file=name)
+        annotation.update(action=leaf.action, emotion=leaf_emotion, style=used_style, method=method, file=name)
         signals.append(TimelineSignal(entry.id, entry.modality, entry.lexeme, entry.start, entry.stop, annotation))
     _write_timeline_bvh(out, timeline.duration, tracks)
     write_atomic(out / LMA_JSON, json.dumps(features, indent=2) + "\n")

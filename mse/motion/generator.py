@@ -15,6 +15,7 @@ from dataclasses import dataclass
 from typing import Protocol
 
 from mse.diagnostics import MseError
+from mse.fileio import user_cache_dir
 from mse.motion.base.bvh import Motion
 from mse.motion.base.library import MotionLibrary, MotionUnavailable
 
@@ -48,7 +49,8 @@ class MotionGenerator(Protocol):
 
 @dataclass(frozen=True, slots=True)
 class LmaHmmGenerator:
-    """Samadani et al.: a desired path modulated by an HMM of target-style neighbours."""
+    """Samadani et al.: a desired path modulated by an HMM of target-style neighbours;
+    modulated paths are kept in ``cache_dir`` (None: memory only)."""
 
     cache_dir: str | None = None
     name: str = "lma-hmm"
@@ -71,18 +73,19 @@ class LmaHmmGenerator:
 
 @dataclass(frozen=True, slots=True)
 class HsmmGenerator:
-    """Tilmanne et al.: an average HSMM adapted to the style from ``takes`` takes."""
+    """Tilmanne et al.: an average HSMM adapted to the style from ``takes`` takes; models
+    are kept in ``cache_dir`` (None: memory only)."""
 
     cache_dir: str | None = None
     takes: int | None = 1
     name: str = "hsmm"
 
     def generate(self, library: MotionLibrary, request: GenerationRequest) -> Motion:
-        from mse.motion.hsmm.leaf import default_cache_dir, synthesize_leaf
+        from mse.motion.hsmm.leaf import synthesize_leaf
 
         if not library.select(request.action):
             raise MotionUnavailable(f"no clip of action {request.action!r}")
-        folder = os.path.join(self.cache_dir, "hsmm") if self.cache_dir is not None else default_cache_dir()
+        folder = self.cache_dir
         try:
             return synthesize_leaf(
                 library,
@@ -97,12 +100,16 @@ class HsmmGenerator:
             raise MotionUnavailable(str(reason)) from None
 
 
-def generator_for(method: str, cache_dir: str | os.PathLike[str] | None = None) -> MotionGenerator:
-    """The generator of ``method`` (:data:`METHODS`); ``cache_dir`` keeps trained models and
-    modulated paths between runs (default: none for lma-hmm, the user cache for hsmm)."""
-    folder = os.fspath(cache_dir) if cache_dir is not None else None
+def generator_for(method: str, cache_dir: str | os.PathLike[str] | None = "default") -> MotionGenerator:
+    """The generator of ``method`` (:data:`METHODS`). Trained models and modulated paths are
+    kept between runs in ``cache_dir/<method>``; ``"default"``: the user cache
+    (``$MSE_CACHE_DIR/<method>``, else ``~/.cache/mse/<method>``); None: memory only."""
+    if method not in METHODS:
+        raise ValueError(f"unknown motion method {method!r} (one of {', '.join(METHODS)})")
+    if cache_dir == "default":
+        folder: str | None = os.fspath(user_cache_dir(method))
+    else:
+        folder = os.path.join(os.fspath(cache_dir), method) if cache_dir is not None else None
     if method == "lma-hmm":
         return LmaHmmGenerator(folder)
-    if method == "hsmm":
-        return HsmmGenerator(folder)
-    raise ValueError(f"unknown motion method {method!r} (one of {', '.join(METHODS)})")
+    return HsmmGenerator(folder)

@@ -130,3 +130,41 @@ def body_map(skeleton: Skeleton, path: str = "<skeleton>") -> BodyMap:
         left_hip=ancestor(left_foot, 2),
         right_hip=ancestor(right_foot, 2),
     )
+
+
+def _subtree(skeleton: Skeleton, joint: int) -> list[int]:
+    out = [joint]
+    for child in skeleton.children(joint):
+        out.extend(_subtree(skeleton, child))
+    return out
+
+
+def limb_groups(skeleton: Skeleton) -> dict[str, list[int]]:
+    """Every joint in one of four parts: ``left_arm`` / ``right_arm`` (from the joint below
+    the torso on the way to the hand, usually the clavicle, down to the fingers), ``legs``
+    (the subtrees of both hips) and ``trunk`` (the rest: root, spine, neck, head).
+
+    A skeleton without recognisable hands or feet puts everything in ``trunk``."""
+    groups: dict[str, list[int]] = {"trunk": [], "left_arm": [], "right_arm": [], "legs": []}
+    try:
+        body = body_map(skeleton)
+    except MseError:
+        groups["trunk"] = list(range(skeleton.joint_count))
+        return groups
+
+    def arm_root(hand: int) -> int:
+        chain = [hand]
+        while skeleton.parents[chain[-1]] >= 0 and chain[-1] != body.torso:
+            chain.append(skeleton.parents[chain[-1]])
+        # the joint just below the torso (or the shoulder's parent chain's top)
+        return chain[-2] if len(chain) >= 2 and chain[-1] == body.torso else chain[min(2, len(chain) - 1)]
+
+    taken: set[int] = set()
+    for name, start in (("left_arm", arm_root(body.left_hand)), ("right_arm", arm_root(body.right_hand))):
+        groups[name] = [j for j in _subtree(skeleton, start) if j not in taken]
+        taken.update(groups[name])
+    for hip in (body.left_hip, body.right_hip):
+        groups["legs"] += [j for j in _subtree(skeleton, hip) if j not in taken]
+        taken.update(groups["legs"])
+    groups["trunk"] = [j for j in range(skeleton.joint_count) if j not in taken]
+    return groups

@@ -21,7 +21,7 @@
    on the floor and pinned, so the stance foot never slides and walks travel by their steps.
 
 Steps 1-5 are cached per (library fingerprint, action, style, desired clip, parameters) in
-memory and, when ``cache_dir`` is given, on disk (``lma-hmm/*.npz``, no pickle), so a leaf
+memory and, when ``cache_dir`` is given, on disk (``*.npz`` there, no pickle), so a leaf
 seen before costs the time-warp and the grounding only. Rotations are generated, never
 positions: bone lengths are the desired path's.
 """
@@ -378,7 +378,7 @@ def generate_motion(
     key = _key(library, action, style, desired_clip.id, original, params, excluded)
     modulated = _CACHE.get(key)
     cached = modulated is not None
-    disk = Path(cache_dir) / "lma-hmm" / f"{key}.npz" if cache_dir is not None else None
+    disk = Path(cache_dir) / f"{key}.npz" if cache_dir is not None else None
     if modulated is None and disk is not None and disk.is_file():
         modulated = _load(disk)
         cached = modulated is not None
