@@ -1,8 +1,9 @@
 """Filmstrips: a few frames of clips as stick figures in one small PNG (Pillow).
 
 ``filmstrip(rows, path)`` draws one row per (label, motion): ``frames`` frames spread evenly
-over each clip, in the three-quarter view of the HTML player (35 degrees round the vertical
-axis), all rows on one scale so that heights compare. Used by the benches to put real and
+over each clip, each clip turned to its own body frame (facing +Z) and seen from its right
+side and a little in front (``yaw`` degrees round the vertical axis, 65 by default, so that
+bows and leans show), all rows on one scale so that heights compare. Used by the benches to put real and
 generated clips side by side in ``docs/images``.
 """
 
@@ -15,20 +16,21 @@ import numpy as np
 
 from mse.export.figures import project
 from mse.motion.base.bvh import Motion
+from mse.motion.base.fidelity import body_of
 
-CELL = (110, 150)  # pixels per frame
+CELL = (140, 200)  # pixels per frame
 MARGIN = 8
 
 
-def filmstrip(rows: Sequence[tuple[str, Motion]], path: str | Path, frames: int = 6) -> None:
+def filmstrip(rows: Sequence[tuple[str, Motion]], path: str | Path, frames: int = 6, yaw: float = 65.0) -> None:
     """Write a PNG with one row of ``frames`` stick figures per (label, motion)."""
     from PIL import Image, ImageDraw
 
     projected = []
     for _, motion in rows:
-        positions = motion.positions()
+        positions = body_of(motion).positions
         picks = np.linspace(0, motion.frame_count - 1, frames).round().astype(int)
-        points = project(positions[picks])  # (frames, J, 2)
+        points = project(positions[picks], yaw)  # (frames, J, 2)
         # each frame centred on its own hips so that travelling clips stay in the cell
         points[..., 0] -= points[:, :1, 0]
         projected.append(points)

@@ -154,12 +154,19 @@ def clips_from_timeline(timeline: Timeline, base_dir: Path | None) -> list[Figur
 
 
 def _read_bvh_positions(path: Path) -> tuple[float, tuple[str, ...], tuple[int, ...], FloatArray]:
-    """fps, joint names, parent indices and world positions ``[frame, joint, xyz]``."""
+    """fps, joint names, parent indices and positions ``[frame, joint, xyz]`` in the clip's
+    body frame (first-frame hips: X to the body's left, Y up, Z forward), so that every clip
+    is seen from the same side whichever way its performer faced."""
     # The motion layer's reader (raises MseError E100 itself), imported only when needed.
+    from mse.diagnostics import MseError
     from mse.motion.base.bvh import read_bvh
+    from mse.motion.base.fidelity import body_of
 
     motion = read_bvh(path)
     skeleton = motion.skeleton
     fps = 1.0 / motion.frame_time if motion.frame_time > 0 else 30.0
-    positions = np.asarray(motion.positions(), dtype=np.float64)
+    try:
+        positions = np.asarray(body_of(motion, str(path)).positions, dtype=np.float64)
+    except MseError:  # no recognisable hips or hands: as captured
+        positions = np.asarray(motion.positions(), dtype=np.float64)
     return fps, tuple(skeleton.names), tuple(skeleton.parents), positions

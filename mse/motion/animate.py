@@ -7,9 +7,10 @@
   adjusted);
 - ``timeline.bvh``: the whole timeline on one body, the overlapping tracks composed by body
   part with blends at their edges (:mod:`mse.motion.base.compose`). Its skeleton is the one
-  most generated clips use; clips on another skeleton (e.g. starter fallbacks next to Bandai
-  clips) are left out of it with a warning. The rest pose is the starter's for the starter
-  skeleton, else the first frame of the first clip;
+  most generated clips use; clips on another skeleton with the same joint names (starter
+  fallbacks next to Bandai clips) are retargeted onto it (:mod:`mse.motion.base.retarget`),
+  clips on unrelated skeletons are left out with a warning. The rest pose is the starter's
+  for the starter skeleton, else the first frame of the first clip;
 - ``lma.json``: the LMA Effort/Shape components of each generated clip, by file name;
 
 and returns the timeline with ``"motion": {"action", "emotion", "style", "method", "file"}``
@@ -45,6 +46,7 @@ from mse.motion.base.bvh import Motion, write_bvh
 from mse.motion.base.compose import Track, compose
 from mse.motion.base.library import MotionLibrary, MotionUnavailable
 from mse.motion.base.lma import lma_features
+from mse.motion.base.retarget import retarget
 from mse.motion.base.starter import STYLE_EFFORT, rest_motion, starter_library, unknown_action_error
 from mse.motion.generator import GenerationRequest, generator_for
 from mse.timeline import Timeline, TimelineSignal
@@ -205,19 +207,34 @@ def _check_limits(timeline: Timeline, model: Model) -> None:
             raise MseError([Diagnostic("E215", message, declared.motion.span)])
 
 
+def _rest_of(motion: Motion) -> Motion:
+    """The rest pose of a clip's skeleton: the starter's zero pose, else the first frame."""
+    if motion.skeleton.names == rest_motion(1).skeleton.names:
+        return rest_motion(1, motion.skeleton)
+    return motion.slice(0, 1)
+
+
 def _write_timeline_bvh(out: Path, duration: float, tracks: list[Track]) -> None:
     if tracks:
         # the skeleton that carries the most tracks (the first of them on ties)
         counts = [sum(t.motion.skeleton.same_layout(u.motion.skeleton) for u in tracks) for t in tracks]
         skeleton = tracks[counts.index(max(counts))].motion.skeleton
-        first = next(t for t in tracks if t.motion.skeleton.same_layout(skeleton))
-        rest = rest_motion(1, skeleton) if skeleton.names == rest_motion(1).skeleton.names else first.motion.slice(0, 1)
+        rest = _rest_of(next(t for t in tracks if t.motion.skeleton.same_layout(skeleton)).motion)
     else:
         rest = rest_motion(1)
-    usable = [t for t in tracks if t.motion.skeleton.same_layout(rest.skeleton)]
+    usable = []
+    for track in tracks:
+        if track.motion.skeleton.same_layout(rest.skeleton):
+            usable.append(track)
+            continue
+        # another skeleton (a starter fallback next to library clips): the same body if the
+        # joint names match
+        moved = retarget(track.motion, _rest_of(track.motion), rest)
+        if moved is not None:
+            usable.append(Track(track.start, moved))
     if len(usable) < len(tracks):
         warnings.warn(
-            MotionWarning(f"{len(tracks) - len(usable)} clip(s) on another skeleton left out of {TIMELINE_BVH}"),
+            MotionWarning(f"{len(tracks) - len(usable)} clip(s) on an unrelated skeleton left out of {TIMELINE_BVH}"),
             stacklevel=3,
         )
     write_bvh(out / TIMELINE_BVH, compose(rest, usable, duration))

@@ -135,6 +135,8 @@ class MotionLibrary:
     clips: tuple[Clip, ...]
     emotion_styles: Mapping[str, str] = field(default_factory=dict)
     preloaded: Mapping[str, Motion] = field(default_factory=dict)
+    #: for in-memory clips: what they are made from (cached models follow its changes)
+    fingerprint: str = ""
 
     def motion(self, clip: Clip) -> Motion:
         if clip.id in self.preloaded:
@@ -158,8 +160,10 @@ class MotionLibrary:
 
     @cached_property
     def content_hash(self) -> str:
-        """Fingerprint of labels and clip contents (file size + mtime; id for in-memory)."""
+        """Fingerprint of labels and clip contents (file size + mtime; for in-memory clips,
+        the id and the library's ``fingerprint``)."""
         digest = hashlib.sha256(self.name.encode())
+        digest.update(self.fingerprint.encode())
         for clip in sorted(self.clips, key=lambda c: c.id):
             digest.update(f"{clip.id}|{clip.action}|{clip.style}|{clip.performer}".encode())
             if clip.id not in self.preloaded:

@@ -22,6 +22,7 @@ that the library has within-style variation like real data. Everything is cached
 from __future__ import annotations
 
 import functools
+import hashlib
 
 import numpy as np
 
@@ -33,6 +34,9 @@ from mse.motion.base.starter_actions import ACTIONS, ActionPose
 
 FRAME_TIME = 1.0 / 30.0
 PERFORMERS = 3
+#: part of the starter library's fingerprint: raise it when :func:`generate_clip` changes, so
+#: that models cached on disk from older clips are not reused
+GENERATOR_VERSION = 2
 _ROT = ("Zrotation", "Xrotation", "Yrotation")
 _POS = ("Xposition", "Yposition", "Zposition")
 
@@ -79,6 +83,9 @@ STYLE_EFFORT: dict[str, tuple[float, float, float, float, float]] = {
     "tired": (0.55, 0.6, 0.5, 10.0, -2.0),
     "active": (1.6, 1.3, 1.8, -2.0, 0.0),
 }
+
+
+_TRUNK = frozenset({"Hips", "Spine", "Chest", "Neck", "Head"})
 
 
 def starter_actions() -> list[str]:
@@ -163,12 +170,17 @@ def _generate(action: str, style: str, performer: int) -> Motion:
     frames = max(8, round(pose.duration / speed / FRAME_TIME))
     phase = (np.arange(frames) + 0.5) / frames
     envelope = _envelope(phase, sharpness)
+    if pose.contact:  # no overshoot through the body
+        envelope = np.minimum(envelope, 1.0)
     seconds = np.arange(frames) * FRAME_TIME
     rotations = np.zeros((frames, skeleton.joint_count, 3))  # x, y, z degrees
     for name, (x, y, z) in pose.full_rotations().items():
         joint = skeleton.index(name)
         jitter = rng.uniform(-3.0, 3.0, 3) * (np.abs([x, y, z]) > 0)
-        peak = (np.array([x, y, z]) + jitter) * amplitude
+        scale = amplitude
+        if pose.contact and skeleton.names[joint] not in _TRUNK:
+            jitter, scale = 0.0 * jitter, 1.0  # the hand must reach its target
+        peak = (np.array([x, y, z]) + jitter) * scale
         swings = pose.swings.get(name, 0)
         shape = envelope
         if swings:  # oscillate during the hold, faster for faster styles
@@ -214,7 +226,9 @@ def starter_library() -> MotionLibrary:
             for performer in range(PERFORMERS):
                 clip_id = f"starter_{action}_{style}_{performer + 1}"
                 clips.append(Clip(clip_id, action, style, f"p{performer + 1}", f"starter:{clip_id}"))
-    return MotionLibrary("starter", tuple(clips), {}, preloaded)
+    recipe = repr((GENERATOR_VERSION, sorted(ACTIONS.items()), sorted(STYLE_EFFORT.items()), _JOINTS, _END_SITES))
+    fingerprint = hashlib.sha256(recipe.encode()).hexdigest()[:16]
+    return MotionLibrary("starter", tuple(clips), {}, preloaded, fingerprint)
 
 
 class _LazyClips(dict[str, Motion]):

@@ -31,6 +31,9 @@ class ActionPose:
     mirror: bool = False
     # joints whose motion repeats (head shakes, turns): number of swings during the hold
     swings: Mapping[str, int] = field(default_factory=dict)
+    # the pose touches the body (hand on mouth, arms crossed): the style's amplitude and the
+    # performer's jitter would make the hand miss, so they do not scale the limbs
+    contact: bool = False
 
     def full_rotations(self) -> dict[str, Rotation]:
         rotations = dict(self.rotations)
@@ -42,12 +45,18 @@ class ActionPose:
 
 
 ACTIONS: Mapping[str, ActionPose] = {
+    # a bow folds at the hips more than in the back, the legs leaning back a little so that
+    # the hips go back over the heels (normal style: head 15 cm down; Bandai dataset 1 bows:
+    # 5-35 cm, median 18.5)
     "bow": ActionPose(
         {
-            "Spine": (15.0, 0.0, 0.0),
-            "Chest": (20.0, 0.0, 0.0),
-            "Neck": (12.0, 0.0, 0.0),
-            "Head": (10.0, 0.0, 0.0),
+            "Hips": (26.0, 0.0, 0.0),
+            "UpperLeg_L": (-33.0, 0.0, 0.0),
+            "Foot_L": (7.0, 0.0, 0.0),
+            "Spine": (8.0, 0.0, 0.0),
+            "Chest": (8.0, 0.0, 0.0),
+            "Neck": (6.0, 0.0, 0.0),
+            "Head": (6.0, 0.0, 0.0),
             "UpperArm_L": (-12.0, 0.0, -4.0),
             "LowerArm_L": (-10.0, 0.0, 0.0),
         },
@@ -55,15 +64,17 @@ ACTIONS: Mapping[str, ActionPose] = {
         mirror=True,
     ),
     "head_down": ActionPose({"Neck": (22.0, 0.0, 0.0), "Head": (18.0, 0.0, 0.0)}, duration=1.6),
+    # the wrist in front of the mouth (solved on the skeleton: 2 cm from its target)
     "hand_on_mouth": ActionPose(
         {
-            "UpperArm_R": (-35.0, 35.0, 18.0),
-            "LowerArm_R": (-135.0, 0.0, 0.0),
+            "UpperArm_R": (-91.0, 13.0, -32.0),
+            "LowerArm_R": (-122.0, 0.0, -1.0),
             "Hand_R": (0.0, 0.0, -15.0),
             "Neck": (8.0, 0.0, 0.0),
             "Head": (6.0, 0.0, 0.0),
         },
         duration=2.0,
+        contact=True,
     ),
     "arms_raised": ActionPose(
         {
@@ -84,6 +95,7 @@ ACTIONS: Mapping[str, ActionPose] = {
         },
         duration=2.0,
         mirror=True,
+        contact=True,
     ),
     "shrug": ActionPose(
         {
@@ -103,6 +115,7 @@ ACTIONS: Mapping[str, ActionPose] = {
         },
         duration=2.2,
         mirror=True,
+        contact=True,
     ),
     "fist_raise": ActionPose(
         {
@@ -114,15 +127,17 @@ ACTIONS: Mapping[str, ActionPose] = {
         },
         duration=1.8,
     ),
+    # the wrist at the cheek of the head turned towards it (solved like hand_on_mouth)
     "hand_on_face": ActionPose(
         {
-            "UpperArm_R": (-30.0, 20.0, 10.0),
-            "LowerArm_R": (-145.0, 0.0, 0.0),
+            "UpperArm_R": (-94.0, 7.0, -16.0),
+            "LowerArm_R": (-128.0, 0.0, -2.0),
             "Hand_R": (10.0, 0.0, -20.0),
             "Neck": (12.0, 0.0, -6.0),
             "Head": (8.0, 0.0, -8.0),
         },
         duration=2.2,
+        contact=True,
     ),
     "step_back": ActionPose(
         {
@@ -179,6 +194,7 @@ ACTIONS: Mapping[str, ActionPose] = {
         },
         duration=2.0,
         mirror=True,
+        contact=True,
     ),
     "hands_outward": ActionPose(
         {
