@@ -27,13 +27,23 @@ def filmstrip(rows: Sequence[tuple[str, Motion]], path: str | Path, frames: int 
     from PIL import Image, ImageDraw
 
     projected = []
+    hidden = []  # joints above the hips (Bandai's joint_Root stays at the origin): not drawn
     for _, motion in rows:
-        positions = body_of(motion).positions
+        body = body_of(motion)
+        positions = body.positions
         picks = np.linspace(0, motion.frame_count - 1, frames).round().astype(int)
         points = project(positions[picks], yaw)  # (frames, J, 2)
+        hips = motion.skeleton.parents[body.body.left_hip]
+        above = set()
+        joint = motion.skeleton.parents[hips]
+        while joint >= 0:
+            above.add(joint)
+            joint = motion.skeleton.parents[joint]
         # each frame centred on its own hips so that travelling clips stay in the cell
-        points[..., 0] -= points[:, :1, 0]
+        points[..., 0] -= points[:, hips : hips + 1, 0]
+        points[:, sorted(above)] = points[:, hips : hips + 1]
         projected.append(points)
+        hidden.append(above)
     heights = [float(np.ptp(p[..., 1])) for p in projected]
     widths = [float(np.ptp(p[..., 0])) for p in projected]
     scale = min((CELL[1] - 2 * MARGIN) / max(max(heights), 1e-6), (CELL[0] - 2 * MARGIN) / max(max(widths), 1e-6))
@@ -54,10 +64,12 @@ def filmstrip(rows: Sequence[tuple[str, Motion]], path: str | Path, frames: int 
 
             frame = points[column]
             for joint, parent in enumerate(parents):
-                if parent < 0:
+                if parent < 0 or parent in hidden[row]:
                     continue
                 draw.line([to_pixel(frame[parent]), to_pixel(frame[joint])], fill=(38, 50, 56), width=2)
             for joint in range(len(parents)):
+                if joint in hidden[row]:
+                    continue
                 x, y = to_pixel(frame[joint])
                 draw.ellipse([x - 1.5, y - 1.5, x + 1.5, y + 1.5], fill=(224, 122, 95))
             ground = top + CELL[1] - MARGIN

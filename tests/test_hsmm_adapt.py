@@ -6,6 +6,7 @@ from __future__ import annotations
 import itertools
 
 import numpy as np
+import pytest
 
 from mse.motion.hsmm.adapt import (
     AffineTransform,
@@ -123,3 +124,29 @@ def test_regression_classes_and_block_rule() -> None:
         shift = adapted[name].means - units[name].means
         assert np.allclose(shift, 1.0, atol=0.2), (name, shift)
     assert np.all(np.isfinite(output.matrix))
+
+
+def test_duration_transform_cannot_collapse_states() -> None:
+    """One adaptation take whose alignment gave [63, 1, 1, 1, 24] frames (the issue's bow):
+    every state keeps a duration within a factor 2 of the data's tempo."""
+    from mse.motion.hsmm.adapt import DURATION_SCALE_RANGE, estimate_duration_scale
+    from mse.motion.hsmm.stats import GaussianStats
+
+    observed = np.array([63.0, 1.0, 1.0, 1.0, 24.0])
+    means = np.full(5, 18.0)
+    stats = [GaussianStats(1.0, observed, np.outer(observed, observed), means, np.full(5, 9.0))]
+    transform = estimate_duration_scale(stats)
+    adapted, _ = transform.model_space(means[None, :], np.full((1, 5), 9.0))
+    tempo = observed.sum() / means.sum()
+    assert np.all(adapted[0] >= means * tempo / DURATION_SCALE_RANGE - 1e-9)
+    assert np.all(adapted[0] <= means * tempo * DURATION_SCALE_RANGE + 1e-9)
+    assert adapted[0].sum() == pytest.approx(observed.sum(), rel=0.35)
+
+
+def test_one_shot_actions_get_states_for_their_length() -> None:
+    from mse.motion.hsmm.api import MAX_STATES, Options, unit_states
+
+    assert unit_states(True, [18, 20], Options()) == 5  # steps keep 5
+    assert unit_states(False, [138], Options()) == round(138 / 4)  # a 4.6 s bow
+    assert unit_states(False, [12], Options()) == 5
+    assert unit_states(False, [2000], Options()) == MAX_STATES

@@ -202,12 +202,16 @@ def unit_states(cyclic: bool, lengths: Sequence[int], options: Options) -> int:
 
 
 def _prepare(
-    clips: Sequence[tuple[Motion, str]], action: str, options: Options, segmentation: Segmentation
+    clips: Sequence[tuple[Motion, str]],
+    action: str,
+    options: Options,
+    segmentation: Segmentation,
+    template: Template | None = None,
 ) -> tuple[bool, Template, list[Instance], list[FloatArray], FloatArray, Options]:
     """What both trainings start from: cyclic?, skeleton template, unit instances, static
     features, the variance floor and the options with the states per unit."""
     cyclic = is_cyclic(action)
-    template = build_template([m for m, _ in clips])
+    template = template or build_template([m for m, _ in clips])
     if segmentation is not None:
         lengths = [s.length for segments in segmentation if segments for s in segments]
     else:
@@ -257,10 +261,12 @@ def train_scratch(
     action: str,
     options: Options = Options(),
     segmentation: Segmentation = None,
+    template: Template | None = None,
 ) -> HsmmModel:
     """A style model trained on its own data only, without an average model (the bench's
-    baseline; as good as adaptation on this data from about two steps on, docs/hsmm.md)."""
-    cyclic, template, instances, statics, floor, options = _prepare(clips, action, options, segmentation)
+    baseline). ``template``: the skeleton template and reference rotations to use (e.g. an
+    average model's, so that both models describe the same features); default: its own."""
+    cyclic, template, instances, statics, floor, options = _prepare(clips, action, options, segmentation, template)
     if options.soft_training:
         from mse.motion.hsmm.soft_training import train_units_soft
 

@@ -18,7 +18,8 @@ HMM (hmmlearn ``GaussianHMM``, diagonal covariances on the decorrelated phase co
   π₁ = 1 for clips that share a start pose, when they do);
 - ``topology="left-to-right"``: each state goes to itself or the next, the first state
   starts and Viterbi ends in the last one: the desired path goes through every phase of
-  the neighbours in order;
+  the neighbours in order; the chain has at least one state per
+  :data:`FRAMES_PER_CHAIN_STATE` frames (a sharp movement is not averaged away);
 - ``topology="auto"`` (default): fully connected when the neighbours *cycle* (their own
   Viterbi paths under the fully connected model re-enter states: at least
   :data:`CYCLIC_RUNS_PER_STATE` runs per visited state, as steps and waves do; clips of
@@ -51,9 +52,15 @@ from mse.motion.base.kinematics import FloatArray, matrix_to_euler, mean_rotatio
 
 TOPOLOGIES = ("auto", "full", "left-to-right")
 #: neighbours whose Viterbi paths have at least this many runs per visited state cycle
-CYCLIC_RUNS_PER_STATE = 1.5
+#: (Bandai clips decoded by their own 12-state model: bows 1.0-2.2, guide 1.1-2.0, raising
+#: both hands 1.1-1.9; walks 4.6-12.9, runs 2.5-6.1, waving both hands 2.3-9.7)
+CYCLIC_RUNS_PER_STATE = 2.25
 #: ... when they are long enough to repeat anything: this many frames per state on average
 CYCLIC_FRAMES_PER_STATE = 4
+#: a left-to-right chain has at least one state per this many frames of the neighbours'
+#: median length (12 states drew a 90-frame angry bow, whose dip lasts 5 frames, through
+#: 7-frame averages: 5 cm of its 14 cm dip survived; one state per 4 frames kept it)
+FRAMES_PER_CHAIN_STATE = 4
 _MIN_COVAR = 1e-3
 
 
@@ -280,16 +287,18 @@ def train_hmm(
     if states < 2:
         return TrainedHmm(None, 1, False)
     judged = sequences[: decide_on or len(sequences)]
-    short = float(np.mean([len(s) for s in judged])) < CYCLIC_FRAMES_PER_STATE * states
+    typical = float(np.median([len(s) for s in judged]))
+    chain = int(max(states, min(shortest, round(typical / FRAMES_PER_CHAIN_STATE))))
+    short = typical < CYCLIC_FRAMES_PER_STATE * states
     if topology == "left-to-right" or (topology == "auto" and short):
-        return TrainedHmm(_fit(sequences, states, False, n_iter, seed), states, False)
+        return TrainedHmm(_fit(sequences, chain, False, n_iter, seed), chain, False)
     full = TrainedHmm(_fit(sequences, states, True, n_iter, seed), states, True)
     if topology == "full":
         return full
     cycling = float(np.mean([runs_per_state(full.viterbi(s)) for s in judged]))
     if cycling >= CYCLIC_RUNS_PER_STATE:
         return full
-    return TrainedHmm(_fit(sequences, states, False, n_iter, seed), states, False)
+    return TrainedHmm(_fit(sequences, chain, False, n_iter, seed), chain, False)
 
 
 def state_means(trained: TrainedHmm, phases: Sequence[FloatArray], values: Sequence[FloatArray]) -> FloatArray:

@@ -12,7 +12,7 @@
   (the least salient ones are added back) so that the distance stays meaningful.
 - Neighbours: target-style clips whose distance to the desired path is within ε = 10 % of
   the distance to the farthest target-style clip; at least the nearest one (the generator
-  asks for at least three when the library has them, and at most eight).
+  asks for the nearest eight when the library has them).
 """
 
 from __future__ import annotations
