@@ -114,7 +114,6 @@ def main() -> int:
     parser.add_argument("--per-group", type=int, default=1, help="desired paths per (action, style) per fold")
     parser.add_argument("--warp-augment", default="0.75,1.33", help="time-warp factors added to training ('' none)")
     parser.add_argument("--regenerate", default="means", choices=("means", "frames"))
-    parser.add_argument("--variance", action="store_true", help="GenerationParams(variance=True)")
     parser.add_argument("--states", type=int, default=12)
     parser.add_argument("--actions", help="comma-separated (development)")
     parser.add_argument("--max-neighbours", type=int, default=8)
@@ -133,7 +132,6 @@ def main() -> int:
     descriptors = Descriptors(library, cache / "bench")
     params = GenerationParams(
         regenerate=args.regenerate,
-        variance=args.variance,
         states=args.states,
         min_neighbours=args.min_neighbours,
         max_neighbours=args.max_neighbours,

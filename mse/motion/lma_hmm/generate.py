@@ -18,7 +18,9 @@
    plays the neighbours' own frames of each state in X_d's state order and timing;
 6. time-warp (linear resampling of the rotation vectors, never of Euler angles) to the
    requested duration: ``round(duration / frame_time)`` frames, the frame time adjusted so
-   that the clip lasts exactly ``duration``;
+   that the clip lasts exactly ``duration``; a cyclic path (a walk) scheduled for much longer
+   than its desired path is first continued by the HMM's transitions
+   (:func:`continue_cycle`): more steps, not slower ones;
 7. the root from the feet (:func:`mse.motion.base.contacts.ground`): the lowest foot point
    on the floor and pinned, so the stance foot never slides and walks travel by their steps.
 
@@ -40,6 +42,7 @@ from dataclasses import asdict, dataclass, field
 from pathlib import Path
 
 import numpy as np
+import numpy.typing as npt
 
 from mse.diagnostics import Diagnostic, MseError, Span
 from mse.fileio import write_atomic
@@ -92,8 +95,6 @@ class GenerationParams:
     #: ``max_neighbours`` (the HMM's cost grows with them)
     min_neighbours: int = 8
     max_neighbours: int = 8
-    #: scale the generated movement to the neighbours' spread per dimension
-    variance: bool = False
 
     def __post_init__(self) -> None:
         if self.regenerate not in ("means", "frames"):
@@ -114,6 +115,10 @@ class _Modulated:
     components: tuple[str, ...]
     cyclic: bool
     timings: dict[str, float]
+    states: npt.NDArray[np.int_]  # the desired path's Viterbi states
+    means: FloatArray  # (states, dims) the states' mean rotations
+    transitions: FloatArray  # (states, states)
+    cutoff_hz: float
 
 
 @dataclass(frozen=True, eq=False)
@@ -130,8 +135,10 @@ class Generated:
 
 
 _CACHE: dict[str, _Modulated] = {}
+#: a cyclic path is continued rather than slowed when the clip is this much longer than it
+LOOP_RATIO = 1.3
 _POSES: dict[tuple[str, str], FloatArray] = {}
-_DISK_FORMAT = "mse-lma-hmm-path/1"
+_DISK_FORMAT = "mse-lma-hmm-path/2"
 
 
 def clear_cache() -> None:
@@ -265,8 +272,6 @@ def _modulate(
     raw = frames if params.regenerate == "frames" else state_path(means, states)
     runs = 1 + int(np.count_nonzero(np.diff(states)))
     path = smooth(raw, desired.frame_time, cutoff(params.cutoff_hz, len(raw), runs, desired.frame_time))
-    if params.variance:
-        path = restore_variance(path, rotations)
     timings["filter"] = time.perf_counter() - clock
     return _Modulated(
         encoding,
@@ -277,23 +282,51 @@ def _modulate(
         components,
         trained.cyclic,
         timings,
+        states.astype(np.int_),
+        means,
+        trained.transitions,
+        params.cutoff_hz,
     )
 
 
-def restore_variance(path: FloatArray, neighbours: Sequence[FloatArray]) -> FloatArray:
-    """Each dimension's movement around its mean scaled to the neighbours' spread (their
-    mean per-clip standard deviation), by a factor within [1/2, 2]: the state means and the
-    low-pass filter average a style's amplitude away (the over-smoothing that Tilmanne et al.
-    compensate with global variance)."""
-    if not neighbours or len(path) < 2:
+def continue_cycle(states: npt.NDArray[np.int_], transitions: FloatArray, frames: int) -> npt.NDArray[np.int_]:
+    """A cyclic state path continued to ``frames`` frames by the HMM's own dynamics: from
+    the last state, the most likely *other* state next (never straight back to the previous
+    one), each held for its expected run ``1 / (1 - a_ii)``. A walk scheduled for longer
+    than its desired path (Bandai's walk-back takes are one stride) takes more steps, at the
+    neighbours' pace, instead of slower ones."""
+    path = [int(s) for s in states]
+    if not path:
+        return states
+    previous = -1
+    for k in range(len(path) - 1, 0, -1):
+        if path[k - 1] != path[-1]:
+            previous = path[k - 1]
+            break
+    while len(path) < frames:
+        current = path[-1]
+        row = transitions[current].copy()
+        row[current] = -1.0
+        if 0 <= previous < len(row) and np.count_nonzero(row > 0) > 1:
+            row[previous] = -1.0
+        following = int(np.argmax(row))
+        stay = float(transitions[following, following])
+        run = max(1, round(1.0 / max(1.0 - stay, 1e-3)))
+        previous = current
+        path += [following] * min(run, frames - len(path))
+    return np.asarray(path, dtype=np.int_)
+
+
+def _path_for(modulated: _Modulated, frames: int) -> FloatArray:
+    """The modulated path for a clip of ``frames`` frames at the desired frame rate: cyclic
+    paths much shorter than that are continued by :func:`continue_cycle`."""
+    path = modulated.path
+    if not modulated.cyclic or frames < LOOP_RATIO * len(path) or len(modulated.states) != len(path):
         return path
-    target = np.mean([n.std(axis=0) for n in neighbours], axis=0)
-    current = path.std(axis=0)
-    factor = np.clip(target / np.maximum(current, 1e-9), 0.5, 2.0)
-    factor[current < 1e-6] = 1.0
-    centre = path.mean(axis=0)
-    result: FloatArray = centre + (path - centre) * factor
-    return result
+    states = continue_cycle(modulated.states, modulated.transitions, frames)
+    runs = 1 + int(np.count_nonzero(np.diff(states)))
+    raw = state_path(modulated.means, states)
+    return smooth(raw, modulated.frame_time, cutoff(modulated.cutoff_hz, len(raw), runs, modulated.frame_time))
 
 
 def cutoff(base_hz: float, frames: int, runs: int, frame_time: float) -> float:
@@ -338,6 +371,7 @@ def _save(path: Path, modulated: _Modulated) -> None:
         "components": list(modulated.components),
         "cyclic": modulated.cyclic,
         "timings": modulated.timings,
+        "cutoff_hz": modulated.cutoff_hz,
     }
     buffer = io.BytesIO()
     np.savez_compressed(
@@ -347,6 +381,9 @@ def _save(path: Path, modulated: _Modulated) -> None:
         references=modulated.encoding.references,
         template=modulated.encoding.template,
         path=modulated.path,
+        states=modulated.states,
+        means=modulated.means,
+        transitions=modulated.transitions,
     )
     write_atomic(path, buffer.getvalue())
 
@@ -379,6 +416,10 @@ def _load(path: Path) -> _Modulated | None:
                 tuple(meta["components"]),
                 bool(meta["cyclic"]),
                 {str(k): float(v) for k, v in meta["timings"].items()},
+                np.asarray(archive["states"], dtype=np.int_),
+                np.asarray(archive["means"], dtype=np.float64),
+                np.asarray(archive["transitions"], dtype=np.float64),
+                float(meta["cutoff_hz"]),
             )
     except (OSError, ValueError, KeyError, TypeError, IndexError):
         return None  # a stale or broken cache entry: regenerate
@@ -421,6 +462,7 @@ def generate_motion(
     _CACHE[key] = modulated
     path, frame_time = modulated.path, modulated.frame_time
     if duration is not None:
+        path = _path_for(modulated, round(duration / frame_time))
         path, frame_time = time_warp(path, frame_time, duration)
     encoding = modulated.encoding
     motion = Motion(encoding.skeleton, frame_time, decode(encoding, path))

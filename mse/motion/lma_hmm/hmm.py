@@ -137,6 +137,14 @@ class TrainedHmm:
     states: int
     cyclic: bool
 
+    @property
+    def transitions(self) -> FloatArray:
+        """(states, states) transition probabilities."""
+        if self.model is None:
+            return np.ones((1, 1))
+        result: FloatArray = np.asarray(self.model.transmat_, dtype=np.float64)  # type: ignore[attr-defined]
+        return result
+
     def log_likelihoods(self, observations: FloatArray) -> FloatArray:
         """(frames, states) log densities of every frame under every state."""
         if self.model is None:
