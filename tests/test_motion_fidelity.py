@@ -57,7 +57,7 @@ def test_jitter_is_measured_as_reversals_and_jerk() -> None:
 
 
 def test_ground_puts_the_lowest_foot_on_the_floor_and_keeps_it_still() -> None:
-    clip = generate_clip("step_back", "angry", 0)
+    clip = generate_clip("bow", "angry", 0)  # the legs lean back as the hips fold
     floored = ground(clip, 3.0)
     positions = floored.positions()
     skeleton = floored.skeleton

@@ -10,8 +10,7 @@ Both methods generate joint *rotations*; where the body is in the room follows f
   their own steps. Generated legs never put the next foot down exactly still, so a hard
   switch of stance foot jolts the body: the stance weights are blended over
   :data:`STANCE_BLEND_S` (a Gaussian of one frame at 30 fps) and the height is low-passed
-  (zero-phase, :data:`HEIGHT_CUTOFF_HZ`); a clip that stays in place has its horizontal
-  track low-passed too (:data:`IN_PLACE_CUTOFF_HZ`). Measured on Bandai dataset 1 walks (both methods,
+  (zero-phase, :data:`HEIGHT_CUTOFF_HZ`). Measured on Bandai dataset 1 walks (both methods,
   6 styles): stance-foot slip 0.0 cm/s and head/wrist jerk within 2x the real walks', where
   a hard switch gave 1.1-4x; low-passing the whole track at 6 Hz instead let the stance foot
   slide up to 7 cm/s, and keeping the centre of the feet fixed let each foot slide 1-2 cm/s.
@@ -35,14 +34,6 @@ from mse.motion.base.kinematics import FloatArray, forward_kinematics
 STANCE_BLEND_S = 1.0 / 30.0
 #: cut-off of the low-pass filter of the root height
 HEIGHT_CUTOFF_HZ = 6.0
-#: a clip whose pinned root travels slower than this many leg lengths per second is in place
-#: (walks: 0.7-1.7, bows and waves: below 0.05) ...
-IN_PLACE_SPEED = 0.25
-#: ... and its horizontal track is low-passed at this cut-off: its legs barely move, so the
-#: lowest point switches between heels and toes of both feet without carrying the body
-#: anywhere, and each switch jolts it (HSMM angry bow: hip jerk 20,000 cm/s^3 against 1,200
-#: in the real bow; 3,000 after the filter, foot slip below 0.5 cm/s)
-IN_PLACE_CUTOFF_HZ = 3.0
 
 
 def find_root_joint(motion: Motion) -> int:
@@ -96,14 +87,11 @@ def root_track(relative: FloatArray, contacts: Sequence[int], height: float, fra
     frames, count = points.shape[:2]
     root = np.zeros((frames, 3))
     root[:, 1] = zero_phase_lowpass(height - points[:, :, 1].min(axis=1), frame_time, HEIGHT_CUTOFF_HZ)
-    stance = _blend(np.eye(count)[np.argmin(points[:, :, 1], axis=1)], STANCE_BLEND_S / frame_time)
+    pinned = np.argmin(points[:, :, 1], axis=1)
+    stance = _blend(np.eye(count)[pinned], STANCE_BLEND_S / frame_time)
     moves = np.zeros((frames, count, 2))
     moves[1:] = -np.diff(points[:, :, [0, 2]], axis=0)
     root[:, [0, 2]] = np.cumsum(np.sum(stance[:, :, None] * moves, axis=1), axis=0)
-    duration = max(frames - 1, 1) * frame_time
-    leg = float(np.median(-points[:, :, 1].min(axis=1)))
-    if np.linalg.norm(root[-1, [0, 2]] - root[0, [0, 2]]) / duration < IN_PLACE_SPEED * max(leg, 1e-9):
-        root[:, [0, 2]] = zero_phase_lowpass(root[:, [0, 2]], frame_time, IN_PLACE_CUTOFF_HZ)
     return root
 
 
