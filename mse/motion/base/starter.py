@@ -36,7 +36,7 @@ FRAME_TIME = 1.0 / 30.0
 PERFORMERS = 3
 #: part of the starter library's fingerprint: raise it when :func:`generate_clip` changes, so
 #: that models cached on disk from older clips are not reused
-GENERATOR_VERSION = 2
+GENERATOR_VERSION = 3
 _ROT = ("Zrotation", "Xrotation", "Yrotation")
 _POS = ("Xposition", "Yposition", "Zposition")
 
@@ -86,6 +86,7 @@ STYLE_EFFORT: dict[str, tuple[float, float, float, float, float]] = {
 
 
 _TRUNK = frozenset({"Hips", "Spine", "Chest", "Neck", "Head"})
+_LEGS = frozenset(f"{part}_{side}" for part in ("UpperLeg", "LowerLeg", "Foot", "Toes") for side in "LR")
 
 
 def starter_actions() -> list[str]:
@@ -180,6 +181,8 @@ def _generate(action: str, style: str, performer: int) -> Motion:
         scale = amplitude
         if pose.contact and skeleton.names[joint] not in _TRUNK:
             jitter, scale = 0.0 * jitter, 1.0  # the hand must reach its target
+        if skeleton.names[joint] in _LEGS:
+            jitter = 0.0 * jitter  # both feet stay on the floor: the legs move alike
         peak = (np.array([x, y, z]) + jitter) * scale
         swings = pose.swings.get(name, 0)
         shape = envelope

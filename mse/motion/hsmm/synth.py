@@ -120,7 +120,8 @@ def root_positions(relative: FloatArray, template: Template, cyclic: bool = True
     angry bow: hip jerk 20,000 cm/s^3 against 1,200 in the real bow), so their horizontal
     track is low-passed (:data:`IN_PLACE_CUTOFF_HZ`; hip jerk 2,300, foot slip 1.5 cm/s)."""
     contacts = template.contacts[0] + template.contacts[1]
-    root = root_track(relative, contacts, template.contact_height, template.frame_time)
+    feet = [list(range(len(template.contacts[0]))), list(range(len(template.contacts[0]), len(contacts)))]
+    root = root_track(relative, contacts, template.contact_height, template.frame_time, groups=feet)
     if not cyclic:
         root[:, [0, 2]] = zero_phase_lowpass(root[:, [0, 2]], template.frame_time, IN_PLACE_CUTOFF_HZ)
     return root

@@ -19,10 +19,12 @@
 6. time-warp (linear resampling of the rotation vectors, never of Euler angles) to the
    requested duration: ``round(duration / frame_time)`` frames, the frame time adjusted so
    that the clip lasts exactly ``duration``; a cyclic path (a walk) scheduled for much longer
-   than its desired path is first continued by the HMM's transitions
+   than its desired path is first continued with the neighbours' own state sequences
    (:func:`continue_cycle`): more steps, not slower ones;
 7. the root from the feet (:func:`mse.motion.base.contacts.ground`): the lowest foot point
-   on the floor and pinned, so the stance foot never slides and walks travel by their steps.
+   on the floor and pinned, so the stance foot never slides and walks travel by their steps;
+   in the flight phases of runs (the neighbours' support, carried through the states like
+   the rotations) the body keeps the neighbours' speed and lift.
 
 Steps 1-5 are cached per (library fingerprint, action, style, desired clip, parameters) in
 memory and, when ``cache_dir`` is given, on disk (``*.npz`` there, no pickle), so a leaf
@@ -47,7 +49,7 @@ import numpy.typing as npt
 from mse.diagnostics import Diagnostic, MseError, Span
 from mse.fileio import write_atomic
 from mse.motion.base.bvh import Motion, Skeleton
-from mse.motion.base.contacts import contact_height, ground
+from mse.motion.base.contacts import contact_height, ground, support
 from mse.motion.base.heading import heading, turned
 from mse.motion.base.kinematics import FloatArray
 from mse.motion.base.library import Clip, MotionLibrary, MotionUnavailable
@@ -117,7 +119,7 @@ class _Modulated:
     timings: dict[str, float]
     states: npt.NDArray[np.int_]  # the desired path's Viterbi states
     means: FloatArray  # (states, dims) the states' mean rotations
-    transitions: FloatArray  # (states, states)
+    labels: tuple[npt.NDArray[np.int_], ...]  # the neighbours' Viterbi states
     cutoff_hz: float
 
 
@@ -135,10 +137,12 @@ class Generated:
 
 
 _CACHE: dict[str, _Modulated] = {}
+#: columns after the rotations in a modulated path: how the body is carried (contacts.support)
+CARRIED = 4
 #: a cyclic path is continued rather than slowed when the clip is this much longer than it
 LOOP_RATIO = 1.3
 _POSES: dict[tuple[str, str], FloatArray] = {}
-_DISK_FORMAT = "mse-lma-hmm-path/2"
+_DISK_FORMAT = "mse-lma-hmm-path/4"
 
 
 def clear_cache() -> None:
@@ -248,7 +252,9 @@ def _modulate(
     space: PhaseSpace = phase_space(poses)
     phases = [space.observe(p) for p in poses]
     desired_phase = space.observe(_pose(library, desired_clip))
-    rotations = [encode(encoding, m) for m in motions]  # faced as the desired path
+    # rotations (faced as the desired path) and, in the last 4 columns, how the neighbours are
+    # carried: root velocity, foot lift, support (flight phases of runs, base.contacts.support)
+    rotations = [np.hstack([encode(encoding, m), support(m)]) for m in motions]
     copies = max(0, params.nd)
     trained = train_hmm(
         phases + [desired_phase] * copies,
@@ -261,10 +267,10 @@ def _modulate(
 
     clock = time.perf_counter()
     states = trained.viterbi(desired_phase)
-    training_rotations = rotations + [encode(encoding, desired)] * copies
+    training_rotations = rotations + [np.hstack([encode(encoding, desired), support(desired)])] * copies
     means = state_means(trained, phases + [desired_phase] * copies, training_rotations)
+    labels = [trained.viterbi(p) for p in phases] if trained.cyclic or params.regenerate == "frames" else []
     if params.regenerate == "frames":
-        labels = [trained.viterbi(p) for p in phases]
         frames = state_aligned_frames(states, means, rotations, labels)
     timings["viterbi"] = time.perf_counter() - clock
 
@@ -284,36 +290,40 @@ def _modulate(
         timings,
         states.astype(np.int_),
         means,
-        trained.transitions,
+        tuple(labels),
         params.cutoff_hz,
     )
 
 
-def continue_cycle(states: npt.NDArray[np.int_], transitions: FloatArray, frames: int) -> npt.NDArray[np.int_]:
-    """A cyclic state path continued to ``frames`` frames by the HMM's own dynamics: from
-    the last state, the most likely *other* state next (never straight back to the previous
-    one), each held for its expected run ``1 / (1 - a_ii)``. A walk scheduled for longer
-    than its desired path (Bandai's walk-back takes are one stride) takes more steps, at the
-    neighbours' pace, instead of slower ones."""
+def continue_cycle(
+    states: npt.NDArray[np.int_], neighbours: Sequence[npt.NDArray[np.int_]], frames: int
+) -> npt.NDArray[np.int_]:
+    """A cyclic state path continued to ``frames`` frames with the neighbours' own state
+    sequences: from the path's last state, the rest of a neighbour's sequence from a frame
+    where it enters that state (the first such frame after its first tenth), and so on. A
+    walk scheduled for longer than its desired path (Bandai's walk-back takes are one stride)
+    takes more steps, in the neighbours' order and pace, instead of slower ones. (Following
+    the most likely transition from state to state instead made jerky, looping gaits.)"""
     path = [int(s) for s in states]
-    if not path:
+    usable = [n for n in neighbours if len(n) > 2]
+    if not path or not usable:
         return states
-    previous = -1
-    for k in range(len(path) - 1, 0, -1):
-        if path[k - 1] != path[-1]:
-            previous = path[k - 1]
-            break
+    turn = 0
     while len(path) < frames:
-        current = path[-1]
-        row = transitions[current].copy()
-        row[current] = -1.0
-        if 0 <= previous < len(row) and np.count_nonzero(row > 0) > 1:
-            row[previous] = -1.0
-        following = int(np.argmax(row))
-        stay = float(transitions[following, following])
-        run = max(1, round(1.0 / max(1.0 - stay, 1e-3)))
-        previous = current
-        path += [following] * min(run, frames - len(path))
+        last = path[-1]
+        extended = False
+        for k in range(len(usable)):
+            labels = usable[(turn + k) % len(usable)]
+            start = max(1, len(labels) // 10)
+            entries = [i for i in range(start, len(labels) - 1) if labels[i] == last and labels[i - 1] != last]
+            if entries:
+                tail = labels[entries[0] + 1 :]
+                path += [int(s) for s in tail[: frames - len(path)]]
+                extended = True
+                turn += k + 1
+                break
+        if not extended:
+            break
     return np.asarray(path, dtype=np.int_)
 
 
@@ -323,10 +333,13 @@ def _path_for(modulated: _Modulated, frames: int) -> FloatArray:
     path = modulated.path
     if not modulated.cyclic or frames < LOOP_RATIO * len(path) or len(modulated.states) != len(path):
         return path
-    states = continue_cycle(modulated.states, modulated.transitions, frames)
-    runs = 1 + int(np.count_nonzero(np.diff(states)))
-    raw = state_path(modulated.means, states)
-    return smooth(raw, modulated.frame_time, cutoff(modulated.cutoff_hz, len(raw), runs, modulated.frame_time))
+    states = continue_cycle(modulated.states, modulated.labels, frames)
+    if len(states) == len(modulated.states):
+        return path
+    # the cut-off of the desired path itself: the neighbours' paths switch states more often
+    runs = 1 + int(np.count_nonzero(np.diff(modulated.states)))
+    hz = cutoff(modulated.cutoff_hz, len(modulated.states), runs, modulated.frame_time)
+    return smooth(state_path(modulated.means, states), modulated.frame_time, hz)
 
 
 def cutoff(base_hz: float, frames: int, runs: int, frame_time: float) -> float:
@@ -383,7 +396,8 @@ def _save(path: Path, modulated: _Modulated) -> None:
         path=modulated.path,
         states=modulated.states,
         means=modulated.means,
-        transitions=modulated.transitions,
+        labels=np.concatenate(modulated.labels) if modulated.labels else np.zeros(0, dtype=np.int_),
+        label_lengths=np.array([len(x) for x in modulated.labels], dtype=np.int_),
     )
     write_atomic(path, buffer.getvalue())
 
@@ -418,7 +432,14 @@ def _load(path: Path) -> _Modulated | None:
                 {str(k): float(v) for k, v in meta["timings"].items()},
                 np.asarray(archive["states"], dtype=np.int_),
                 np.asarray(archive["means"], dtype=np.float64),
-                np.asarray(archive["transitions"], dtype=np.float64),
+                tuple(
+                    np.split(
+                        np.asarray(archive["labels"], dtype=np.int_),
+                        np.cumsum(np.asarray(archive["label_lengths"], dtype=np.int_))[:-1],
+                    )
+                )
+                if len(archive["label_lengths"])
+                else (),
                 float(meta["cutoff_hz"]),
             )
     except (OSError, ValueError, KeyError, TypeError, IndexError):
@@ -466,7 +487,12 @@ def generate_motion(
         path, frame_time = time_warp(path, frame_time, duration)
     encoding = modulated.encoding
     motion = Motion(encoding.skeleton, frame_time, decode(encoding, path))
-    motion = ground(motion, modulated.height)
+    carried = path[:, encoding.dimension :].copy()
+    if carried.shape[1] == CARRIED and duration is not None:
+        # the path was played slower or faster than its neighbours: so is the carried speed
+        played = len(_path_for(modulated, round(duration / modulated.frame_time))) * modulated.frame_time
+        carried[:, :2] *= played / max(duration, 1e-9)
+    motion = ground(motion, modulated.height, carried=carried if carried.shape[1] == CARRIED else None)
     timings = dict(modulated.timings) if not cached else {}
     timings["total"] = time.perf_counter() - started
     return Generated(

@@ -1,0 +1,63 @@
+"""Filmstrips for docs/images: real clip vs the two methods, a handful of cases.
+
+    python bench/motion_filmstrips.py [--out docs/images] [--shared ../shared]
+
+Each PNG has three rows: a real clip of the target style (first take), the LMA + HMM clip and
+the HSMM clip generated for that style as long as the real clip; frames are spread evenly over
+each clip and every clip is seen from the side in its own body frame (bench/filmstrip.py).
+Models are cached under ``$MSE_CACHE_DIR``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import sys
+import warnings
+from pathlib import Path
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+
+from filmstrip import filmstrip
+
+from mse.motion.base.library import MotionLibrary, load_library
+from mse.motion.base.starter import starter_library
+from mse.motion.generator import GenerationRequest, generator_for
+
+CASES = (
+    ("bandai-ds1", "bow", "angry", 7),
+    ("bandai-ds2", "wave-both-hands", "elderly", 8),
+    ("bandai-ds2", "walk", "active", 8),
+    ("bandai-ds2", "raise-up-both-hands", "exhausted", 6),
+    ("starter", "hand_on_mouth", "not-confident", 6),
+)
+
+
+def main() -> int:
+    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("--out", default="docs/images")
+    parser.add_argument("--shared", default=os.environ.get("MSE_SHARED", "../shared"))
+    parser.add_argument("--max-seconds", type=float, default=4.0, help="clips are cut to this length")
+    args = parser.parse_args()
+    warnings.simplefilter("ignore")
+    cache = os.environ.get("MSE_CACHE_DIR", ".cache-mse")
+    libraries: dict[str, MotionLibrary] = {}
+    for name, action, style, frames in CASES:
+        if name not in libraries:
+            folder = Path(args.shared) / "motion" / name
+            libraries[name] = starter_library() if name == "starter" else load_library(folder)
+        library = libraries[name]
+        real = library.motion(sorted(library.select(action, style), key=lambda c: c.id)[0])
+        rows = [(f"real {style}", real)]
+        for method in ("lma-hmm", "hsmm"):
+            motion = generator_for(method, cache).generate(library, GenerationRequest(action, style, real.duration))
+            rows.append((f"{method} {style}", motion))
+        cut = [(label, m.slice(0, min(m.frame_count, round(args.max_seconds / m.frame_time)))) for label, m in rows]
+        path = Path(args.out) / f"motion_{name}_{action}_{style}.png"
+        filmstrip(cut, path, frames=frames)
+        print(path)
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
