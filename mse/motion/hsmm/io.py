@@ -1,6 +1,7 @@
 """Model files: one ``.npz`` archive (no pickle) with a JSON header under the key ``meta``.
 
-Format ``mse-hsmm/1``: ``meta`` holds the action, style, unit names, skeleton layout and
+Format ``mse-hsmm/2`` (``/1`` models were trained with the parity-linked Δ² window and are
+refused): ``meta`` holds the action, style, unit names, skeleton layout and
 template scalars; arrays hold the skeleton offsets, template translations and reference
 rotations, global variance statistics, variance floor and, per unit, ``unit:{name}:means``,
 ``:variances``, ``:duration_means``, ``:duration_variances``.
@@ -24,7 +25,7 @@ from mse.motion.base.bvh import Skeleton
 from mse.motion.hsmm.model import HsmmModel, UnitModel
 from mse.motion.hsmm.prep import Template
 
-FORMAT = "mse-hsmm/1"
+FORMAT = "mse-hsmm/2"
 _UNIT_FIELDS = ("means", "variances", "duration_means", "duration_variances")
 
 
@@ -92,7 +93,7 @@ def _read_arrays(name: str) -> dict[str, Any]:
         with np.load(io.BytesIO(data), allow_pickle=False) as arrays:
             return {key: arrays[key] for key in arrays.files}
     except (OSError, ValueError, EOFError, KeyError, NotImplementedError, zipfile.BadZipFile, zlib.error):
-        raise _error(name, "cannot read HSMM model: not an mse-hsmm/1 archive (damaged?)") from None
+        raise _error(name, f"cannot read HSMM model: not an {FORMAT} archive (damaged?)") from None
 
 
 def _check(model: HsmmModel) -> str | None:

@@ -20,7 +20,7 @@ from mse.fileio import user_cache_dir
 from mse.motion.base.bvh import Motion
 from mse.motion.base.library import MotionLibrary, load_library
 from mse.motion.hsmm.api import Options, adapt_model, train_average, train_scratch
-from mse.motion.hsmm.io import load_model, save_model
+from mse.motion.hsmm.io import FORMAT, load_model, save_model
 from mse.motion.hsmm.model import HsmmModel
 from mse.motion.hsmm.synth import synthesize
 
@@ -137,7 +137,7 @@ def synthesize_leaf(
     library = _library(source)
     directory = default_cache_dir() if cache_dir == "default" else cache_dir
     folder = Path(directory) if directory is not None else None
-    settings = hashlib.sha256(repr(options).encode()).hexdigest()[:8]
+    settings = hashlib.sha256(f"{FORMAT}|{options!r}".encode()).hexdigest()[:8]
     base_key = f"{library.content_hash}-{action}-{settings}"
     where = Span(_where(source))
     try:
