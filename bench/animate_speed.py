@@ -32,10 +32,10 @@ DS2_SET = """<?xml version="1.0" encoding="UTF-8"?>
   <modality name="gesture" exclusive="false"/>
   <signals>
     <signal id="wave" modality="gesture" lexeme="gesture=wave" min_duration="2" max_duration="4">
-      <motion action="wave-both-hands"/>
+      <motion action="wave_both_hands"/>
     </signal>
     <signal id="raise" modality="gesture" lexeme="gesture=raise" min_duration="1" max_duration="3">
-      <motion action="raise-up-both-hands"/>
+      <motion action="raise_up_both_hands"/>
     </signal>
     <signal id="walk" modality="torso" lexeme="torso=walk" min_duration="3" max_duration="5">
       <motion action="walk"/>

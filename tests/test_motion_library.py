@@ -33,6 +33,10 @@ def test_bandai_reader(bandai_dir: Path) -> None:
     assert library.motion(bow_sad).frame_count > 100
     assert library.style_for("embarrassment") == "not-confident"
     assert library.content_hash == load_library(bandai_dir).content_hash
+    # behaviour sets name actions with identifiers: walk_back is Bandai's walk-back
+    assert library.action_named("walk_back") == "walk-back"
+    assert library.action_named("walk") == "walk"
+    assert library.action_named("no_such_action") == "no_such_action"
 
 
 def _write_clips(folder: Path) -> None:

@@ -89,7 +89,8 @@ class _Leaves:
         if leaf.clip and clip is None and library is not starter_library():
             message = f"{_where(leaf)}clip {leaf.clip!r} is not in {library.name!r}; using the default"
             self.warn(f"clip:{leaf.clip}", message)
-        request = GenerationRequest(leaf.action, style, duration, clip, leaf.states, leaf.nd, seed)
+        action = library.action_named(leaf.action)
+        request = GenerationRequest(action, style, duration, clip, leaf.states, leaf.nd, seed)
         methods = [leaf.method] + (["lma-hmm"] if leaf.method != "lma-hmm" else [])
         for method in methods:
             try:

@@ -149,6 +149,15 @@ class MotionLibrary:
     def styles(self) -> list[str]:
         return sorted({c.style for c in self.clips})
 
+    def action_named(self, name: str) -> str:
+        """The library's spelling of an action named in a behaviour set: action names there
+        are identifiers, so ``wave_both_hands`` names Bandai's ``wave-both-hands`` (``-`` and
+        ``_`` are the same letter here); ``name`` itself when no action matches."""
+        if any(c.action == name for c in self.clips):
+            return name
+        key = name.replace("-", "_")
+        return next((a for a in self.actions() if a.replace("-", "_") == key), name)
+
     def select(self, action: str | None = None, style: str | None = None) -> list[Clip]:
         return [c for c in self.clips if (action is None or c.action == action) and (style is None or c.style == style)]
 
