@@ -105,9 +105,10 @@ def test_synthesized_walk_travels_without_foot_sliding(walk_sad: HsmmModel) -> N
         for t in range(1, motion.frame_count)
     ]
     # the stance foot is pinned; only the blend of a change of stance foot (a Gaussian of one
-    # frame, mse.motion.base.contacts) moves it, by under a centimetre
+    # frame, mse.motion.base.contacts) moves it, by a centimetre or two in that one frame
+    # (1.9 cm since the 6 Hz output low-pass rounds off the heel strike)
     assert np.median(slide) < 1e-6
-    assert max(slide) < 1.5
+    assert max(slide) < 2.5
 
 
 def test_bow_model_synthesizes_in_place(small_library: MotionLibrary) -> None:
