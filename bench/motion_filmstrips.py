@@ -30,6 +30,7 @@ CASES = (
     ("bandai-ds2", "walk", "active", 8),
     ("bandai-ds2", "raise-up-both-hands", "exhausted", 6),
     ("starter", "hand_on_mouth", "not-confident", 6),
+    ("starter", "bow", "normal", 6),
 )
 
 
