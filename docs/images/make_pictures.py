@@ -56,7 +56,8 @@ def main() -> None:
         mse("sample", "embarrassment", "--seed", SEED, "--format", "svg", "-o", "docs/images/timeline.svg", cwd=work)
         mse("sample", "embarrassment", "--seed", SEED, "-o", "emb.json", cwd=work)
         mse("render", "emb.json", "-o", "docs/images/face.png", "--at", AT, cwd=work)
-        mse("sample", "embarrassment", "--seed", SEED, "--animate", "emb", "--format", "html", "-o", "emb.html", cwd=work)
+        animated = ("--animate", "emb", "--format", "html", "-o", "emb.html")
+        mse("sample", "embarrassment", "--seed", SEED, *animated, cwd=work)
         screenshot(work / "emb.html", work / "docs" / "images" / "viewer.png")
         for picture in ("timeline.svg", "face.png", "viewer.png"):
             shutil.copyfile(work / "docs" / "images" / picture, IMAGES / picture)
