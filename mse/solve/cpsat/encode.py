@@ -23,7 +23,7 @@ from __future__ import annotations
 import itertools
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING, Literal, Union
+from typing import TYPE_CHECKING, Any, Literal, Union
 
 from mse.diagnostics import Span
 from mse.ir import model as ir
@@ -36,8 +36,10 @@ if TYPE_CHECKING:
     from ortools.sat.python.cp_model_helper import Literal as CpLiteral
 
     Lit = Union[CpLiteral, bool]  # noqa: UP007 (a runtime-free alias)
+    Edge = Union[cp_model.IntVar, int]  # noqa: UP007
 else:
     Lit = object
+    Edge = object
 
 ItemKind = Literal["constraint", "duration", "occurrence rule", "pin", "require", "forbid"]
 
@@ -52,14 +54,43 @@ class Item:
     text: str
 
 
+@dataclass(frozen=True)
+class Frame:
+    """The part of a timeline one solve decides (the rolling horizon of docs/solvers.md).
+
+    *Window* slots decide the occurrences that start in ``[begin, end)``; a once-only
+    signal's one slot may also start later (its "later" option).  *Later* slots of
+    repetitive signals (``later`` per signal) start in ``[end, duration]``: they are not
+    kept, they only prove that the timeline can still be completed.  ``past`` holds the
+    committed occurrences that still matter (per signal its first and its last: see
+    :mod:`mse.solve.cpsat.horizon`), ``committed`` how many occurrences each signal already
+    has, and ``falsified`` the atoms that committed occurrences already make false.
+    The default frame is a whole timeline decided at once."""
+
+    begin: int = 0
+    end: int | None = None
+    past: Mapping[str, tuple[tuple[int, int], ...]] = field(default_factory=dict)
+    committed: Mapping[str, int] = field(default_factory=dict)
+    falsified: frozenset[ir.Atom] = frozenset()
+    later: Mapping[str, int] = field(default_factory=dict)
+
+
 @dataclass(slots=True)
 class Slot:
+    """One optional occurrence.  ``group`` is "past" (a committed occurrence: constant
+    times, ``present`` True), "window" or "later"."""
+
     signal: str
     index: int
-    present: cp_model.IntVar
-    start: cp_model.IntVar
-    stop: cp_model.IntVar
-    length: cp_model.IntVar
+    present: Any  # a CP-SAT literal; True for a committed occurrence
+    start: Any  # CP-SAT variables; ints for a committed occurrence
+    stop: Any
+    length: Any
+    group: str = "window"
+
+    @property
+    def decided(self) -> bool:
+        return self.group != "past"
 
 
 @dataclass(frozen=True, slots=True)
@@ -68,6 +99,18 @@ class _Time:
 
     var: cp_model.IntVar | None
     const: int
+
+
+def var(edge: Edge) -> cp_model.IntVar:
+    """The variable of a decided slot's edge (a committed slot's edges are constants)."""
+    assert not isinstance(edge, int), "a committed occurrence has no variables"
+    return edge
+
+
+def _time(edge: Edge, offset: int = 0) -> _Time:
+    if isinstance(edge, int):
+        return _Time(None, edge + offset)
+    return _Time(edge, offset)
 
 
 @dataclass
@@ -79,23 +122,31 @@ class Encoding:
     duration: int
     slots: dict[str, list[Slot]]
     occurs: dict[str, Lit]
+    frame: Frame = field(default_factory=Frame)
     instantiated: dict[str, Lit] = field(default_factory=dict)
     violated: dict[str, Lit] = field(default_factory=dict)
     enable: dict[str, cp_model.IntVar] = field(default_factory=dict)  # item key -> literal
     items: dict[str, Item] = field(default_factory=dict)  # item key -> item
 
+    def decided(self, signal_id: str) -> list[Slot]:
+        """The slots of ``signal_id`` this solve decides (window and later ones)."""
+        return [slot for slot in self.slots[signal_id] if slot.decided]
+
 
 class _Builder:
-    def __init__(self, model: ir.Model, duration: int, switchable: bool) -> None:
+    def __init__(self, model: ir.Model, duration: int, switchable: bool, frame: Frame) -> None:
         from ortools.sat.python import cp_model
 
         self.cp = cp_model.CpModel()
         self.model = model
         self.duration = duration
         self.switchable = switchable
-        self.enc = Encoding(self.cp, model, duration, {}, {})
+        self.frame = frame
+        self.end = duration if frame.end is None else frame.end
+        self.enc = Encoding(self.cp, model, duration, {}, {}, frame)
         self._le_cache: dict[tuple[int, int, int], Lit] = {}
         self._atom_cache: dict[ir.Atom, tuple[Lit, Lit]] = {}
+        self._related: frozenset[tuple[str, str]] | None = None
 
     # -- literal helpers (constants folded so that trivial parts add nothing) -----------
     def land(self, literals: Sequence[Lit]) -> Lit:
@@ -131,52 +182,85 @@ class _Builder:
         self.cp.add_bool_or(clause)
 
     # -- occurrences ----------------------------------------------------------------------
-    def add_slots(self, counts: Mapping[str, int], step: int) -> None:
+    def _new_slot(self, signal: ir.Signal, index: int, group: str, step: int, rule: Lit,
+                  earliest: int, latest: int) -> Slot:
+        """A decided slot whose start lies in [earliest, latest] when present."""
+        low, high = length_bounds(signal, self.duration)
         duration = self.duration
+        present = self.cp.new_bool_var(f"{signal.id}#{index}")
+        start = self.cp.new_int_var(0, duration, "")
+        stop = self.cp.new_int_var(0, duration, "")
+        if step > 1:
+            for var in (start, stop):
+                cell = self.cp.new_int_var(0, duration // step, "")
+                self.cp.add(var == step * cell)
+        length = self.cp.new_int_var(0, duration, "")
+        self.cp.add(length == stop - start)
+        self.cp.add(length >= 1).only_enforce_if(present)
+        enforce = [present] if rule is True else [present, rule]
+        self.cp.add(length >= low).only_enforce_if(enforce)
+        self.cp.add(length <= high).only_enforce_if(enforce)
+        if earliest > 0:
+            self.cp.add(start >= earliest).only_enforce_if(present)
+        if latest < duration:
+            self.cp.add(start <= latest).only_enforce_if(present)
+        self.cp.add(start == 0).only_enforce_if(~present)
+        self.cp.add(stop == 0).only_enforce_if(~present)
+        return Slot(signal.id, index, present, start, stop, length, group)
+
+    def _chain(self, slots: Sequence[Slot]) -> None:
+        """Ordered, non-overlapping: slot i+1 present implies slot i present and after it."""
+        for previous, slot in itertools.pairwise(slots):
+            self.cp.add_implication(slot.present, previous.present)
+            self.cp.add(slot.start >= previous.stop).only_enforce_if(slot.present)
+
+    def add_slots(self, counts: Mapping[str, int], step: int) -> None:
+        frame = self.frame
         for signal in self.model.signals:
-            low, high = length_bounds(signal, duration)
-            slots: list[Slot] = []
             count = counts.get(signal.id, 0)
+            later_count = frame.later.get(signal.id, 0)
+            past = [Slot(signal.id, i, True, a, b, b - a, "past")
+                    for i, (a, b) in enumerate(frame.past.get(signal.id, ()))]
             bounded = signal.min_duration > 0 or signal.max_duration is not None
             rule: Lit = True
-            if bounded and count:
+            if bounded and (count or later_count):
                 upper = "inf" if signal.max_duration is None else f"{signal.max_duration:g}"
                 rule = self.guard(f"duration:{signal.id}", Item(
                     signal.id, "duration", signal.span,
                     f"{signal.id} lasts between {signal.min_duration:g} and {upper} s"))
-            for index in range(count):
-                present = self.cp.new_bool_var(f"{signal.id}#{index}")
-                start = self.cp.new_int_var(0, duration, "")
-                stop = self.cp.new_int_var(0, duration, "")
-                if step > 1:
-                    for var in (start, stop):
-                        cell = self.cp.new_int_var(0, duration // step, "")
-                        self.cp.add(var == step * cell)
-                length = self.cp.new_int_var(0, duration, "")
-                self.cp.add(length == stop - start)
-                self.cp.add(length >= 1).only_enforce_if(present)
-                if rule is True:
-                    self.cp.add(length >= low).only_enforce_if(present)
-                    self.cp.add(length <= high).only_enforce_if(present)
-                else:
-                    self.cp.add(length >= low).only_enforce_if([present, rule])
-                    self.cp.add(length <= high).only_enforce_if([present, rule])
-                self.cp.add(start == 0).only_enforce_if(~present)
-                self.cp.add(stop == 0).only_enforce_if(~present)
-                if slots:
-                    previous = slots[-1]
-                    self.cp.add_implication(present, previous.present)
-                    self.cp.add(start >= previous.stop).only_enforce_if(present)
-                slots.append(Slot(signal.id, index, present, start, stop, length))
-            self.enc.slots[signal.id] = slots
-            self.enc.occurs[signal.id] = slots[0].present if slots else False
+            free_from = max([frame.begin] + [int(slot.stop) for slot in past])
+            # A once-only signal's one slot may start anywhere after ``begin`` (its "later"
+            # option); a repetitive signal's window slots start before ``end``.
+            last_window_start = self.duration if not signal.repetitive else self.end - 1
+            window = [self._new_slot(signal, i, "window", step, rule, int(free_from), last_window_start)
+                      for i in range(count)]
+            self._chain(window)
+            later = [self._new_slot(signal, count + i, "later", step, rule, max(self.end, int(free_from)),
+                                    self.duration) for i in range(later_count)]
+            self._chain(later)
+            if later:
+                for slot in window:
+                    self.cp.add(later[0].start >= slot.stop).only_enforce_if([later[0].present, slot.present])
+            decided = window + later
+            if signal.repetitive and signal.max_occurrences is not None and decided:
+                room = signal.max_occurrences - frame.committed.get(signal.id, 0)
+                if room < len(decided):
+                    self.cp.add(sum(slot.present for slot in decided) <= max(0, room))
+            elif not signal.repetitive and len(decided) > 1:
+                self.cp.add(sum(slot.present for slot in decided) <= 1)
+            self.enc.slots[signal.id] = past + decided
+            if past:
+                self.enc.occurs[signal.id] = True
+            else:
+                self.enc.occurs[signal.id] = self.lor([s.present for s in (window[:1] + later[:1])])
 
     def add_exclusive_modalities(self) -> None:
         for modality in self.model.modalities:
             if not modality.exclusive:
                 continue
             members = [slot for s in self.model.signals if s.modality == modality.name
-                       for slot in self.enc.slots[s.id]]
+                       for slot in self.enc.slots[s.id]
+                       if slot.decided or int(slot.stop) > self.frame.begin]
             if len({slot.signal for slot in members}) < 2:
                 continue
             rule = self.guard(f"modality:{modality.name}", Item(
@@ -187,22 +271,45 @@ class _Builder:
             for slot in members:
                 active = slot.present if rule is True else self.land([slot.present, rule])
                 actives.append(active)
+                if not slot.decided:
+                    start, length = int(slot.start), int(slot.length)
+                    if rule is True:
+                        intervals.append(self.cp.new_fixed_size_interval_var(start, length, ""))
+                    else:
+                        intervals.append(self.cp.new_optional_fixed_size_interval_var(
+                            start, length, active, ""))
+                    continue
                 intervals.append(self.cp.new_optional_interval_var(
                     slot.start, slot.length, slot.stop, active, ""))
             self.cp.add_no_overlap(intervals)
             # The same rule once more as pairwise "one before the other" literals (shared
-            # with the relational atoms): NoOverlap alone cannot refute two equal-length
-            # occurrences forced onto each other without trying every start time.
+            # with the relational atoms) for signals that a relational atom relates:
+            # NoOverlap alone cannot refute two equal-length occurrences that ``includes``
+            # forces onto each other without trying every start time.  Unrelated pairs are
+            # left to NoOverlap (all pairs would grow quadratically with the modality).
+            related = self.related_pairs()
             for i, first in enumerate(members):
                 for j in range(i + 1, len(members)):
                     second = members[j]
-                    if first.signal == second.signal:
+                    if first.signal == second.signal or (first.signal, second.signal) not in related:
                         continue
-                    before = self.le(_Time(first.stop, 0), _Time(second.start, 0))
-                    after = self.le(_Time(second.stop, 0), _Time(first.start, 0))
+                    before = self.le(_time(first.stop), _time(second.start))
+                    after = self.le(_time(second.stop), _time(first.start))
                     clause = [before, after, lnot(actives[i]), lnot(actives[j])]
                     if not any(lit is True for lit in clause):
                         self.cp.add_bool_or([lit for lit in clause if lit is not False])
+
+    def related_pairs(self) -> frozenset[tuple[str, str]]:
+        """Pairs of distinct signals named together by some relational atom (both orders)."""
+        if self._related is None:
+            pairs: set[tuple[str, str]] = set()
+            for constraint in self.model.constraints:
+                for node in ir.walk(constraint.expr):
+                    if isinstance(node, ir.Relation | ir.Compare):
+                        names = set(ir.atom_signals(node))
+                        pairs.update((a, b) for a in names for b in names if a != b)
+            self._related = frozenset(pairs)
+        return self._related
 
     # -- terms, atoms and connectives -----------------------------------------------------
     def le(self, left: _Time, right: _Time, bound: int = 0) -> Lit:
@@ -228,7 +335,7 @@ class _Builder:
     def time(self, term: ir.Term, chosen: Mapping[str, Slot]) -> _Time:
         if isinstance(term, ir.SignalTime):
             slot = chosen[term.signal]
-            return _Time(slot.start if term.edge == "start" else slot.stop, term.offset)
+            return _time(slot.start if term.edge == "start" else slot.stop, term.offset)
         if isinstance(term, ir.DurationTime):
             return _Time(None, self.duration + term.offset)
         return _Time(None, term.value)
@@ -236,7 +343,7 @@ class _Builder:
     def holds(self, atom: ir.Relation | ir.Compare, chosen: Mapping[str, Slot]) -> Lit:
         if isinstance(atom, ir.Relation):
             a, b = chosen[atom.left], chosen[atom.right]
-            sa, ea, sb, eb = (_Time(v, 0) for v in (a.start, a.stop, b.start, b.stop))
+            sa, ea, sb, eb = (_time(v) for v in (a.start, a.stop, b.start, b.stop))
             if atom.kind == "includes":
                 return self.land([self.le(sa, sb), self.le(eb, ea)])
             if atom.kind == "excludes":
@@ -269,6 +376,8 @@ class _Builder:
                 chosen = dict(zip(names, combination, strict=True))
                 present = [slot.present for slot in combination]
                 falsified.append(self.land([*present, lnot(self.holds(atom, chosen))]))
+            if atom in self.frame.falsified:
+                falsified.append(True)
             is_false = self.lor(falsified)
             is_true = self.land([*(self.enc.occurs[n] for n in names), lnot(is_false)])
             result = (is_true, is_false)
@@ -317,6 +426,9 @@ class _Builder:
             for slot in self.enc.slots[pin.signal]:
                 if not 0 <= start < stop <= self.duration:
                     break
+                if not slot.decided:
+                    choices.append((slot.start, slot.stop) == (start, stop))
+                    continue
                 here = self.cp.new_bool_var("")
                 self.cp.add_implication(here, slot.present)
                 self.cp.add(slot.start == start).only_enforce_if(here)
@@ -348,14 +460,22 @@ def build(
     pins: Sequence[Pin] = (),
     require: Sequence[str] = (),
     forbid: Sequence[str] = (),
+    violate: bool = False,
+    frame: Frame | None = None,
 ) -> Encoding:
-    """Encode ``model`` for a timeline of ``duration`` ticks with ``counts`` slots per signal.
+    """Encode ``model`` for a timeline of ``duration`` ticks with ``counts`` window slots per
+    signal (and ``frame.later`` later slots; the default frame is the whole timeline).
 
     ``constraints=False`` leaves constraints unenforced (the paper's constraint-less mode;
-    their literals still exist for lint); ``step`` > 1 restricts times to that grid."""
-    builder = _Builder(model, duration, switchable)
+    their literals still exist for lint), and ``violate`` then demands that at least one
+    constraint be violated (the control condition); ``step`` > 1 restricts times to that grid."""
+    builder = _Builder(model, duration, switchable, frame or Frame())
     builder.add_slots(counts, step)
     builder.add_exclusive_modalities()
     builder.add_constraints(constraints)
     builder.add_request(pins, require, forbid)
+    if violate:
+        violated = list(builder.enc.violated.values())
+        if not any(lit is True for lit in violated):
+            builder.cp.add_bool_or([lit for lit in violated if lit is not False])
     return builder.enc

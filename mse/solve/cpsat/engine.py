@@ -1,12 +1,10 @@
 """CP-SAT plumbing shared by the solver, the explainer and deep lint: a configured solver,
-decoding an encoding's solution into a schedule, and the evaluator's re-check."""
+decoding an encoding's solution into a schedule."""
 
 from __future__ import annotations
 
 from typing import TYPE_CHECKING
 
-from mse.ir import model as ir
-from mse.ir.evaluate import check_schedule
 from mse.ir.schedule import Occurrence, Schedule
 from mse.solve.cpsat.encode import Encoding
 
@@ -38,17 +36,6 @@ def decode(enc: Encoding, solver: cp_model.CpSolver | cp_model.CpSolverSolutionC
         Occurrence(solver.value(slot.start), solver.value(slot.stop), signal_id)
         for signal_id, slots in enc.slots.items()
         for slot in slots
-        if solver.boolean_value(slot.present)
+        if slot.decided and solver.boolean_value(slot.present)
     ]
     return Schedule.of(enc.duration, occurrences)
-
-
-def verified(model: ir.Model, schedule: Schedule, *, constraints: bool = True) -> Schedule:
-    """``schedule`` after checking it with the evaluator; an encoding bug raises."""
-    violations = check_schedule(model, schedule)
-    if not constraints:
-        violations = [v for v in violations if v.kind != "constraint"]
-    if violations:
-        details = "; ".join(v.message for v in violations)
-        raise RuntimeError(f"CP-SAT produced an inconsistent timeline (a bug): {details}")
-    return schedule

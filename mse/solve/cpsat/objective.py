@@ -1,45 +1,44 @@
-"""Objectives of the CP-SAT backend: perturb-and-MAP by default, others on request.
+"""Objectives of the CP-SAT backend: the profile's perturb-and-MAP by default, others on request.
 
-Perturb-and-MAP (Papandreou & Yuille 2011): the MAP assignment of a model's
-log-probabilities plus independent Gumbel noise on every choice is a sample of the model.
-Each occurrence slot chooses between *absent* and *present, starting in time bin b*
-(B bins over the timeline).  A signal's probability at time t is the straight line from
-probability_start (t = 0) to probability_end (t = D); with p_b its value at the middle of
-bin b and p̄ the mean over the bins, the slot's log-probabilities are
-``log(1 - p̄)`` for absent and ``log(p_b / B)`` for bin b: present with probability p̄,
-starting in a bin in proportion to the profile.  Adding seeded Gumbel noise to each
-choice and maximising gives a sample that follows the profiles; "likely" drops the
-noise (the MAP timeline), "random" drops the probabilities.  Within a bin, seeded target
-start times and lengths, given as solution hints, spread the timelines further at no
-cost to the search.
+Perturb-and-MAP (Papandreou & Yuille 2011): the maximum of a model's log-probabilities plus
+independent Gumbel noise on every choice is a sample of the model.  Each decided slot
+chooses one option of its :class:`~mse.solve.cpsat.prior.SlotPrior` (absent, a start bin,
+or "later"), scored by its prior log-probability plus Gumbel noise.  The noise is drawn
+*conditioned on the drawn option being the best* (top-down Gumbel sampling, Maddison et al.
+2014): the unconstrained maximum is then exactly the prior draw, whose law is the profile's,
+and constraints that rule the draw out make the search trade the remaining options by their
+perturbed scores.  Scores are shifted so that the drawn option scores 0 and every other
+option less: a consistent draw is optimal at once (objective 0, the trivial bound).
 
-Further occurrences of a repetitive signal pay REPEAT_COST.  Coefficients are
-multiplied by SCALE and rounded to integers.
+Within a bin a slot aims at a target start (the drawn start in the drawn bin, a seeded draw
+in the others) and at its drawn length; each millisecond away costs START_WEIGHT or
+LENGTH_WEIGHT units, so positions and lengths follow the profile too instead of sliding to
+the edges of the bins.  A signal whose probabilities are both 0 costs more than every other
+term together (:func:`set_objective`): it occurs only when no consistent timeline exists
+without it.  ``likely`` drops the noise (the MAP timeline), ``random`` drops the
+probabilities.  Coefficients are SCALE units per nat, rounded to integers.
 """
 
 from __future__ import annotations
 
 import math
 import random
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
+from typing import Any
 
+from mse.ir import model as ir
+from mse.ir.evaluate import constraint_status
 from mse.ir.schedule import Schedule
-from mse.solve.bounds import length_bounds
-from mse.solve.cpsat.encode import Encoding, Slot
+from mse.solve.cpsat.encode import Encoding, Slot, var
+from mse.solve.cpsat.prior import ABSENT, SlotPrior
 
-SCALE = 1000
-#: Probabilities are clipped away from 0 and 1 so that logarithms stay finite.
-EPSILON = 0.01
-#: Extra log-probability cost of each further occurrence of a repetitive signal.
-REPEAT_COST = 1.5
-#: Bins of start times per timeline (fewer for short timelines: at least 0.5 s each).
-MAX_BINS = 8
-#: Weight of one slot's difference (presence, or D ticks of start) for --diverse, in SCALE units.
+SCALE = 2000
+#: Units per millisecond away from the target start / length (0.5 nat per second).
+START_WEIGHT = 1
+LENGTH_WEIGHT = 1
+#: Weight of one slot's difference (presence, or D ticks of start) for --diverse, in nats.
 DIVERSITY_WEIGHT = 3
-
-
-def clip(probability: float) -> float:
-    return min(1.0 - EPSILON, max(EPSILON, probability))
 
 
 def gumbel(rng: random.Random) -> float:
@@ -47,120 +46,293 @@ def gumbel(rng: random.Random) -> float:
     return -math.log(-math.log(u))
 
 
-def _bins(duration: int) -> list[tuple[int, int]]:
-    count = max(1, min(MAX_BINS, duration // 500))
-    edges = [duration * b // count for b in range(count + 1)]
-    return [(edges[b], edges[b + 1]) for b in range(count)]
+def _logsumexp(values: Sequence[float]) -> float:
+    top = max(values)
+    return top + math.log(sum(math.exp(v - top) for v in values))
 
 
-def _choice_terms(
-    enc: Encoding, slot: Slot, first: float, last: float, rng: random.Random, *, profile: bool, noise: bool
-) -> list[object]:
-    """Terms of one slot's choice among absent and the start bins (absent is the baseline).
-
-    One literal per bin (an element constraint on a bin index was measured slower at
-    p95).  The slot's own best choice is hinted (with a seeded start inside the bin):
-    when the constraints allow it, that hint is already optimal and the search ends at
-    once."""
-    bins = _bins(enc.duration)
-    middles = [clip(first + (last - first) * ((lo + hi) / 2) / max(1, enc.duration)) for lo, hi in bins]
-    mean = sum(middles) / len(middles)
-    absent_score = (math.log(1.0 - mean) if profile else 0.0) + (gumbel(rng) if noise else 0.0)
-    terms: list[object] = []
-    choices = []
-    best: tuple[float, int, int] = (0.0, -1, -1)
-    for (lo, hi), probability in zip(bins, middles, strict=True):
-        score = (math.log(probability / len(bins)) if profile else 0.0) + (gumbel(rng) if noise else 0.0)
-        score -= absent_score + REPEAT_COST * slot.index
-        chosen = enc.cp.new_bool_var("")
-        enc.cp.add(slot.start >= lo).only_enforce_if(chosen)
-        enc.cp.add(slot.start <= hi - 1).only_enforce_if(chosen)
-        choices.append(chosen)
-        terms.append(round(SCALE * score) * chosen)
-        if score > best[0]:
-            best = (score, lo, hi)
-    enc.cp.add(sum(choices) == slot.present)
-    _hint(enc, slot, rng, best[1], best[2])
-    return terms
+def perturbed_scores(prior: SlotPrior, rng: random.Random, mode: str) -> list[float]:
+    """Scores of the options [absent, bin 0.., later?] whose maximum is ``prior.choice``."""
+    phi = [prior.log_absent, *prior.log_bins] + ([] if prior.log_later is None else [prior.log_later])
+    if mode == "likely":
+        return phi
+    if mode == "random":
+        phi = [0.0] * len(phi)
+    drawn = prior.choice + 1  # ABSENT (-1) -> 0
+    top = _logsumexp(phi) + gumbel(rng)
+    scores = []
+    for index, value in enumerate(phi):
+        if index == drawn:
+            scores.append(top)
+            continue
+        # A Gumbel of location ``value`` truncated below ``top``.
+        g = value + gumbel(rng)
+        scores.append(-math.log(math.exp(-top) + math.exp(-g)) if g - top < 700 else top - 1e-9)
+    return scores
 
 
-def _hint(enc: Encoding, slot: Slot, rng: random.Random, lo: int, hi: int) -> None:
-    """Hint ``slot`` present with a seeded start in [lo, hi) (absent when lo < 0)."""
-    signal = enc.model.signal(slot.signal)
-    low, high = length_bounds(signal, enc.duration)
-    if lo < 0 or lo + low > enc.duration:
+@dataclass
+class Stages:
+    """A lexicographic objective: first the options (presence and start bins, the
+    perturb-and-MAP part), then, with every option fixed, the positions (distance to the
+    target starts and lengths).  ``options`` are the literals whose values stage 2 keeps."""
+
+    first: list[Any] = field(default_factory=list)
+    second: list[Any] = field(default_factory=list)
+    options: list[Any] = field(default_factory=list)
+
+
+def _choice_terms(enc: Encoding, slot: Slot, prior: SlotPrior, scores: Sequence[float],
+                  stages: Stages) -> int:
+    """Add one slot's terms to ``stages``: its option scores (drawn option 0, others < 0)
+    and its distances to the target start and length.  Returns how low its option terms
+    can go (negated).
+
+    Bins are order-encoded: ``after[b]`` is "start >= lower edge of bin b" (b >= 1), so the
+    score of bin k telescopes to ``score[0] + sum over b <= k of (score[b] - score[b-1])``
+    and the target start likewise; an absent slot starts at 0, where every ``after`` is
+    false."""
+    cp = enc.cp
+    start, length, present = var(slot.start), var(slot.length), slot.present
+    best = scores[prior.choice + 1]
+    units = [min(0, round(SCALE * (score - best))) for score in scores]
+    absent_unit, bin_units = units[0], units[1:1 + len(prior.bins)]
+    terms = stages.first
+    if absent_unit:
+        terms.append(absent_unit * (1 - present))
+    if bin_units[0]:
+        terms.append(bin_units[0] * present)
+    stages.options.append(present)
+    target: list[Any] = [prior.targets[0] * present]
+    edges = [lo for lo, _ in prior.bins[1:]]
+    steps = [(bin_units[b] - bin_units[b - 1], prior.targets[b] - prior.targets[b - 1])
+             for b in range(1, len(prior.bins))]
+    later_literal = None
+    if prior.log_later is not None:
+        edges.append(prior.bins[-1][1])
+        steps.append((units[-1] - bin_units[-1], 0))
+    for index, (edge, (unit_step, target_step)) in enumerate(zip(edges, steps, strict=True)):
+        after = cp.new_bool_var("")
+        cp.add(start >= edge).only_enforce_if(after)
+        cp.add(start <= edge - 1).only_enforce_if(~after)
+        stages.options.append(after)
+        if unit_step:
+            terms.append(unit_step * after)
+        if target_step:
+            target.append(target_step * after)
+        if prior.log_later is not None and index == len(edges) - 1:
+            later_literal = after
+    start_distance = cp.new_int_var(0, enc.duration, "")
+    away = [cp.add(start_distance >= start - sum(target)),
+            cp.add(start_distance >= sum(target) - start)]
+    if later_literal is not None:
+        for constraint in away:
+            constraint.only_enforce_if(~later_literal)
+    length_distance = cp.new_int_var(0, enc.duration, "")
+    cp.add(length_distance >= length - prior.length * present)
+    cp.add(length_distance >= prior.length * present - length)
+    stages.second += [-START_WEIGHT * start_distance, -LENGTH_WEIGHT * length_distance]
+    return -min(units)
+
+
+def hint(enc: Encoding, slot: Slot, start: int, length: int) -> None:
+    """Hint ``slot`` present at [start, start + length) (absent when start < 0)."""
+    if start < 0 or start + length > enc.duration or length < 1:
         enc.cp.add_hint(slot.present, False)
         return
-    start = rng.randint(lo, max(lo, min(hi - 1, enc.duration - low)))
-    length = rng.randint(low, max(low, min(high, enc.duration - start)))
     enc.cp.add_hint(slot.present, True)
     enc.cp.add_hint(slot.start, start)
     enc.cp.add_hint(slot.length, length)
     enc.cp.add_hint(slot.stop, start + length)
 
 
-def objective_terms(enc: Encoding, objective: str | None, seed: int) -> list[object]:
-    """The terms of ``objective`` (None: perturb-and-MAP), to be maximised."""
+def required_signals(model: ir.Model, require: Sequence[str] = ()) -> frozenset[str]:
+    """Signals that must occur in so many words: ``exists(s)`` alone or in a top-level
+    ``and`` of a constraint without trigger signals (always evaluated), and ``require``."""
+    required: set[str] = set(require)
+    for constraint in model.constraints:
+        if constraint.triggers:
+            continue
+        expr = constraint.expr
+        parts = expr.operands if isinstance(expr, ir.And) else (expr,)
+        required.update(p.signal for p in parts if isinstance(p, ir.Exists))
+    return frozenset(required)
+
+
+def _candidates(prior: SlotPrior, scores: Sequence[float], required: bool) -> list[tuple[int, int]]:
+    """Where a slot would like to be: its draw; a required slot drawn absent, its best bins."""
+    if prior.present and prior.choice < len(prior.bins):
+        return [(prior.start, prior.start + prior.length)]
+    if not required or prior.index > 0:
+        return []
+    order = sorted(range(len(prior.bins)), key=lambda b: -scores[b + 1])
+    return [(prior.targets[b], prior.targets[b] + prior.length) for b in order]
+
+
+def _thinned(
+    enc: Encoding,
+    priors: Mapping[str, Sequence[SlotPrior]],
+    scores: Mapping[tuple[str, int], Sequence[float]],
+    required: frozenset[str],
+) -> dict[str, list[tuple[int, int]]]:
+    """The drawn occurrences, added one by one (required signals first, then from the
+    costliest to drop), each kept only if it overlaps nothing in its exclusive modality and
+    breaks no further constraint: a quick step towards the optimum, so that the search starts
+    from a nearly consistent timeline."""
+    model = enc.model
+    kept: dict[str, list[tuple[int, int]]] = {}
+    busy: dict[str, list[tuple[int, int]]] = {}
+    exclusive = model.exclusive_modalities
+    touching: dict[str, list[ir.Constraint]] = {}
+    for constraint in model.constraints:
+        for name in ir.mentioned_signals(constraint.expr):
+            touching.setdefault(name, []).append(constraint)
+    queue = []
+    for name, slots in priors.items():
+        for prior in slots:
+            if prior.never or (name, prior.index) not in scores:
+                continue
+            options = scores[(name, prior.index)]
+            places = _candidates(prior, options, name in required)
+            if places:
+                cost = options[prior.choice + 1] - options[0]
+                queue.append((name not in required, -cost, name, prior.index, places))
+    for _, _, name, _, places in sorted(queue):
+        modality = model.signal(name).modality
+        taken = busy.setdefault(modality, []) if modality in exclusive else None
+        mine = kept.get(name, [])
+        checks = touching.get(name, [])
+        for interval in places:
+            if interval[1] > enc.duration:
+                continue
+            if taken is not None and any(a < interval[1] and interval[0] < b for a, b in taken):
+                continue
+            if any(a < interval[1] and interval[0] < b for a, b in mine):
+                continue
+            before = sum(constraint_status(c, kept, enc.duration) is False for c in checks)
+            kept[name] = sorted([*mine, interval])
+            if sum(constraint_status(c, kept, enc.duration) is False for c in checks) > before:
+                kept[name] = mine
+                continue
+            if taken is not None:
+                taken.append(interval)
+            break
+        if not kept.get(name):
+            kept.pop(name, None)
+    return kept
+
+
+def profile_stages(enc: Encoding, priors: Mapping[str, Sequence[SlotPrior]], seed: int,
+                   mode: str = "sample", required: frozenset[str] = frozenset()) -> tuple[Stages, list[Slot], int]:
+    """The perturb-and-MAP stages of every window slot (``mode``: sample, likely or random),
+    the slots of never-occurring signals, and how low the option terms can go (negated).
+    Window slots are hinted with the draw, thinned where it overlaps."""
     rng = random.Random(seed)
-    terms: list[object] = []
-    if objective in (None, "likely", "random"):
-        noise, profile = objective != "likely", objective != "random"
-        for signal in enc.model.signals:
-            for slot in enc.slots[signal.id]:
-                terms.extend(_choice_terms(enc, slot, signal.probability_start, signal.probability_end,
-                                           rng, profile=profile, noise=noise))
-        return terms
-    slot_total = sum(len(slots) for slots in enc.slots.values())
-    # Seeded tie-breaks (presence and position) that together never outweigh one signal.
+    stages = Stages()
+    never: list[Slot] = []
+    floor = 0
+    scored: dict[tuple[str, int], list[float]] = {}
+    for signal in enc.model.signals:
+        slots = [slot for slot in enc.decided(signal.id) if slot.group == "window"]
+        for slot, prior in zip(slots, priors.get(signal.id, ()), strict=False):
+            if prior.never:
+                never.append(slot)
+                continue
+            scores = perturbed_scores(prior, rng, mode)
+            scored[(signal.id, prior.index)] = scores
+            floor += _choice_terms(enc, slot, prior, scores, stages)
+    kept = _thinned(enc, priors, scored, required)
+    for signal in enc.model.signals:
+        slots = [slot for slot in enc.decided(signal.id) if slot.group == "window"]
+        intervals = kept.get(signal.id, [])
+        lengths = [p.length for p in priors.get(signal.id, ())]
+        for rank, slot in enumerate(slots):
+            if rank < len(intervals):
+                hint(enc, slot, intervals[rank][0], intervals[rank][1] - intervals[rank][0])
+            else:
+                hint(enc, slot, -1, lengths[rank] if rank < len(lengths) else 0)
+    return stages, never, floor
+
+
+def preference_terms(enc: Encoding, objective: str, seed: int) -> list[Any]:
+    """most-signals / fewest-signals, with seeded tie-breaks that never outweigh one signal."""
+    rng = random.Random(seed)
+    terms: list[Any] = []
+    slot_total = sum(len(enc.decided(s.id)) for s in enc.model.signals)
     big = SCALE * (2 * slot_total + 1)
     sign = 1 if objective == "most-signals" else -1
     for signal in enc.model.signals:
         occurs = enc.occurs[signal.id]
         if not isinstance(occurs, bool):
             terms.append(sign * big * occurs)
-        for slot in enc.slots[signal.id]:
+        for slot in enc.decided(signal.id):
             terms.append(rng.randint(0, SCALE) * slot.present)
-            _hint(enc, slot, rng, 0 if sign > 0 else -1, enc.duration)
+            if sign < 0:
+                hint(enc, slot, -1, 0)
     return terms
 
 
 def set_objective(
-    enc: Encoding, objective: str | None, seed: int, previous: Sequence[Schedule] = ()
-) -> None:
-    """Install ``objective``; with ``previous`` schedules, add the diversity reward."""
-    terms = objective_terms(enc, objective, seed)
+    enc: Encoding,
+    objective: str | None,
+    seed: int,
+    priors: Mapping[str, Sequence[SlotPrior]],
+    previous: Sequence[Schedule] = (),
+    require: Sequence[str] = (),
+) -> Stages:
+    """Install the first stage of ``objective`` (None: the profile) and return both stages;
+    with ``previous`` schedules, add the diversity reward (one stage: positions matter to it)."""
+    never: list[Slot] = []
+    floor = 0
+    if objective in ("most-signals", "fewest-signals"):
+        stages = Stages(first=preference_terms(enc, objective, seed))
+    else:
+        stages, never, floor = profile_stages(enc, priors, seed, objective or "sample",
+                                              required_signals(enc.model, require))
     if previous:
-        terms.extend(_diversity_terms(enc, previous))
-    enc.cp.maximize(sum(terms))  # type: ignore[arg-type]
+        reward, most = _diversity_terms(enc, previous)
+        stages.first.extend(reward)
+        stages.first.extend(stages.second)
+        stages.second = []
+        floor += most
+    # Lexicographic: one occurrence of a never-occurring signal costs more than every other
+    # term of the stage together can gain or lose.
+    stages.first.extend(-(floor + 1) * slot.present for slot in never)
+    enc.cp.maximize(sum(stages.first))
+    return stages
 
 
-def _diversity_terms(enc: Encoding, previous: Sequence[Schedule]) -> list[object]:
+def _diversity_terms(enc: Encoding, previous: Sequence[Schedule]) -> tuple[list[Any], int]:
     """Reward the smallest distance to the ``previous`` schedules (and, less, their sum).
 
     Distance: per slot, D if its presence differs, plus |start - previous start| if both
     are present; a slot is compared with the occurrence of the same rank."""
     duration = max(1, enc.duration)
-    slot_total = max(1, sum(len(s) for s in enc.slots.values()))
+    slot_total = max(1, sum(len(enc.decided(s.id)) for s in enc.model.signals))
     distances = []
     for schedule in previous:
         by_signal = schedule.by_signal()
-        parts: list[object] = []
-        for signal_id, slots in enc.slots.items():
-            before = sorted(by_signal.get(signal_id, []))
-            for slot in slots:
-                if slot.index < len(before):
+        parts: list[Any] = []
+        for signal in enc.model.signals:
+            before = sorted(by_signal.get(signal.id, []))
+            for rank, slot in enumerate(enc.decided(signal.id)):
+                if rank < len(before):
                     parts.append(duration * (1 - slot.present))
                     moved = enc.cp.new_int_var(0, duration, "")
-                    enc.cp.add_abs_equality(moved, slot.start - before[slot.index].start)
+                    enc.cp.add_abs_equality(moved, slot.start - before[rank].start)
                     parts.append(moved)
                 else:
                     parts.append(duration * slot.present)
         total = enc.cp.new_int_var(0, 2 * duration * slot_total, "")
-        enc.cp.add(total == sum(parts))  # type: ignore[arg-type]
+        enc.cp.add(total == sum(parts))
         distances.append(total)
     smallest = enc.cp.new_int_var(0, 2 * duration * slot_total, "")
     for distance in distances:
         enc.cp.add(smallest <= distance)
-    # Per tick of distance: DIVERSITY_WEIGHT * SCALE / D, as an integer >= 1.
+    # Per tick of distance: DIVERSITY_WEIGHT nats / D, as an integer >= 1.
     per_tick = max(1, round(DIVERSITY_WEIGHT * SCALE / duration))
-    return [2 * per_tick * smallest, *(per_tick * d for d in distances)]
+    most = (2 + len(distances)) * per_tick * 2 * duration * slot_total
+    return [2 * per_tick * smallest, *(per_tick * d for d in distances)], most
+
+
+__all__ = ["ABSENT", "SCALE", "Stages", "hint", "perturbed_scores", "set_objective"]

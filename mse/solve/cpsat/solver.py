@@ -1,30 +1,62 @@
 """The CP-SAT backend: exact timelines with OR-Tools (docs/solvers.md).
 
 ``ortools`` is imported only inside functions here and in :mod:`mse.solve.cpsat.encode`,
-so ``import mse`` and the greedy path never load it.  Every timeline returned has passed
-:func:`mse.ir.evaluate.check_schedule`; "infeasible" is only reported as a proof
-(``NoSolution(proven=True)``) when CP-SAT says INFEASIBLE with enough occurrence slots for
-the witness argument of :mod:`mse.solve.bounds`; a time-out says so.
+so ``import mse`` and the greedy path never load it.
+
+One timeline is decided *frame by frame*: a timeline of at most SINGLE_FRAME is one frame;
+a longer one is cut into windows of WINDOW (a rolling horizon).  Each frame draws its slots
+from the probability profile (:mod:`mse.solve.cpsat.prior`) and asks CP-SAT for the
+consistent timeline that scores best under the perturbed profile
+(:mod:`mse.solve.cpsat.objective`); when the draw is already consistent it is returned
+without CP-SAT.  A window's model also holds "later" slots for the rest of the timeline,
+enough for the witness argument of :mod:`mse.solve.bounds`, so every committed window is
+provably completable and a later window never meets a dead end; committed occurrences are
+summarised by :mod:`mse.solve.cpsat.horizon`, so the cost per window does not grow with
+the elapsed time and :meth:`CpSatSolver.stream` hands out each window as soon as it is
+committed.
+
+Every timeline returned by :meth:`CpSatSolver.solve` has passed
+:func:`mse.ir.evaluate.check_schedule`.  "Infeasible" is only reported as a proof
+(``NoSolution(proven=True)``, with a minimal explanation) when CP-SAT says INFEASIBLE with
+enough occurrence slots for the witness argument; a time-out says so.  Searches are bounded
+by CP-SAT's *deterministic* time, so that with one worker a seed fixes the timeline whatever
+the machine's load.
 """
 
 from __future__ import annotations
 
+import itertools
+import random
 import time
 from collections.abc import Iterator, Mapping, Sequence
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
-from mse.diagnostics import Diagnostic, Span
+from mse.diagnostics import Diagnostic, MseError, Span
 from mse.ir import model as ir
+from mse.ir.evaluate import check_schedule
 from mse.ir.schedule import Occurrence, Schedule, to_ticks
-from mse.solve.bounds import MAX_SLOTS, is_complete, slot_counts
-from mse.solve.cpsat.encode import Encoding, build
-from mse.solve.cpsat.engine import decode, make_solver, verified
+from mse.solve.bounds import MAX_SLOTS, atom_mentions, length_bounds, semantic_limit, slot_counts
+from mse.solve.cpsat.encode import Encoding, Frame, build, var
+from mse.solve.cpsat.engine import make_solver
+from mse.solve.cpsat.horizon import Committed
+from mse.solve.cpsat.prior import SlotPrior, frame_priors
 from mse.solve.protocol import NoSolution, SolveRequest, check_request, derive_seed
 
 if TYPE_CHECKING:
-    pass
+    from mse.solve.cpsat.objective import Stages
 
-#: CP-SAT deterministic time (about seconds) spent on one --diverse timeline after the first.
+#: Timelines up to this many ticks are decided in one frame.
+SINGLE_FRAME = 30_000
+#: Window length of the rolling horizon (ticks).
+WINDOW = 10_000
+#: CP-SAT deterministic time (about seconds) spent on a frame's options (stage 1) ...
+SAMPLE_WORK = 0.3
+#: ... on a large frame (more than LARGE_SLOTS decided slots) ...
+LARGE_WORK = 0.1
+LARGE_SLOTS = 80
+#: ... and on its positions (stage 2).
+POSITION_WORK = 0.1
+#: ... and on one --diverse timeline after the first.
 DIVERSE_WORK = 0.2
 
 
@@ -32,10 +64,10 @@ class CpSatSolver:
     """Exact solving with OR-Tools CP-SAT."""
 
     name = "cpsat"
-    supports = frozenset({"pin", "require", "forbid", "objective", "diverse", "constraint-less"})
+    supports = frozenset({"pin", "require", "forbid", "objective", "diverse", "constraint-less", "stream"})
 
     def solve(self, model: ir.Model, request: SolveRequest) -> list[Schedule]:
-        check_request(model, request)
+        _validate(model, request)
         schedules: list[Schedule] = []
         for index in range(max(1, request.count)):
             seed = derive_seed(request.seed, index)
@@ -44,74 +76,345 @@ class CpSatSolver:
         return schedules
 
     def stream(self, model: ir.Model, request: SolveRequest) -> Iterator[Occurrence]:
-        """CP-SAT decides a whole timeline at once: its occurrences in start order."""
-        yield from self.solve(model, request)[0].occurrences
+        """The occurrences of one timeline in start order, window by window: each is handed
+        out as soon as its window is committed (and checked at the end)."""
+        _validate(model, request)
+        seed = derive_seed(request.seed, 0)
+        occurrences: list[Occurrence] = []
+        for occurrence in _frames(model, request, seed, ()):
+            occurrences.append(occurrence)
+            yield occurrence
+        _verified(model, Schedule.of(to_ticks(request.duration), occurrences), request)
 
 
-def _build(model: ir.Model, request: SolveRequest, counts: Mapping[str, int]) -> Encoding:
-    return build(
-        model, to_ticks(request.duration), counts,
-        constraints=request.mode != "constraint-less",
-        pins=request.pinned, require=request.require, forbid=request.forbid,
-    )
+def _validate(model: ir.Model, request: SolveRequest) -> None:
+    check_request(model, request)
+    if request.mode not in ("consistent", "constraint-less"):
+        raise _argument_error(f"unknown mode {request.mode!r} (known: consistent, constraint-less)")
+    if request.mode == "constraint-less" and not model.constraints:
+        raise _argument_error(f"{model.name!r} has no constraints, so no timeline can violate one "
+                              "(--mode constraint-less needs a behaviour set with constraints)")
+    if request.diverse and to_ticks(request.duration) > SINGLE_FRAME:
+        raise _argument_error(f"--diverse works on timelines of at most {SINGLE_FRAME // 1000} s")
+
+
+def _argument_error(message: str) -> MseError:
+    return MseError([Diagnostic("E100", message, Span("<arguments>"))])
+
+
+def _verified(model: ir.Model, schedule: Schedule, request: SolveRequest) -> Schedule:
+    """``schedule`` after checking it with the evaluator; an encoding bug raises."""
+    violations = check_schedule(model, schedule)
+    if request.mode == "constraint-less":
+        if not any(v.kind == "constraint" for v in violations):
+            raise RuntimeError("CP-SAT produced a consistent timeline in constraint-less mode (a bug)")
+        violations = [v for v in violations if v.kind != "constraint"]
+    present = {o.signal for o in schedule.occurrences}
+    missing = [name for name in request.require if name not in present]
+    extra = [name for name in request.forbid if name in present]
+    unpinned = [p for p in request.pinned
+                if Occurrence(to_ticks(p.start), to_ticks(p.stop), p.signal) not in schedule.occurrences]
+    if violations or missing or extra or unpinned:
+        details = "; ".join([v.message for v in violations] + [f"{n} missing" for n in missing]
+                            + [f"{n} present" for n in extra] + [f"pin {p} missing" for p in unpinned])
+        raise RuntimeError(f"CP-SAT produced an inconsistent timeline (a bug): {details}")
+    return schedule
 
 
 def solve_one(
     model: ir.Model, request: SolveRequest, seed: int, previous: Sequence[Schedule] = ()
 ) -> Schedule:
     """One timeline; NoSolution (with an explanation when proven) when there is none."""
+    duration = to_ticks(request.duration)
+    schedule = Schedule.of(duration, _frames(model, request, seed, previous))
+    return _verified(model, schedule, request)
+
+
+def _windows(duration: int, single: bool) -> list[tuple[int, int]]:
+    if single or duration <= SINGLE_FRAME:
+        return [(0, duration)]
+    edges = [*list(range(0, duration, WINDOW)), duration]
+    if duration - edges[-2] < WINDOW // 2 and len(edges) > 2:
+        del edges[-2]  # no sliver of a last window
+    return list(itertools.pairwise(edges))
+
+
+def _mode(request: SolveRequest) -> str:
+    return request.objective if request.objective in ("likely", "random") else "sample"
+
+
+def _frames(model: ir.Model, request: SolveRequest, seed: int, previous: Sequence[Schedule]) -> Iterator[Occurrence]:
+    """The occurrences of one timeline, window by window, each window once committed."""
+    duration = to_ticks(request.duration)
+    deadline = time.monotonic() + request.time_limit
+    windows = _windows(duration, bool(previous) or request.diverse)
+    committed = Committed(model, duration)
+    later_hints: list[Occurrence] = []
+    for index, (begin, end) in enumerate(windows):
+        priors = frame_priors(model, duration, begin, end, committed.free_from(), committed.counts,
+                              random.Random(f"{seed}/{index}"), mode=_mode(request))
+        if len(windows) == 1 and not previous:
+            drawn = _draw_if_acceptable(model, request, duration, priors)
+            if drawn is not None:
+                yield from drawn
+                return
+        frame = Frame(begin, end, committed.representatives(), dict(committed.counts),
+                      frozenset(committed.falsified), _later_counts(model, duration, end, committed))
+        solution = _solve_frame(model, request, seed, frame, priors, previous, later_hints,
+                                first=index == 0, deadline=deadline)
+        kept = sorted(o for o in solution if o.start < end or end == duration)
+        later_hints = [o for o in solution if not (o.start < end or end == duration)]
+        committed.commit(kept)
+        yield from kept
+
+
+def _draw_if_acceptable(model: ir.Model, request: SolveRequest, duration: int,
+                        priors: Mapping[str, Sequence[SlotPrior]]) -> list[Occurrence] | None:
+    """The prior draw itself when it is what CP-SAT would return: a consistent timeline (or,
+    in constraint-less mode, one violating a constraint) meeting the request."""
+    if request.pinned or request.objective in ("most-signals", "fewest-signals"):
+        return None
+    occurrences = [Occurrence(p.start, p.start + p.length, p.signal)
+                   for slots in priors.values() for p in slots if p.present and p.choice < len(p.bins)]
+    present = {o.signal for o in occurrences}
+    if any(name not in present for name in request.require) or any(n in present for n in request.forbid):
+        return None
+    if any(o.stop > duration for o in occurrences):
+        return None
+    violations = check_schedule(model, Schedule.of(duration, occurrences))
+    constraint_violated = any(v.kind == "constraint" for v in violations)
+    if any(v.kind != "constraint" for v in violations):
+        return None
+    if request.mode == "constraint-less":
+        return occurrences if constraint_violated else None
+    return None if constraint_violated else occurrences
+
+
+def _witness(model: ir.Model) -> Mapping[str, int]:
+    mentions = atom_mentions(model)
+    return {s.id: max(1, mentions[s.id]) for s in model.signals}
+
+
+def _later_counts(model: ir.Model, duration: int, end: int, committed: Committed) -> dict[str, int]:
+    """Later slots of repetitive signals after a window ending at ``end``: the witness bound."""
+    if end >= duration:
+        return {}
+    witness = _witness(model)
+    counts = {}
+    for signal in model.signals:
+        if not signal.repetitive:
+            continue
+        limit = semantic_limit(signal, duration - end)
+        if signal.max_occurrences is not None:
+            limit = min(limit, signal.max_occurrences - committed.counts[signal.id])
+        counts[signal.id] = max(0, min(limit, witness[signal.id], MAX_SLOTS))
+    return counts
+
+
+def _extended(model: ir.Model, priors: Mapping[str, Sequence[SlotPrior]], frame: Frame,
+              duration: int) -> tuple[dict[str, list[SlotPrior]], bool]:
+    """Priors with at least the witness bound of window slots (extra slots drawn absent),
+    and whether window plus later slots now reach the witness bound everywhere."""
+    from mse.solve.cpsat.prior import repetitive_priors
+
+    witness = _witness(model)
+    end = duration if frame.end is None else frame.end
+    extended: dict[str, list[SlotPrior]] = {}
+    complete = True
+    for signal in model.signals:
+        slots = list(priors[signal.id])
+        if signal.repetitive and slots:
+            free_from = max([frame.begin] + [stop for _, stop in frame.past.get(signal.id, ())])
+            _low, _ = length_bounds(signal, duration)
+            room = None if signal.max_occurrences is None else signal.max_occurrences - frame.committed.get(
+                signal.id, 0)
+            limit = min(semantic_limit(signal, duration - free_from), room if room is not None else MAX_SLOTS)
+            wanted = min(max(len(slots), witness[signal.id]), limit, MAX_SLOTS)
+            if wanted > len(slots):
+                drawn = [(p.start, p.start + p.length) for p in slots if p.present]
+                slots = repetitive_priors(signal, duration, frame.begin, end, free_from, room, wanted, drawn,
+                                          random.Random(f"extend/{signal.id}"))
+            needed = min(semantic_limit(signal, duration - free_from), witness[signal.id],
+                         room if room is not None else witness[signal.id])
+            complete &= len(slots) + frame.later.get(signal.id, 0) >= needed
+        extended[signal.id] = slots
+    return extended, complete
+
+
+def _build(model: ir.Model, request: SolveRequest, priors: Mapping[str, Sequence[SlotPrior]],
+           frame: Frame, duration: int) -> Encoding:
+    free = request.mode == "constraint-less"
+    return build(model, duration, {name: len(slots) for name, slots in priors.items()},
+                 constraints=not free, violate=free, pins=request.pinned, require=request.require,
+                 forbid=request.forbid, frame=frame)
+
+
+def _solve_frame(
+    model: ir.Model,
+    request: SolveRequest,
+    seed: int,
+    frame: Frame,
+    priors: Mapping[str, Sequence[SlotPrior]],
+    previous: Sequence[Schedule],
+    later_hints: Sequence[Occurrence],
+    *,
+    first: bool,
+    deadline: float,
+) -> list[Occurrence]:
+    """The decided occurrences of one frame (window and later slots)."""
     from ortools.sat.python import cp_model
 
     from mse.solve.cpsat.objective import set_objective
 
     duration = to_ticks(request.duration)
-    pins = [p.signal for p in request.pinned]
-    counts = slot_counts(model, duration, complete=False, pins=pins)
-    deadline = time.monotonic() + request.time_limit
-    # First a light search with half the time; a time-out or an infeasible answer is
-    # then retried with default parameters (and, when infeasible, enough slots for a proof).
-    light = True
-    while (remaining := deadline - time.monotonic()) > 0:
-        enc = _build(model, request, counts)
-        set_objective(enc, request.objective, seed, previous)
-        solver = make_solver(remaining / 2 if light else remaining, request.workers, seed, light=light)
-        if light and previous:
-            # Maximising distances rarely finishes its proof: keep the best found after a
-            # fixed amount of *deterministic* work, so that a seed still fixes the result.
-            solver.parameters.max_deterministic_time = DIVERSE_WORK
-        status = solver.solve(enc.cp)
+    complete = False
+    while True:
+        enc = _build(model, request, priors, frame, duration)
+        stages = set_objective(enc, request.objective, seed, priors, previous, request.require)
+        _hint_later(enc, later_hints)
+        large = sum(len(enc.decided(s.id)) for s in model.signals) > LARGE_SLOTS
+        work = DIVERSE_WORK if previous else LARGE_WORK if large else SAMPLE_WORK
+        status, solver = _run(enc, request, seed, deadline, work, large=large)
         if status in (cp_model.OPTIMAL, cp_model.FEASIBLE):
-            return verified(model, decode(enc, solver), constraints=request.mode != "constraint-less")
-        if status == cp_model.INFEASIBLE:
-            complete = slot_counts(model, duration, complete=True, pins=pins)
-            if any(complete[s] > counts[s] for s in counts):
-                counts = {s: max(counts[s], complete[s]) for s in counts}
-                light = False
-                continue
-            if is_complete(model, duration, counts, pins):
-                raise _proven_infeasible(model, request)
-            message = (f"no timeline of {request.duration:g} s with at most {MAX_SLOTS} occurrences "
-                       "per signal; this is not a proof that none exists")
-            raise NoSolution([Diagnostic("W401", message, Span(model.path))], proven=False, reason=message)
-        if not light:
+            if stages.second and not large and solver.value(sum(stages.second)) < 0:
+                return _positions(enc, request, seed, deadline, solver, stages, large=large)
+            return _decode(enc, solver)
+        if status != cp_model.INFEASIBLE:
+            message = (f"no timeline of {request.duration:g} s found within the time limit of "
+                       f"{request.time_limit:g} s; this is not a proof that none exists (raise --time-limit)")
+            raise NoSolution([Diagnostic("W401", message, _where(model))], proven=False, reason=message)
+        if complete:
             break
-        light = False
-    message = (f"no timeline of {request.duration:g} s found within the time limit of "
-               f"{request.time_limit:g} s; this is not a proof that none exists (raise --time-limit)")
-    raise NoSolution([Diagnostic("W401", message, Span(model.path))], proven=False, reason=message)
+        # Infeasible with the drawn number of slots: retry once with the witness bound of
+        # slots, where "infeasible" is a proof (unless MAX_SLOTS cut the bound).
+        extended, complete = _extended(model, priors, frame, duration)
+        if all(len(extended[name]) == len(slots) for name, slots in priors.items()):
+            break
+        priors = extended
+    if not first:
+        raise RuntimeError("a committed window could not be extended (a bug: the later slots proved it could)")
+    if not complete:
+        message = (f"no timeline of {request.duration:g} s with at most {MAX_SLOTS} occurrences "
+                   "per signal; this is not a proof that none exists")
+        raise NoSolution([Diagnostic("W401", message, _where(model))], proven=False, reason=message)
+    raise _proven_infeasible(model, request)
+
+
+def _hint_later(enc: Encoding, later_hints: Sequence[Occurrence]) -> None:
+    """Later slots start from the previous window's plan for them."""
+    from mse.solve.cpsat.objective import hint
+
+    by_signal: dict[str, list[Occurrence]] = {}
+    for occurrence in later_hints:
+        by_signal.setdefault(occurrence.signal, []).append(occurrence)
+    for name, slots in enc.slots.items():
+        hinted = sorted(by_signal.get(name, []))
+        for rank, slot in enumerate(s for s in slots if s.group == "later"):
+            if rank < len(hinted):
+                hint(enc, slot, hinted[rank].start, hinted[rank].stop - hinted[rank].start)
+            else:
+                hint(enc, slot, -1, 0)
+
+
+def _solver(request: SolveRequest, seed: int, deadline: float, work: float, *, large: bool) -> Any:
+    """No presolve (it costs more than the search on these models).  Small models: the LP
+    relaxation proves the optimum at once.  Large ones: no LP (it costs more than the whole
+    search), branching on the hint (the thinned draw) and stopping at the first timeline:
+    improving it costs seconds for little."""
+    from ortools.sat.python import cp_model
+
+    solver = make_solver(max(0.01, deadline - time.monotonic()), request.workers, seed, light=True)
+    if large:
+        solver.parameters.search_branching = cp_model.HINT_SEARCH
+        solver.parameters.stop_after_first_solution = True
+    else:
+        solver.parameters.linearization_level = 2
+    solver.parameters.max_deterministic_time = work
+    return solver
+
+
+def _run(enc: Encoding, request: SolveRequest, seed: int, deadline: float, work: float, *,
+         large: bool) -> tuple[Any, Any]:
+    """Solve with a deterministic work budget; without any timeline by then, go on to the first
+    one (or a proof) within the wall-clock deadline."""
+    from ortools.sat.python import cp_model
+
+    solver = _solver(request, seed, deadline, work, large=large)
+    status = solver.solve(enc.cp)
+    if status != cp_model.UNKNOWN:
+        return status, solver
+    solver = make_solver(max(0.01, deadline - time.monotonic()), request.workers, seed)
+    solver.parameters.stop_after_first_solution = True
+    return solver.solve(enc.cp), solver
+
+
+def _positions(enc: Encoding, request: SolveRequest, seed: int, deadline: float, first: Any,
+               stages: Stages, *, large: bool) -> list[Occurrence]:
+    """Stage 2: every option kept as stage 1 chose it, positions as close as possible to
+    their targets (within POSITION_WORK); stage 1's timeline if nothing better is found."""
+    from ortools.sat.python import cp_model
+
+    found = _decode(enc, first)
+    cp = enc.cp
+    for literal in stages.options:
+        cp.add_bool_or([literal if first.boolean_value(literal) else ~literal])
+    cp.clear_hints()  # type: ignore[no-untyped-call]
+    for slots in enc.slots.values():
+        for slot in slots:
+            if slot.decided:
+                for edge in (slot.start, slot.stop, slot.length):
+                    cp.add_hint(var(edge), first.value(edge))
+    hinted = {slot.present.index for slots in enc.slots.values() for slot in slots
+              if slot.decided}
+    for literal in stages.options:
+        if literal.index not in hinted:
+            cp.add_hint(literal, first.boolean_value(literal))
+    for slots in enc.slots.values():
+        for slot in slots:
+            if slot.decided:
+                cp.add_hint(slot.present, first.boolean_value(slot.present))
+    cp.maximize(sum(stages.second))
+    solver = _solver(request, seed, deadline, POSITION_WORK, large=large)
+    status = solver.solve(cp)
+    if status in (cp_model.OPTIMAL, cp_model.FEASIBLE):
+        return _decode(enc, solver)
+    return found
+
+
+def _decode(enc: Encoding, solver: Any) -> list[Occurrence]:
+    found = []
+    for slots in enc.slots.values():
+        for slot in slots:
+            if slot.decided and solver.boolean_value(slot.present):
+                start, stop = solver.value(slot.start), solver.value(slot.stop)
+                found.append(Occurrence(start, stop, slot.signal))
+    return found
+
+
+def _where(model: ir.Model) -> Span:
+    """Where a whole-set finding points: the first constraint (else the first signal)."""
+    if model.constraints and model.constraints[0].span.line > 0:
+        return model.constraints[0].span
+    if model.signals and model.signals[0].span.line > 0:
+        return model.signals[0].span
+    return Span(model.path)
 
 
 def _proven_infeasible(model: ir.Model, request: SolveRequest) -> NoSolution:
     from mse.solve.cpsat.explain import explain
 
+    constraint_less = request.mode == "constraint-less"
+    if constraint_less:
+        message = (f"no timeline of {request.duration:g} s violates a constraint of {model.name!r}: "
+                   "every constraint holds in every timeline that meets the request")
+        return NoSolution([Diagnostic("W401", message, _where(model))], proven=True, reason=message)
     explanation = explain(
         model, request.duration, pinned=request.pinned, require=request.require,
         forbid=request.forbid, time_limit=min(request.time_limit, 5.0),
-        constraints=request.mode != "constraint-less",
     )
     if explanation is None:  # the explainer ran out of time before its own proof
         message = f"no timeline of {request.duration:g} s exists"
-        return NoSolution([Diagnostic("W401", message, Span(model.path))], proven=True, reason=message)
+        return NoSolution([Diagnostic("W401", message, _where(model))], proven=True, reason=message)
     return NoSolution(explanation.diagnostics(model), proven=True, reason=explanation.render())
 
 
@@ -121,6 +424,8 @@ def enumerate_schedules(
     """Every consistent schedule whose times lie on a grid of ``grid`` seconds (tests: the
     csp oracle must find exactly as many).  Occurrence slots are the semantic limit."""
     from ortools.sat.python import cp_model
+
+    from mse.solve.cpsat.engine import decode
 
     ticks, step = to_ticks(duration), to_ticks(grid)
     enc = build(model, ticks, slot_counts(model, ticks, complete=False, step=step, exact=True), step=step)
