@@ -71,7 +71,7 @@ def _witness(signals: Sequence[ir.Signal], duration: int, rng: random.Random) ->
     return placed
 
 
-def _expression(style: str, a: str, b: str, rng: random.Random, ids: Sequence[str]) -> ir.Expr:
+def _expression(style: str, a: str, b: str, rng: random.Random, ids: Sequence[str], local: bool = False) -> ir.Expr:
     if style == "needs-relation":
         return ir.And((ir.Exists(a), ir.Relation(rng.choice(RELATIONS), a, b)))
     if style == "needs":
@@ -96,8 +96,8 @@ def _expression(style: str, a: str, b: str, rng: random.Random, ids: Sequence[st
     # nested: two or three atoms under and/or/not/implies
     atoms: list[ir.Expr] = []
     for _ in range(rng.randint(2, 3)):
-        x, y = rng.sample(list(ids), 2) if rng.random() < 0.3 else (a, b)
-        atoms.append(_expression(rng.choice(("relation", "compare", "exists", "equal")), x, y, rng, ids))
+        x, y = (a, rng.choice([i for i in ids if i != a])) if rng.random() < 0.3 and not local else (a, b)
+        atoms.append(_expression(rng.choice(("relation", "compare", "exists", "equal")), x, y, rng, ids, local))
     shape = rng.choice(("and", "or", "implies", "not-or"))
     if shape == "and":
         return ir.And(tuple(atoms))
@@ -132,9 +132,15 @@ def _xml(name: str, signals: Sequence[ir.Signal], exprs: Sequence[ir.Expr], excl
     return "\n".join(lines)
 
 
-def feasible_set(signals: int, constraints: int, seed: int, duration: float = 10.0) -> str:
+def feasible_set(signals: int, constraints: int, seed: int, duration: float = 10.0, *,
+                 locality: int | None = None, mandatory: float = 1.0) -> str:
     """XML of a set with ``signals`` signals and ``constraints`` constraints that has a
-    consistent timeline of ``duration`` seconds (a planted witness satisfies every constraint)."""
+    consistent timeline of ``duration`` seconds (a planted witness satisfies every constraint).
+
+    ``locality`` k relates signals only within groups of k consecutive ids (as an author
+    relates the signals of one display, or as several displays merged into one file do),
+    instead of any two signals; ``mandatory`` scales how often a constraint demands a signal
+    (``exists``)."""
     rng = random.Random(seed)
     members = _signals(signals, rng)
     ids = [s.id for s in members]
@@ -146,12 +152,18 @@ def feasible_set(signals: int, constraints: int, seed: int, duration: float = 10
     while len(exprs) < constraints and attempts < 50 * constraints:
         attempts += 1
         style = rng.choice(STYLES)
+        if style in ("needs-relation", "exists") and rng.random() > mandatory:
+            continue
         if style in ("needs-relation", "exists") and present and rng.random() < 0.7:
             a = rng.choice(present)
         else:
             a = rng.choice(ids)
-        b = rng.choice([i for i in ids if i != a])
-        expr = _expression(style, a, b, rng, ids)
+        if locality is None:
+            b = rng.choice([i for i in ids if i != a])
+        else:
+            at = ids.index(a) // locality * locality
+            b = rng.choice([i for i in ids[at:at + locality] if i != a] or [i for i in ids if i != a])
+        expr = _expression(style, a, b, rng, ids, locality is not None)
         constraint = ir.Constraint(id="c", expr=expr)
         if constraint_status(constraint, witness, ticks) is not False:
             exprs.append(expr)

@@ -24,9 +24,9 @@ from mse import progress
 from mse.diagnostics import Diagnostic, MseError, Span, has_errors
 from mse.ir.evaluate import Violation, check_schedule
 from mse.ir.model import Model
-from mse.ir.schedule import to_seconds
+from mse.ir.schedule import Schedule, to_seconds
 from mse.resources import bundled_names, bundled_path
-from mse.solve.protocol import Pin, SolveRequest, check_supported, derive_seed, get_solver
+from mse.solve.protocol import Pin, Solver, SolveRequest, check_supported, derive_seed, get_solver
 from mse.timeline import Timeline, TimelineSignal, from_schedule
 
 #: The name of the default objective: every backend follows the probability profile
@@ -420,16 +420,50 @@ def sample(
     >>> "head_forward" in {s.id for s in pinned.signals}
     False
     """
+    timelines = list(iter_timelines(model, duration, seed=seed, count=count or 1, solver=solver, mode=mode,
+                                    **options))
+    return timelines if count is not None else timelines[0]
+
+
+def iter_timelines(
+    model: Model,
+    duration: float = 10.0,
+    *,
+    seed: int | None = None,
+    count: int = 1,
+    solver: str = "greedy",
+    mode: str = "consistent",
+    **options: object,
+) -> Iterator[Timeline]:
+    """The timelines of :func:`sample`, each yielded as soon as it is solved (memory stays
+    flat whatever ``count``).  Timeline *i* has seed ``seed + i`` and is what ``count=None,
+    seed=seed + i`` gives alone.  With ``diverse=True`` it also depends on the timelines before
+    it; its JSON then records ``"diverse": {"seed": seed, "index": i}``, which reproduces it
+    (``--seed seed --count i+1 --diverse``, last timeline).
+
+    >>> import mse
+    >>> stream = mse.iter_timelines(mse.load("anger"), 10.0, seed=3, count=10**9)
+    >>> [next(stream).seed for _ in range(2)]
+    [3, 4]
+    """
     backend = get_solver(solver)
-    request = _request(duration, seed, count or 1, mode=mode, **options)
+    request = _request(duration, seed, count, mode=mode, **options)
     check_supported(backend, request)
-    schedules = backend.solve(model, request)
     motions = motion_annotations(model)
     source = expression_source(model)
     # How each timeline was made (the default solver: "walk" or its fallback) and the mode.
-    methods: list[str] = list(getattr(backend, "methods", ()))
-    timelines = [
-        with_source(
+    schedules: Iterable[tuple[Schedule, str | None]]
+    if request.diverse:
+        # each one depends on those before it
+        together = backend.solve(model, request)
+        methods: list[str] = list(getattr(backend, "methods", ()))
+        schedules = ((schedule, methods[index] if index < len(methods) else None)
+                     for index, schedule in enumerate(together))
+    else:
+        schedules = (_one(backend, model, replace(request, seed=derive_seed(request.seed, index), count=1))
+                     for index in range(count))
+    for index, (schedule, method) in enumerate(schedules):
+        timeline = with_source(
             replace(
                 from_schedule(
                     schedule,
@@ -439,13 +473,20 @@ def sample(
                     seed=derive_seed(request.seed, index),
                     motions=motions,
                 ),
-                extra={"mode": request.mode, **({"method": methods[index]} if index < len(methods) else {})},
+                extra={"mode": request.mode, **({"method": method} if method is not None else {})},
             ),
             source,
         )
-        for index, schedule in enumerate(schedules)
-    ]
-    return timelines if count is not None else timelines[0]
+        if request.diverse:
+            timeline = replace(timeline, extra={**timeline.extra, "diverse": {"seed": request.seed, "index": index}})
+        yield timeline
+
+
+def _one(backend: Solver, model: Model, request: SolveRequest) -> tuple[Schedule, str | None]:
+    """The one timeline of ``request`` (count 1) and how it was made, when the backend says."""
+    schedule = backend.solve(model, request)[0]
+    methods = list(getattr(backend, "methods", ()))
+    return schedule, (methods[0] if methods else None)
 
 
 def iter_sample(
@@ -456,8 +497,9 @@ def iter_sample(
     solver: str = "greedy",
     **options: object,
 ) -> Iterator[TimelineSignal]:
-    """The signals of one timeline, each yielded as soon as the solver decides it
-    (solvers that cannot stream raise :class:`mse.MseError`); options as :func:`sample`.
+    """The signals of one timeline, each yielded as soon as the solver decides it (a solver
+    that decides a whole timeline at once hands its signals out in order); options as
+    :func:`sample`.
 
     >>> import mse
     >>> model = mse.load("relief")
@@ -468,10 +510,10 @@ def iter_sample(
     backend = get_solver(solver)
     request = _request(duration, seed, 1, **options)
     check_supported(backend, request)
-    if "stream" not in backend.supports:
-        raise MseError([Diagnostic("E100", f"solver {solver!r} cannot stream", Span("<arguments>"))])
     motions = motion_annotations(model)
-    for occurrence in backend.stream(model, request):
+    occurrences = (backend.stream(model, request) if "stream" in backend.supports
+                   else iter(backend.solve(model, request)[0].occurrences))
+    for occurrence in occurrences:
         modality, lexeme = model.signal_info[occurrence.signal]
         yield TimelineSignal(
             occurrence.signal,

@@ -2,7 +2,7 @@
 
 Every layer reports problems as :class:`Diagnostic` records; front-ends (the CLI, an
 editor, CI) decide how to render them.  Codes: ``E1xx`` syntax, ``E2xx`` semantics,
-``W3xx`` static lint, ``W4xx`` solver-backed lint, ``W5xx`` import/conversion notes,
+``W3xx`` static lint, ``E4xx``/``W4xx`` solver-backed lint, ``W5xx`` import/conversion notes,
 ``W6xx`` export notes.
 """
 
@@ -75,11 +75,14 @@ CODES: dict[str, str] = {
     "W306": "lexeme class contradicts the modality",
     "W307": "unknown modality",
     "W308": "lexeme the realizer cannot resolve",
+    "W309": "time finer than the 1 ms grid (rounded)",
     "W310": "motion action unknown to the starter library",
     "W311": "max_occurrences without repetitivity=\"1\"",
     "W312": "exclusive modality that no signal uses",
-    # W4xx: solver-backed lint
-    "W401": "no consistent timeline",
+    # E4xx / W4xx: solver-backed lint
+    "W400": "solver-backed questions left undecided (lint time budget spent)",
+    "E401": "no consistent timeline (proven, with a minimal explanation)",
+    "W401": "no consistent timeline found (undecided, or not proven)",
     "W402": "dead signal",
     "W403": "constraint never instantiated",
     "W404": "redundant constraint",

@@ -59,9 +59,10 @@ def test_every_rule_fires_on_its_case() -> None:
     assert lines["W402"] == 6 and lines["W406"] == 7
 
 
-def test_no_timeline_carries_the_explanation() -> None:
+def test_no_timeline_is_an_error_with_the_explanation_at_file_line() -> None:
     found = deep_lint(load(FIXTURES / "conflict.xml"), 2.0)
-    assert [d.code for d in found] == ["W401"]
+    assert [d.code for d in found] == ["E401"]
+    assert found[0].is_error and found[0].span.line > 0
     assert "no timeline of 2 s" in found[0].message and "needs_a (" in found[0].message
 
 
@@ -71,7 +72,7 @@ def test_clean_fixture() -> None:
 
 def test_api_lint_deep_runs_the_rules() -> None:
     found = mse.api.lint([FIXTURES / "conflict.xml"], deep=True, duration=2.0)
-    assert any(d.code == "W401" for d in found)
+    assert any(d.code == "E401" for d in found)
 
 
 def test_bundled_sets_deep_lint_finds_timelines() -> None:
@@ -79,7 +80,7 @@ def test_bundled_sets_deep_lint_finds_timelines() -> None:
     if not bundled_names():
         pytest.skip("no bundled sets")
     found = mse.api.lint([behaviour_sets_dir()], deep=True)
-    assert not any(d.code == "W401" for d in found), [d.render() for d in found]
+    assert not any(d.code in ("E401", "W401") for d in found), [d.render() for d in found]
 
 
 @pytest.mark.shared
@@ -93,4 +94,4 @@ def test_greta_sets_deep_lint(greta_dir: Path) -> None:
         results[expression.name] = deep_lint(model, 10.0)
     for name, found in results.items():
         assert not any("undecided" in d.message for d in found), name
-        assert not any(d.code == "W401" for d in found), name
+        assert not any(d.code in ("E401", "W401") for d in found), name

@@ -3,12 +3,14 @@
 from __future__ import annotations
 
 import argparse
+import contextlib
 import json
 import os
 import re
 import stat
 import sys
 import time
+from collections.abc import Iterable, Iterator
 from typing import Any
 
 from mse.cli.common import add_quiet, emit, print_diagnostics, print_error, read_stdin_bytes
@@ -202,8 +204,8 @@ def _validate(args: argparse.Namespace) -> None:
         problems.append("--count must be between 1 and 1000000")
     if args.realtime and not args.stream:
         problems.append("--realtime goes with --stream")
-    if args.stream and (args.count or args.format not in (None, "jsonl", "json")):
-        problems.append("--stream prints one timeline as JSON lines; drop --count/--format")
+    if args.stream and args.format not in (None, "jsonl", "json"):
+        problems.append("--stream prints JSON lines; drop --format")
     if problems:
         raise MseError([Diagnostic("E100", p, Span("<arguments>")) for p in problems])
 
@@ -224,24 +226,87 @@ def run(args: argparse.Namespace) -> int:
         return print_error(error)
 
 
-def _stream(model: Any, args: argparse.Namespace) -> int:
-    from mse.api import iter_sample
+class _Output:
+    """Where streamed output goes: stdout, or a file written atomically (a temporary file
+    that takes the output's place when everything is written).  The first write is flushed at
+    once, later ones every FLUSH_EVERY seconds, so that a reader sees the first timeline
+    without waiting for the rest."""
 
-    began = time.monotonic()
-    for signal in iter_sample(
-        model, args.duration, seed=args.seed, solver=args.solver, mode=args.mode, **_options(args)
-    ):
-        if args.realtime:
-            delay = signal.start - (time.monotonic() - began)
-            if delay > 0:
-                time.sleep(delay)
-        print(json.dumps(signal.to_json()), flush=True)
+    FLUSH_EVERY = 0.2
+
+    def __init__(self, handle: Any) -> None:
+        self.handle = handle
+        self.flushed = 0.0
+
+    def write(self, text: str) -> None:
+        self.handle.write(text)
+        now = time.monotonic()
+        if now - self.flushed >= self.FLUSH_EVERY:
+            self.handle.flush()
+            self.flushed = now
+
+
+@contextlib.contextmanager
+def _output(path: str | None, inputs: Iterable[str]) -> Iterator[_Output]:
+    if path and path != "-":
+        from mse.fileio import atomic_path
+
+        with atomic_path(path, inputs=inputs) as temporary, open(temporary, "w", encoding="utf-8") as handle:
+            yield _Output(handle)
+        return
+    try:
+        yield _Output(sys.stdout)
+        sys.stdout.flush()
+    except BrokenPipeError:
+        # The reader went away (``| head``): stop quietly, and let no later flush complain.
+        devnull = os.open(os.devnull, os.O_WRONLY)
+        os.dup2(devnull, sys.stdout.fileno())
+        raise
+
+
+def _seed(args: argparse.Namespace) -> int:
+    """The seed of the run: given, or fresh (and recorded in the output)."""
+    if args.seed is not None:
+        return int(args.seed)
+    import random
+
+    return random.SystemRandom().randrange(2**31)
+
+
+def _stream(model: Any, args: argparse.Namespace) -> int:
+    """JSON lines, one per occurrence as soon as it is decided; each line names the expression,
+    the seed and the duration of its timeline (``--count``: timelines one after another)."""
+    from mse.api import iter_sample
+    from mse.solve.protocol import derive_seed
+
+    seed = _seed(args)
+    with _output(args.output, [p for p in (args.source,) if p]) as out:
+        for index in range(args.count or 1):
+            began = time.monotonic()
+            timeline_seed = derive_seed(seed, index)
+            for signal in iter_sample(
+                model, args.duration, seed=timeline_seed, solver=args.solver, mode=args.mode, **_options(args)
+            ):
+                if args.realtime:
+                    delay = signal.start - (time.monotonic() - began)
+                    if delay > 0:
+                        time.sleep(delay)
+                line = {**signal.to_json(), "expression": model.name, "seed": timeline_seed,
+                        "duration": args.duration}
+                out.write(json.dumps(line, ensure_ascii=False) + "\n")
     return 0
 
 
 def _sample(model: Any, args: argparse.Namespace) -> int:
-    from mse.api import sample
+    from mse.api import iter_timelines, sample
 
+    fmt = args.format or ("table" if sys.stdout.isatty() and not args.output else "json")
+    if args.count is not None and not args.animate and fmt in BASE_FORMATS:
+        timelines_stream = iter_timelines(model, args.duration, seed=args.seed, count=args.count,
+                                          solver=args.solver, mode=args.mode, **_options(args))
+        with _output(args.output, [p for p in (args.source,) if p]) as out:
+            _write_many(timelines_stream, fmt, out)
+        return 0
     result = sample(
         model, args.duration, seed=args.seed, count=args.count, solver=args.solver, mode=args.mode, **_options(args)
     )
@@ -253,7 +318,6 @@ def _sample(model: Any, args: argparse.Namespace) -> int:
 
         inputs = [p for p in (args.source, args.library) if p]
         timelines = animate_timelines([(t, model) for t in timelines], Path(args.animate), args.library, inputs=inputs)
-    fmt = args.format or ("table" if sys.stdout.isatty() and not args.output else "json")
     if fmt in VIDEO_FORMATS:
         return _video(timelines, fmt, args)
     if fmt in EXPORT_FORMATS and args.output and _is_folder(args.output):
@@ -261,6 +325,22 @@ def _sample(model: Any, args: argparse.Namespace) -> int:
     inputs = [p for p in (args.source, args.library, args.face_library) if p]
     emit(_render(timelines, fmt, args, many=args.count is not None), args.output, inputs=inputs)
     return 0
+
+
+def _write_many(timelines: Iterable[Any], fmt: str, out: _Output) -> None:
+    """``--count`` output written timeline by timeline (the same text as rendering them all)."""
+    for index, timeline in enumerate(timelines):
+        if fmt == "jsonl":
+            out.write(timeline.dumps(indent=None) + "\n")
+        elif fmt == "json":
+            item = json.dumps(timeline.to_json(), indent=2, ensure_ascii=False).replace("\n", "\n  ")
+            out.write(("[\n  " if index == 0 else ",\n  ") + item)
+        else:
+            from mse.cli.table import render_table
+
+            out.write(("" if index == 0 else "\n") + render_table(timeline))
+    if fmt == "json":
+        out.write("\n]\n")
 
 
 def _is_folder(output: str) -> bool:

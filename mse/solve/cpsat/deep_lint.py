@@ -1,9 +1,7 @@
-"""Solver-backed lint (W401-W406): questions about *all* consistent timelines.
+"""Solver-backed lint (E401, W401-W406): questions about *all* consistent timelines.
 
-One switchable CP-SAT model (:mod:`mse.solve.cpsat.encode`) answers every question by
-assumptions, each query with a small time limit:
-
-* W401 no consistent timeline at all (the message carries the minimal explanation);
+* E401 no consistent timeline at all: an error, with the minimal explanation at file:line
+  (W401 when it could not be decided within the time limit);
 * W402 dead signal: it occurs in no consistent timeline;
 * W403 constraint never instantiated: none of its trigger signals can occur;
 * W404 redundant constraint: the other constraints imply it (it cannot be violated
@@ -13,37 +11,71 @@ assumptions, each query with a small time limit:
 * W406 probability profile contradicted: probability_start > 0, but the signal can never
   start in the first time stamp (``FIRST_STAMP``).
 
-Every consistent timeline found on the way is *harvested*: a signal seen present is not
-dead, one seen absent is not forced, and so on, which skips most queries.  A query that
-hits its time limit is reported as undecided, with the same code, rather than guessed.
+The first question is answered by the sampler itself (a consistent timeline, or a proof and
+its explanation).  Every consistent timeline found on the way is *harvested*: a signal seen
+present is not dead, one seen absent is not forced, and so on, which skips most questions.
+The others go to :class:`mse.solve.cpsat.oracle.Oracle`, which tries answers that cost the
+same whatever the size of the set (moving a few signals of a known timeline; disproving on
+the constraints near the question) before asking one model of the whole set.  So lint grows
+about linearly with the size of the set.  A query that hits its time limit is reported as
+undecided, with the same code, rather than guessed.
 """
 
 from __future__ import annotations
 
-from collections.abc import Sequence
-from dataclasses import dataclass, field
-
 from mse.diagnostics import Diagnostic, Span
 from mse.ir import model as ir
-from mse.ir.evaluate import intervals_of, is_instantiated
+from mse.ir.evaluate import constraint_status, intervals_of, is_instantiated
 from mse.ir.schedule import to_ticks
-from mse.solve.bounds import slot_counts
-from mse.solve.cpsat.encode import Encoding, Lit, build, lnot
+from mse.solve.cpsat.encode import Encoding, Lit, lnot
+from mse.solve.cpsat.explain import whole_set_span
+from mse.solve.cpsat.oracle import Oracle, Question
 
 #: Length of the first time stamp (the greedy sampler's slot is about 1 s).
 FIRST_STAMP = 1.0
 #: Default time limit of one query, in seconds.
 QUERY_TIME = 0.5
+#: Timelines sampled first (each harvested), with this much CP-SAT work each.
+SAMPLES = 1
+SAMPLE_WORK = 0.02
+#: Seconds spent in all on questions only the whole set could answer (after the cheap steps);
+#: questions left then are summed up in one W400 note instead of being asked.
+WHOLE_BUDGET = 2.0
 
 
-@dataclass
-class _Seen:
-    """What harvested consistent timelines have shown."""
+def early_literal(enc: Encoding, signal_id: str, stamp: int) -> Lit:
+    """'the first occurrence of ``signal_id`` starts before ``stamp``' in ``enc``."""
+    slots = enc.decided(signal_id)
+    if not slots:
+        return False
+    literal = enc.cp.new_bool_var(f"early:{signal_id}")
+    enc.cp.add_implication(literal, slots[0].present)
+    enc.cp.add(slots[0].start <= stamp - 1).only_enforce_if(literal)
+    return literal
 
-    present: set[str] = field(default_factory=set)
-    absent: set[str] = field(default_factory=set)
-    instantiated: set[str] = field(default_factory=set)
-    early: set[str] = field(default_factory=set)
+
+def _occurs(name: str) -> Question:
+    return Question(frozenset({name}), lambda iv: bool(iv.get(name)), lambda enc: [enc.occurs[name]])
+
+
+def _absent(name: str) -> Question:
+    return Question(frozenset({name}), lambda iv: not iv.get(name), lambda enc: [lnot(enc.occurs[name])])
+
+
+def _early(name: str, stamp: int) -> Question:
+    return Question(frozenset({name}), lambda iv: any(a < stamp for a, _ in iv.get(name, ())),
+                    lambda enc: [early_literal(enc, name, stamp)])
+
+
+def _instantiated(constraint: ir.Constraint) -> Question:
+    return Question(constraint.triggers, lambda iv: is_instantiated(constraint, iv),
+                    lambda enc: [enc.instantiated[constraint.id]])
+
+
+def _violated(constraint: ir.Constraint, ticks: int) -> Question:
+    return Question(ir.mentioned_signals(constraint.expr),
+                    lambda iv: constraint_status(constraint, iv, ticks) is False,
+                    lambda enc: [enc.violated[constraint.id]], drop=constraint.id)
 
 
 class _Linter:
@@ -52,137 +84,103 @@ class _Linter:
         self.duration = duration
         self.ticks = to_ticks(duration)
         self.query_time = query_time
-        counts = slot_counts(model, self.ticks, complete=True)
-        self.enc: Encoding = build(model, self.ticks, counts, switchable=True)
-        self.rules = list(self.enc.enable)
         self.stamp = min(self.ticks, to_ticks(FIRST_STAMP))
-        self.early: dict[str, Lit] = {}
-        for signal_id, slots in self.enc.slots.items():
-            if slots:  # slot 0 is the earliest occurrence (slots are ordered)
-                starts_early = self.enc.cp.new_bool_var(f"early:{signal_id}")
-                self.enc.cp.add_implication(starts_early, slots[0].present)
-                self.enc.cp.add(slots[0].start <= self.stamp - 1).only_enforce_if(starts_early)
-                self.early[signal_id] = starts_early
-            else:
-                self.early[signal_id] = False
-        self.seen = _Seen()
-        self.redundant: list[str] = []
+        self.oracle = Oracle(model, self.ticks, query_time, self.stamp)
         self.found: list[Diagnostic] = []
-
-    def query(self, extra: Sequence[Lit], *, rules: Sequence[str] | None = None,
-              harvest: bool = True) -> str:
-        """'feasible' | 'infeasible' | 'unknown' under ``rules`` (default all) and ``extra``."""
-        from ortools.sat.python import cp_model
-
-        from mse.solve.cpsat.engine import decode, make_solver
-
-        if any(lit is False for lit in extra):
-            return "infeasible"
-        literals: list[Lit] = [self.enc.enable[k] for k in (self.rules if rules is None else rules)]
-        literals += [lit for lit in extra if lit is not True]
-        self.enc.cp.clear_assumptions()
-        self.enc.cp.add_assumptions(literals)
-        # Presolve costs ten times more than the search on these small models: try
-        # without it first, and with it only when the light search runs out of time.
-        for light in (True, False):
-            solver = make_solver(self.query_time / 2 if light else self.query_time, light=light)
-            status = solver.solve(self.enc.cp)
-            if status != cp_model.UNKNOWN:
-                break
-        if status in (cp_model.OPTIMAL, cp_model.FEASIBLE):
-            if harvest:
-                self._harvest(decode(self.enc, solver))
-            return "feasible"
-        return "infeasible" if status == cp_model.INFEASIBLE else "unknown"
-
-    def _harvest(self, schedule: object) -> None:
-        from mse.ir.schedule import Schedule
-
-        assert isinstance(schedule, Schedule)
-        intervals = intervals_of(schedule)
-        for signal in self.model.signals:
-            occurrences = intervals.get(signal.id)
-            if occurrences:
-                self.seen.present.add(signal.id)
-                if min(o[0] for o in occurrences) < self.stamp:
-                    self.seen.early.add(signal.id)
-            else:
-                self.seen.absent.add(signal.id)
-        for constraint in self.model.constraints:
-            if is_instantiated(constraint, intervals):
-                self.seen.instantiated.add(constraint.id)
+        self.skipped: list[str] = []  # questions not asked: "CODE subject"
 
     def report(self, code: str, message: str, span: Span, status: str) -> None:
         if status == "unknown":
             message = f"undecided within {self.query_time:g} s: {message}?"
         self.found.append(Diagnostic(code, message, span))
 
-    # -- the rules ---------------------------------------------------------------------------
     def run(self) -> list[Diagnostic]:
-        status = self.query([])
-        if status != "feasible":
-            self._no_timeline(status)
+        if not self._sample():
             return self.found
         self._signals()
         self._constraints()
+        if self.skipped:
+            self.found.append(Diagnostic(
+                "W400", f"{len(self.skipped)} question(s) left undecided: neither a nearby timeline nor the "
+                f"constraints around them decided them, and the {WHOLE_BUDGET:g} s budget for questions about "
+                f"the whole set was spent (first: {', '.join(self.skipped[:5])})", whole_set_span(self.model)))
         return self.found
 
-    def _no_timeline(self, status: str) -> None:
-        from mse.solve.cpsat.explain import explain
+    def _sample(self) -> bool:
+        """Harvest a few sampled timelines (the first, made sparse, becomes the oracle's base);
+        False, with E401 or W401 reported, when there is none."""
+        from mse.solve.cpsat.solver import solve_one
+        from mse.solve.protocol import NoSolution, SolveRequest
 
-        if status == "unknown":
-            self.report("W401", f"is there a consistent timeline of {self.duration:g} s",
-                        Span(self.model.path), status)
-            return
-        explanation = explain(self.model, self.duration, time_limit=max(1.0, 4 * self.query_time))
-        message = (explanation.render() if explanation is not None
-                   else f"no consistent timeline of {self.duration:g} s")
-        self.found.append(Diagnostic("W401", message, Span(self.model.path)))
+        for seed in range(SAMPLES):
+            request = SolveRequest(duration=self.duration, seed=seed, time_limit=max(2.0, 4 * self.query_time),
+                                   options={"work": SAMPLE_WORK})
+            try:
+                intervals = intervals_of(solve_one(self.model, request, seed))
+            except NoSolution as error:
+                if seed > 0:
+                    break
+                if error.proven:
+                    self.found.extend(Diagnostic("E401", d.message, d.span) for d in error.diagnostics)
+                else:
+                    self.report("W401", f"is there a consistent timeline of {self.duration:g} s",
+                                whole_set_span(self.model), "unknown")
+                return False
+            self.oracle.harvest(intervals)
+            if seed == 0:
+                self.oracle.set_base(intervals)
+        return True
+
+    def _ask(self, question: Question) -> str:
+        return self.oracle.ask(question, whole=self.oracle.whole_seconds < WHOLE_BUDGET)
+
+    def _finding(self, code: str, subject: str, status: str, message: str, span: Span) -> bool:
+        """Report ``message`` unless ``status`` is 'feasible' (nothing to report) or 'skipped'
+        (remembered for the W400 note); True when something is wrong or undecided."""
+        if status == "skipped":
+            self.skipped.append(f"{code} {subject}")
+            return False
+        if status == "feasible":
+            return False
+        self.report(code, message, span, status)
+        return True
 
     def _signals(self) -> None:
         required = _directly_required(self.model)
+        what = f"{self.duration:g} s"
+        seen = self.oracle.seen
+        stamp = self.stamp
         for signal in self.model.signals:
-            occurs = self.enc.occurs[signal.id]
-            what = f"{self.duration:g} s"
-            if signal.id not in self.seen.present:
-                status = self.query([occurs])
-                if status != "feasible":
-                    self.report("W402", f"signal {signal.id!r} occurs in no consistent timeline "
-                                f"of {what}", signal.span, status)
-                    continue
-            if signal.id not in self.seen.absent and signal.id not in required:
-                status = self.query([lnot(occurs)])
-                if status != "feasible":
-                    self.report("W405", f"signal {signal.id!r} occurs in every consistent timeline "
-                                f"of {what} although no constraint requires it directly",
-                                signal.span, status)
-            if signal.probability_start > 0 and signal.id not in self.seen.early:
-                status = self.query([self.early[signal.id]])
-                if status != "feasible":
-                    self.report("W406", f"signal {signal.id!r} has probability_start "
-                                f"{signal.probability_start:g} but can never start in the first "
-                                f"{self.stamp / 1000:g} s", signal.span, status)
+            name = signal.id
+            status = "feasible" if name in seen.present else self._ask(_occurs(name))
+            if self._finding("W402", name, status, f"signal {name!r} occurs in no consistent timeline of {what}",
+                             signal.span):
+                continue
+            if name not in seen.absent and name not in required:
+                self._finding("W405", name, self._ask(_absent(name)),
+                              f"signal {name!r} occurs in every consistent timeline of {what} although no "
+                              "constraint requires it directly", signal.span)
+            if signal.probability_start > 0 and name not in seen.early:
+                self._finding("W406", name, self._ask(_early(name, stamp)),
+                              f"signal {name!r} has probability_start {signal.probability_start:g} but can never "
+                              f"start in the first {stamp / 1000:g} s", signal.span)
 
     def _constraints(self) -> None:
         for constraint in self.model.constraints:
-            if constraint.triggers and constraint.id not in self.seen.instantiated:
-                status = self.query([self.enc.instantiated[constraint.id]])
-                if status != "feasible":
-                    names = ", ".join(sorted(constraint.triggers))
-                    self.report("W403", f"constraint {constraint.id!r} is never instantiated: its "
-                                f"trigger signals ({names}) never occur in a consistent timeline "
-                                f"of {self.duration:g} s", constraint.span, status)
+            key = constraint.id
+            if constraint.triggers and key not in self.oracle.seen.instantiated:
+                names = ", ".join(sorted(constraint.triggers))
+                if self._finding("W403", key, self._ask(_instantiated(constraint)),
+                                 f"constraint {key!r} is never instantiated: its trigger signals ({names}) never "
+                                 f"occur in a consistent timeline of {self.duration:g} s", constraint.span):
                     continue
-            key = f"constraint:{constraint.id}"
-            others = [k for k in self.rules if k not in (key, *self.redundant)]
-            status = self.query([self.enc.violated[constraint.id]], rules=others, harvest=False)
-            if status != "feasible":
-                self.report("W404", f"constraint {constraint.id!r} is redundant: the other rules "
-                            f"imply it for timelines of {self.duration:g} s", constraint.span, status)
-                if status == "infeasible":
-                    # Dropped from later checks: of two equivalent constraints only the
-                    # second is reported, so removing every W404 constraint stays safe.
-                    self.redundant.append(key)
+            status = self._ask(_violated(constraint, self.ticks))
+            self._finding("W404", key, status, f"constraint {key!r} is redundant: the other rules imply it for "
+                          f"timelines of {self.duration:g} s", constraint.span)
+            if status == "infeasible":
+                # Dropped from later checks: of two equivalent constraints only the
+                # second is reported, so removing every W404 constraint stays safe.
+                self.oracle.redundant.append(key)
 
 
 def _directly_required(model: ir.Model) -> frozenset[str]:
@@ -199,5 +197,5 @@ def _directly_required(model: ir.Model) -> frozenset[str]:
 
 
 def deep_lint(model: ir.Model, duration: float = 10.0, *, query_time: float = QUERY_TIME) -> list[Diagnostic]:
-    """The W4xx diagnostics of ``model`` for timelines of ``duration`` seconds."""
+    """The E401/W4xx diagnostics of ``model`` for timelines of ``duration`` seconds."""
     return _Linter(model, float(duration), query_time).run()

@@ -34,6 +34,12 @@ def where(span: Span) -> str:
     return f"{span.path}:{span.line}" if span.line > 0 else span.path
 
 
+def whole_set_span(model: ir.Model) -> Span:
+    """Where a finding about the whole set points: its first constraint (else first signal)."""
+    spans = [c.span for c in model.constraints] + [s.span for s in model.signals]
+    return next((span for span in spans if span.line > 0), Span(model.path))
+
+
 @dataclass(frozen=True)
 class Explanation:
     """No timeline of ``duration`` seconds: ``items`` cannot hold together.
@@ -59,9 +65,13 @@ class Explanation:
         note = "" if self.minimal else " (time limit reached: the set may not be minimal)"
         return f"no timeline of {self.duration:g} s: " + " … ".join(parts) + note
 
-    def diagnostics(self, model: ir.Model) -> list[Diagnostic]:
-        """One W401 diagnostic at the file, carrying the whole explanation."""
-        return [Diagnostic("W401", self.render(), Span(model.path))]
+    def diagnostics(self, model: ir.Model, code: str = "W401") -> list[Diagnostic]:
+        """One diagnostic carrying the whole explanation, at the first of its items the file
+        holds (a constraint first; every item's file:line is in the message)."""
+        located = [item for item in self.items if item.span.line > 0 and item.span.path == model.path]
+        located.sort(key=lambda item: item.kind != "constraint")
+        span = located[0].span if located else whole_set_span(model)
+        return [Diagnostic(code, self.render(), span)]
 
 
 def _status(enc: Encoding, keys: Sequence[str], time_limit: float, workers: int) -> tuple[str, list[str]]:

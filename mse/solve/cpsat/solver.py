@@ -38,6 +38,7 @@ from mse.ir.schedule import Occurrence, Schedule, to_ticks
 from mse.solve.bounds import MAX_SLOTS, atom_mentions, length_bounds, semantic_limit, slot_counts
 from mse.solve.cpsat.encode import Encoding, Frame, build, var
 from mse.solve.cpsat.engine import make_solver
+from mse.solve.cpsat.explain import whole_set_span
 from mse.solve.cpsat.horizon import Committed
 from mse.solve.cpsat.prior import SlotPrior, frame_priors
 from mse.solve.protocol import NoSolution, SolveRequest, check_request, derive_seed
@@ -53,7 +54,7 @@ WINDOW = 10_000
 SAMPLE_WORK = 0.3
 #: ... on a large frame (more than LARGE_SLOTS decided slots) ...
 LARGE_WORK = 0.1
-LARGE_SLOTS = 80
+LARGE_SLOTS = 40
 #: ... and on its positions (stage 2).
 POSITION_WORK = 0.1
 #: ... and on one --diverse timeline after the first.
@@ -274,6 +275,7 @@ def _solve_frame(
         _hint_later(enc, later_hints)
         large = sum(len(enc.decided(s.id)) for s in model.signals) > LARGE_SLOTS
         work = DIVERSE_WORK if previous else LARGE_WORK if large else SAMPLE_WORK
+        work = float(request.options.get("work", work))  # type: ignore[arg-type]
         status, solver = _run(enc, request, seed, deadline, work, large=large)
         if status in (cp_model.OPTIMAL, cp_model.FEASIBLE):
             if stages.second and not large and solver.value(sum(stages.second)) < 0:
@@ -282,7 +284,7 @@ def _solve_frame(
         if status != cp_model.INFEASIBLE:
             message = (f"no timeline of {request.duration:g} s found within the time limit of "
                        f"{request.time_limit:g} s; this is not a proof that none exists (raise --time-limit)")
-            raise NoSolution([Diagnostic("W401", message, _where(model))], proven=False, reason=message)
+            raise NoSolution([Diagnostic("W401", message, whole_set_span(model))], proven=False, reason=message)
         if complete:
             break
         # Infeasible with the drawn number of slots: retry once with the witness bound of
@@ -296,7 +298,7 @@ def _solve_frame(
     if not complete:
         message = (f"no timeline of {request.duration:g} s with at most {MAX_SLOTS} occurrences "
                    "per signal; this is not a proof that none exists")
-        raise NoSolution([Diagnostic("W401", message, _where(model))], proven=False, reason=message)
+        raise NoSolution([Diagnostic("W401", message, whole_set_span(model))], proven=False, reason=message)
     raise _proven_infeasible(model, request)
 
 
@@ -374,7 +376,8 @@ def _positions(enc: Encoding, request: SolveRequest, seed: int, deadline: float,
             if slot.decided:
                 cp.add_hint(slot.present, first.boolean_value(slot.present))
     cp.maximize(sum(stages.second))
-    solver = _solver(request, seed, deadline, POSITION_WORK, large=large)
+    work = float(request.options.get("work", POSITION_WORK))  # type: ignore[arg-type]
+    solver = _solver(request, seed, deadline, work, large=large)
     status = solver.solve(cp)
     if status in (cp_model.OPTIMAL, cp_model.FEASIBLE):
         return _decode(enc, solver)
@@ -391,15 +394,6 @@ def _decode(enc: Encoding, solver: Any) -> list[Occurrence]:
     return found
 
 
-def _where(model: ir.Model) -> Span:
-    """Where a whole-set finding points: the first constraint (else the first signal)."""
-    if model.constraints and model.constraints[0].span.line > 0:
-        return model.constraints[0].span
-    if model.signals and model.signals[0].span.line > 0:
-        return model.signals[0].span
-    return Span(model.path)
-
-
 def _proven_infeasible(model: ir.Model, request: SolveRequest) -> NoSolution:
     from mse.solve.cpsat.explain import explain
 
@@ -407,14 +401,14 @@ def _proven_infeasible(model: ir.Model, request: SolveRequest) -> NoSolution:
     if constraint_less:
         message = (f"no timeline of {request.duration:g} s violates a constraint of {model.name!r}: "
                    "every constraint holds in every timeline that meets the request")
-        return NoSolution([Diagnostic("W401", message, _where(model))], proven=True, reason=message)
+        return NoSolution([Diagnostic("W401", message, whole_set_span(model))], proven=True, reason=message)
     explanation = explain(
         model, request.duration, pinned=request.pinned, require=request.require,
         forbid=request.forbid, time_limit=min(request.time_limit, 5.0),
     )
     if explanation is None:  # the explainer ran out of time before its own proof
         message = f"no timeline of {request.duration:g} s exists"
-        return NoSolution([Diagnostic("W401", message, _where(model))], proven=True, reason=message)
+        return NoSolution([Diagnostic("W401", message, whole_set_span(model))], proven=True, reason=message)
     return NoSolution(explanation.diagnostics(model), proven=True, reason=explanation.render())
 
 
