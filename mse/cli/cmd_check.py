@@ -44,8 +44,9 @@ def run(args: argparse.Namespace) -> int:
     failing = 0
     results = []
     for index, timeline in enumerate(timelines):
-        violations = check(model, timeline)
         label = f"timeline {index + 1}" if len(timelines) > 1 else "timeline"
+        _say_rounded(timeline, label, args.timeline)
+        violations = check(model, timeline)
         if violations:
             failing += 1
             for violation in violations if args.format == "text" else ():
@@ -74,3 +75,18 @@ def _json(violations: list[Violation]) -> list[dict[str, Any]]:
         }
         for v in violations
     ]
+
+
+def _say_rounded(timeline: Any, label: str, path: str) -> None:
+    """Times are checked on the 1 ms grid of the semantics: say so when that rounds any."""
+    from mse.ir.schedule import to_ticks
+
+    off = [(signal, edge, value) for signal in timeline.signals
+           for edge, value in (("start", signal.start), ("stop", signal.stop))
+           if abs(value * 1000 - to_ticks(value)) > 1e-6]
+    if off:
+        signal, edge, value = off[0]
+        more = f" (and {len(off) - 1} more)" if len(off) > 1 else ""
+        where = "<stdin>" if path == "-" else path
+        print(f"{where}: W309 [{label}] {signal.id} {edge} {value:g} s is finer than the 1 ms grid of the "
+              f"semantics; checked as {to_ticks(value) / 1000:g} s{more}", file=sys.stderr)

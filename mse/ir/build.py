@@ -7,7 +7,7 @@ import math
 import re
 from collections.abc import Callable
 
-from mse.diagnostics import Diagnostic, Span
+from mse.diagnostics import Diagnostic, Span, has_errors
 from mse.ir import model as ir
 from mse.ir.schedule import to_ticks
 from mse.limits import parse_double, parse_integer, time_problem, xml_char_problem
@@ -64,6 +64,14 @@ class _Checker:
             return default
         return value
 
+    def ticks(self, seconds: float, span: Span, what: str) -> int:
+        """``seconds`` on the 1 ms grid, with a W309 warning when that rounds it."""
+        ticks = to_ticks(seconds)
+        if abs(seconds * 1000 - ticks) > 1e-6:
+            self.error("W309", f"{what} {seconds:g} s is finer than the 1 ms grid of the semantics: "
+                       f"it is rounded to {ticks / 1000:g} s", span)
+        return ticks
+
     def integer(self, attributes: dict[str, ast.Attribute], key: str, default: int, *, minimum: int, code: str) -> int:
         attribute = attributes.get(key)
         if attribute is None:
@@ -100,7 +108,7 @@ def build_model(document: ast.Document) -> tuple[ir.Model | None, list[Diagnosti
             description=document.description,
             path=document.path,
         ),
-        [],
+        checker.diagnostics,  # warnings only (W309)
     )
 
 
@@ -152,6 +160,9 @@ def _signals(document: ast.Document, checker: _Checker) -> list[ir.Signal]:
         minimum = checker.seconds(attributes, "min_duration", 0.0)
         maximum_value = checker.seconds(attributes, "max_duration", math.inf)
         maximum = None if math.isinf(maximum_value) else maximum_value
+        for key, value in (("min_duration", minimum), ("max_duration", maximum)):
+            if key in attributes and value is not None:
+                checker.ticks(value, attributes[key].span, key)
         if maximum is not None and minimum > maximum:
             span = attributes["min_duration"].span
             checker.error("E205", f"min_duration {minimum:g} is greater than max_duration {maximum:g}", span)
@@ -288,7 +299,7 @@ class _Resolver:
         if problem is not None:
             self.checker.error("E215", f"{what} {value:g} {problem} (constraint {self.constraint_id!r})", span)
             return 0
-        return to_ticks(value)
+        return self.checker.ticks(value, span, what)
 
     def term(self, node: ast.TermNode) -> ir.Term:
         if isinstance(node, ast.SignalTimeNode):
