@@ -127,3 +127,58 @@ def test_check_bad_timeline_json(tmp_path: Path, capsys: pytest.CaptureFixture[s
     broken.write_text('{"duration": 10, "signals": [{"id": 3}]}')
     assert main(["check", str(FIXTURES / "valid" / "minimal.xml"), str(broken)]) == 1
     assert "E212" in capsys.readouterr().err
+
+
+GRID = """<?xml version="1.0" encoding="UTF-8"?>
+<expression name="grid">
+  <signals>
+    <signal id="a" modality="face" min_duration="0.0015"/>
+    <signal id="b" modality="head"/>
+  </signals>
+  <constraints>
+    <constraint id="c1">start(b) &gt;= stop(a) + 0.0005</constraint>
+  </constraints>
+</expression>
+"""
+
+
+def test_times_finer_than_the_grid_are_warned_not_silently_rounded(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    path = tmp_path / "grid.xml"
+    path.write_text(GRID, encoding="utf-8")
+    found = lint([path])
+    w308 = [d for d in found if d.code == "W308"]
+    assert [d.span.line for d in w308] == [4, 8]
+    assert "rounded to 0.002 s" in w308[0].message and "0.0005 s" in w308[1].message
+    timeline = tmp_path / "t.json"
+    timeline.write_text(json.dumps({"format": "mse-timeline/1", "duration": 10, "signals": [
+        {"id": "a", "start": 0.0004, "stop": 1.0}, {"id": "b", "start": 1.5, "stop": 2.0}]}), encoding="utf-8")
+    assert main(["check", str(path), str(timeline)]) == 0
+    assert "W308" in capsys.readouterr().err
+
+
+INFEASIBLE = """<?xml version="1.0" encoding="UTF-8"?>
+<expression name="tight">
+  <modality name="face" exclusive="true"/>
+  <signals>
+    <signal id="a" modality="face" min_duration="6"/>
+    <signal id="b" modality="face" min_duration="6"/>
+  </signals>
+  <constraints>
+    <constraint id="both">exists(a) and exists(b)</constraint>
+  </constraints>
+</expression>
+"""
+
+
+def test_a_set_without_timeline_is_a_lint_error_at_file_line(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    path = tmp_path / "tight.xml"
+    path.write_text(INFEASIBLE, encoding="utf-8")
+    assert main(["lint", "--format", "json", str(path)]) == 1
+    [record] = [r for r in json.loads(capsys.readouterr().out) if r["code"].endswith("401")]
+    assert record["code"] == "E401" and record["severity"] == "error" and record["line"] > 0
+    assert "both (" in record["message"] and "[duration]" in record["message"]
+    assert main(["lint", str(path), "--duration", "13"]) == 0
