@@ -1,129 +1,260 @@
-"""Benchmark of the CP-SAT backend: python bench/cpsat.py [--runs N] [--greta DIR].
+"""Benchmark of the CP-SAT backend and of solver-backed lint (issue 12; earlier issue 4).
 
-Prints, per bundled emotion and timeline length (4, 10, 30 s), p50/p95 of model build +
-solve in milliseconds (import excluded, one warm-up run); the time to explain an
-infeasible set; and the time of the solver-backed lint over all bundled sets (and over
-the imported Greta sets when their folder is given or found in MSE_SHARED).
-Targets (issue 4): p50 <= 20 ms and p95 <= 100 ms at 10 s; lint of the bundled sets <= 5 s.
+    python bench/cpsat.py                          # every section, baseline 14df718
+    python bench/cpsat.py --sections scale,lint --baseline-ref main
+    python bench/cpsat.py --quick                  # fewer runs, for a smoke test
+
+Every measurement runs in its own process (bench/cpsat_measure.py), once against this checkout
+and, where the section says "vs", once against ``--baseline-ref`` checked out into a temporary
+git worktree (default 14df718, the CP-SAT before this work), so that ratios are measured in
+the same run on the same (shared, noisy) machine.  The load average is printed with each
+section.  Sections:
+
+* ``sampling``: model build + solve per bundled set at 10 s, p50/p95 (vs baseline);
+* ``scale``: generated feasible sets (planted timeline, bench/cpsat_sets.py) of 50/100 and
+  200/400 signals/constraints at 10 s, p50/p95 (target 200/400: p50 <= 1 s; vs baseline);
+* ``explain``: generated infeasible sets of 10-50 signals: time to "no timeline" with its proof
+  and minimal explanation (target <= 2 s at 50 signals);
+* ``long``: a 1-hour timeline of every bundled set: wall time, real-time factor, peak memory,
+  the cost of the first and of the last quarter, and occurrences per signal against the
+  profile's expectation (prior draws of the same hour);
+* ``lint``: deep lint of the bundled and imported Greta sets, and of generated sets of
+  125-1000 constraints (grouped signals; and ungrouped) with the growth exponent (target:
+  about linear, 1000 constraints <= 5 s; vs baseline);
+* ``fidelity``: per-signal occurrence rate and mean start of CP-SAT and of the greedy walk
+  against rejection sampling of the target, on every bundled and imported Greta set.
 """
 
 from __future__ import annotations
 
 import argparse
+import json
+import math
 import os
+import shutil
 import statistics
+import subprocess
 import sys
-import time
+import tempfile
+from collections.abc import Sequence
 from pathlib import Path
+from typing import Any
 
 REPO = Path(__file__).resolve().parent.parent
-sys.path.insert(0, str(REPO))
-
-from mse.api import load, loads  # noqa: E402
-from mse.resources import bundled_names  # noqa: E402
-from mse.solve.cpsat import CpSatSolver  # noqa: E402
-from mse.solve.cpsat.deep_lint import deep_lint  # noqa: E402
-from mse.solve.cpsat.explain import explain  # noqa: E402
-from mse.solve.protocol import SolveRequest  # noqa: E402
-
-CONFLICT = REPO / "tests" / "fixtures" / "solvers" / "conflict.xml"
+MEASURE = Path(__file__).resolve().parent / "cpsat_measure.py"
+SECTIONS = ("sampling", "scale", "explain", "long", "lint", "fidelity")
 
 
-def percentile(values: list[float], fraction: float) -> float:
+def load_average() -> str:
+    return " ".join(f"{x:.1f}" for x in os.getloadavg())
+
+
+def measure(kind: str, root: Path | None = None, **arguments: Any) -> dict[str, Any]:
+    """Run one measurement in a fresh process against ``root`` (None: this checkout)."""
+    env = dict(os.environ)
+    env["PYTHONPATH"] = str(root or REPO)
+    done = subprocess.run([sys.executable, str(MEASURE), kind, json.dumps(arguments)], env=env,
+                          capture_output=True, text=True, check=False)
+    if done.returncode != 0:
+        return {"error": done.stderr.strip().splitlines()[-1] if done.stderr.strip() else "failed"}
+    result: dict[str, Any] = json.loads(done.stdout.strip().splitlines()[-1])
+    return result
+
+
+def pct(values: Sequence[float], fraction: float) -> float:
     ordered = sorted(values)
     return ordered[min(len(ordered) - 1, round(fraction * (len(ordered) - 1)))]
 
 
-def bench_sampling(runs: int) -> None:
-    solver = CpSatSolver()
-    solver.solve(load(bundled_names()[0]), SolveRequest(duration=10.0))  # import + warm-up
-    print(f"{'emotion':15s} {'D':>4s} {'p50 ms':>8s} {'p95 ms':>8s}")
-    all_at_10: list[float] = []
+def ms(values: Sequence[float]) -> str:
+    return f"{1000 * statistics.median(values):8.1f} {1000 * pct(values, 0.95):8.1f}"
+
+
+def ratio(new: float, old: float) -> str:
+    return f"{old / new:6.1f}x" if new > 0 else "     -"
+
+
+def section_sampling(args: argparse.Namespace, base: Path | None) -> None:
+    print(f"\n## sampling: bundled sets at 10 s, model build + solve, ms (load {load_average()})")
+    runs = 5 if args.quick else 20
+    new = measure("bundled", duration=10.0, runs=runs)
+    old = measure("bundled", base, duration=10.0, runs=runs) if base else {}
+    print(f"{'set':15s} {'p50':>8s} {'p95':>8s}   baseline p50/p95   speed-up(p50)")
+    everything, before = [], []
+    for name, times in new["times"].items():
+        everything += times
+        line = f"{name:15s} {ms(times)}"
+        if old.get("times"):
+            speed = ratio(statistics.median(times), statistics.median(old["times"][name]))
+            line += f"   {ms(old['times'][name])}   {speed}"
+            before += old["times"][name]
+        print(line)
+    line = f"{'all':15s} {ms(everything)}"
+    if before:
+        line += f"   {ms(before)}   {ratio(statistics.median(everything), statistics.median(before))}"
+    print(line)
+
+
+def section_scale(args: argparse.Namespace, base: Path | None) -> None:
+    print(f"\n## scale: generated feasible sets at 10 s, seconds (load {load_average()})")
+    sets = 4 if args.quick else 12
+    print(f"{'signals/constraints':20s} {'p50':>7s} {'p95':>7s} {'fail':>5s}   baseline p50/p95/fail   speed-up(p50)")
+    for signals, constraints in ((50, 100), (100, 200), (200, 400)):
+        new = measure("scale", signals=signals, constraints=constraints, sets=sets, duration=10.0)
+        line = (f"{signals}/{constraints:<16d} {statistics.median(new['times']):7.2f} {pct(new['times'], 0.95):7.2f} "
+                f"{new['failures']:5d}")
+        if base:
+            old = measure("scale", base, signals=signals, constraints=constraints, sets=min(sets, 4), duration=10.0)
+            if "times" in old:
+                speed = ratio(statistics.median(new["times"]), statistics.median(old["times"]))
+                line += (f"   {statistics.median(old['times']):7.2f} {pct(old['times'], 0.95):7.2f} "
+                         f"{old['failures']:4d}   {speed}")
+        print(line)
+    print("target: 200/400 p50 <= 1 s")
+
+
+def section_explain(args: argparse.Namespace, base: Path | None) -> None:
+    print(f"\n## explain: generated infeasible sets at 10 s, seconds (load {load_average()})")
+    sets = 4 if args.quick else 10
+    print(f"{'signals':8s} {'sample+proof p50':>17s} {'max':>6s} {'explain p50':>12s} {'max':>6s}  "
+          "proven minimal items")
+    for signals in (10, 25, 50):
+        new = measure("explain", signals=signals, constraints=2 * signals, sets=sets, duration=10.0)
+        rows = new["rows"]
+        first = [r["sample_and_proof"] for r in rows]
+        second = [r["explain"] for r in rows]
+        print(f"{signals:<8d} {statistics.median(first):17.2f} {max(first):6.2f} {statistics.median(second):12.2f} "
+              f"{max(second):6.2f}  {sum(r['proven'] for r in rows)}/{len(rows)} "
+              f"{sum(r['minimal'] for r in rows)}/{len(rows)} {statistics.median(r['items'] for r in rows):g}")
+    print("target: <= 2 s at 50 signals (sample+proof includes the explanation)")
+
+
+def section_long(args: argparse.Namespace, base: Path | None) -> None:
+    duration = 600.0 if args.quick else 3600.0
+    print(f"\n## long: one {duration:g} s timeline per bundled set (load {load_average()})")
+    from mse.resources import bundled_names
+
     for name in bundled_names():
-        model = load(name)
-        for duration in (4.0, 10.0, 30.0):
-            times = []
-            for seed in range(runs):
-                started = time.perf_counter()
-                solver.solve(model, SolveRequest(duration=duration, seed=seed))
-                times.append(1000 * (time.perf_counter() - started))
-            if duration == 10.0:
-                all_at_10.extend(times)
-            print(f"{name:15s} {duration:4g} {statistics.median(times):8.1f} {percentile(times, 0.95):8.1f}")
-    print(f"{'all':15s} {10:4g} {statistics.median(all_at_10):8.1f} {percentile(all_at_10, 0.95):8.1f}")
+        new = measure("long", name=name, duration=duration, seed=1)
+        if "error" in new:
+            print(f"{name}: {new['error']}")
+            continue
+        expected = measure("long_prior", name=name, duration=duration)
+        quarters = new.get("quarters") or [0.0, 0.0]
+        print(f"{name}: {new['seconds']:.1f} s ({duration / new['seconds']:.0f}x real time), "
+              f"peak {new['peak_mb']:.0f} MB, first/last quarter {quarters[0]:.1f}/{quarters[1]:.1f} s")
+        counts, prior = new["counts"], expected.get("counts", {})
+        cells = [f"{signal} {counts.get(signal, 0)}/{prior.get(signal, 0):.1f}"
+                 for signal in sorted(set(counts) | set(prior))]
+        print("   occurrences sampled/prior expectation: " + ", ".join(cells))
+        if base and name == "anxiety":
+            old = measure("long", base, name=name, duration=duration, seed=1)
+            if "counts" in old:
+                print(f"   baseline: {old['seconds']:.1f} s, occurrences {old['counts']}")
 
 
-def bench_diverse() -> None:
-    solver = CpSatSolver()
-    times = []
-    for name in bundled_names():
-        started = time.perf_counter()
-        solver.solve(load(name), SolveRequest(duration=10.0, seed=1, count=3, diverse=True))
-        times.append(1000 * (time.perf_counter() - started))
-    print(f"--count 3 --diverse at 10 s: p50 {statistics.median(times):.0f} ms, "
-          f"max {max(times):.0f} ms over the bundled sets")
+def _exponent(sizes: Sequence[int], seconds: Sequence[float]) -> float:
+    xs, ys = [math.log(s) for s in sizes], [math.log(max(t, 1e-6)) for t in seconds]
+    mx, my = statistics.mean(xs), statistics.mean(ys)
+    return sum((x - mx) * (y - my) for x, y in zip(xs, ys, strict=True)) / sum((x - mx) ** 2 for x in xs)
 
 
-def bench_csp() -> None:
-    from mse.solve.csp import CspSolver
+def section_lint(args: argparse.Namespace, base: Path | None) -> None:
+    print(f"\n## lint: deep lint at 10 s, seconds (load {load_average()})")
+    greta = Path(args.greta_sets) if args.greta_sets else None
+    for label, folder in (("bundled", "bundled"), ("Greta", str(greta) if greta else None)):
+        if folder is None:
+            continue
+        new = measure("lint", constraints=0, locality=None, mandatory=1.0, folder=folder)
+        line = f"{label:8s} {new.get('seconds', float('nan')):6.2f} s {new.get('codes')}"
+        if base:
+            old = measure("lint", base, constraints=0, locality=None, mandatory=1.0, folder=folder)
+            line += f"   baseline {old.get('seconds', float('nan')):6.2f} s {old.get('codes')}"
+        print(line)
+    sizes = (125, 250, 500) if args.quick else (125, 250, 500, 1000)
+    for label, locality, mandatory in (("grouped (10)", 10, 0.3), ("ungrouped", None, 1.0)):
+        seconds = []
+        for constraints in sizes:
+            new = measure("lint", constraints=constraints, locality=locality, mandatory=mandatory, folder=None)
+            seconds.append(new.get("seconds", float("nan")))
+            line = f"{label:12s} {constraints:5d} constraints: {seconds[-1]:7.2f} s {new.get('codes')}"
+            if base and constraints <= 250:
+                old = measure("lint", base, constraints=constraints, locality=locality, mandatory=mandatory,
+                              folder=None)
+                line += f"   baseline {old.get('seconds', float('nan')):7.2f} s {old.get('codes')}"
+            print(line)
+        print(f"{label}: growth exponent {_exponent(sizes, seconds):.2f} (1 = linear)")
+    print("target: 1000 constraints <= 5 s, about linear")
 
-    model = load(REPO / "tests" / "fixtures" / "solvers" / "tiny.xml")
-    times = []
-    for seed in range(10):
-        started = time.perf_counter()
-        CspSolver().solve(model, SolveRequest(duration=4.0, seed=seed, grid=0.5))
-        times.append(1000 * (time.perf_counter() - started))
-    print(f"csp tiny.xml at 4 s on a 0.5 s grid: p50 {statistics.median(times):.1f} ms")
+
+def section_fidelity(args: argparse.Namespace, base: Path | None) -> None:
+    print(f"\n## fidelity at 10 s: per signal, occurrences per timeline and mean relative start "
+          f"(load {load_average()})")
+    from mse.resources import bundled_names
+
+    runs = 60 if args.quick else 300
+    sources = list(bundled_names())
+    if args.greta_sets:
+        sources += [str(p) for p in sorted(Path(args.greta_sets).glob("*.xml"))]
+    worst: dict[str, list[float]] = {"rate": [], "start": []}
+    for source in sources:
+        cpsat = measure("fidelity", source=source, solver_name="cpsat", runs=runs, duration=10.0)
+        greedy = measure("fidelity", source=source, solver_name="greedy", runs=runs, duration=10.0)
+        target = measure("prior", source=source, draws=40 * runs, duration=10.0)
+        accepted = target.get("accepted", 0)
+        label = Path(source).stem
+        print(f"{label}: target from {accepted} accepted prior draws of {target.get('draws')}; "
+              f"cpsat failures {cpsat.get('failures')}, greedy failures {greedy.get('failures')}")
+        print(f"   {'signal':24s} {'target':>13s} {'cpsat':>13s} {'greedy(main)':>13s}")
+        for signal, (rate, start) in cpsat.get("table", {}).items():
+            t = target.get("table", {}).get(signal, [float("nan"), float("nan")])
+            g = greedy.get("table", {}).get(signal, [float("nan"), float("nan")])
+            print(f"   {signal:24s} {t[0]:5.2f} {t[1]:6.2f}  {rate:5.2f} {start:6.2f}  {g[0]:5.2f} {g[1]:6.2f}")
+            if accepted >= 200:
+                worst["rate"].append(abs(rate - t[0]))
+                if not math.isnan(start) and not math.isnan(t[1]):
+                    worst["start"].append(abs(start - t[1]))
+    if worst["rate"]:
+        print(f"cpsat vs target (sets with >= 200 accepted draws): occurrence rate |diff| p50 "
+              f"{statistics.median(worst['rate']):.3f} max {max(worst['rate']):.3f}; mean relative start |diff| "
+              f"p50 {statistics.median(worst['start']):.3f} max {max(worst['start']):.3f}")
 
 
-def bench_explain() -> None:
-    model = load(CONFLICT)
-    started = time.perf_counter()
-    explanation = explain(model, 2.0)
-    elapsed = 1000 * (time.perf_counter() - started)
-    size = len(explanation.items) if explanation else 0
-    print(f"explain {CONFLICT.name} at 2 s: {elapsed:.1f} ms, {size} items")
-    for name in bundled_names():
-        model = load(name)
-        everything = tuple(s.id for s in model.signals)
-        started = time.perf_counter()
-        explanation = explain(model, 4.0, require=everything)
-        elapsed = 1000 * (time.perf_counter() - started)
-        size = f"{len(explanation.items)} items" if explanation else "feasible"
-        print(f"explain {name} at 4 s with every signal required: {elapsed:.1f} ms, {size}")
-
-
-def bench_lint(greta: Path | None) -> None:
-    started = time.perf_counter()
-    count = 0
-    for name in bundled_names():
-        count += len(deep_lint(load(name), 10.0))
-    print(f"deep lint of {len(bundled_names())} bundled sets: {time.perf_counter() - started:.2f} s, "
-          f"{count} findings")
-    if greta is None or not (greta / "lexicon.xml").is_file():
-        return
-    from mse.syntax.greta import import_greta
-
-    imported = import_greta(greta / "lexicon.xml", greta / "constraint.xml")
-    started = time.perf_counter()
-    count = 0
-    for expression in imported:
-        count += len(deep_lint(loads(expression.xml, path=expression.name), 10.0))
-    print(f"deep lint of {len(imported)} imported Greta sets: {time.perf_counter() - started:.2f} s, "
-          f"{count} findings")
+def baseline_worktree(ref: str) -> Path | None:
+    if not ref:
+        return None
+    folder = Path(tempfile.mkdtemp(prefix="mse-cpsat-baseline-"))
+    done = subprocess.run(["git", "-C", str(REPO), "worktree", "add", "--detach", str(folder / "tree"), ref],
+                          capture_output=True, text=True, check=False)
+    if done.returncode != 0:
+        print(f"baseline {ref!r} unavailable: {done.stderr.strip()}")
+        return None
+    return folder / "tree"
 
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--runs", type=int, default=20)
+    parser.add_argument("--sections", default=",".join(SECTIONS))
+    parser.add_argument("--baseline-ref", default="14df718", help="git revision to compare with ('' for none)")
+    parser.add_argument("--quick", action="store_true")
     shared = Path(os.environ.get("MSE_SHARED", REPO.parent / "shared"))
-    parser.add_argument("--greta", type=Path, default=shared / "greta")
+    parser.add_argument("--greta-sets", help="folder of imported Greta sets (mse import-greta ... -o DIR)")
     args = parser.parse_args()
-    bench_sampling(args.runs)
-    bench_diverse()
-    bench_csp()
-    bench_explain()
-    bench_lint(args.greta)
+    if args.greta_sets is None and (shared / "greta" / "lexicon.xml").is_file():
+        folder = Path(tempfile.mkdtemp(prefix="mse-greta-"))
+        subprocess.run([sys.executable, "-m", "mse", "import-greta", str(shared / "greta" / "lexicon.xml"),
+                        str(shared / "greta" / "constraint.xml"), "-o", str(folder)], capture_output=True, check=False)
+        args.greta_sets = str(folder)
+    base = baseline_worktree(args.baseline_ref)
+    print(f"mse CP-SAT bench; baseline {args.baseline_ref or 'none'}; load {load_average()}; cpus {os.cpu_count()}")
+    try:
+        for name in args.sections.split(","):
+            globals()[f"section_{name.strip()}"](args, base)
+    finally:
+        if base is not None:
+            subprocess.run(["git", "-C", str(REPO), "worktree", "remove", "--force", str(base)],
+                           capture_output=True, check=False)
+            shutil.rmtree(base.parent, ignore_errors=True)
 
 
 if __name__ == "__main__":

@@ -15,6 +15,7 @@ The sets are returned as XML text, so that diagnostics carry file:line like a us
 from __future__ import annotations
 
 import random
+import re
 from collections.abc import Sequence
 
 from mse.ir import model as ir
@@ -171,22 +172,43 @@ def feasible_set(signals: int, constraints: int, seed: int, duration: float = 10
 
 
 def infeasible_set(signals: int, constraints: int, seed: int, duration: float = 10.0) -> str:
-    """A feasible set plus a conflict: a chain of three mandatory signals, each starting when
-    the previous stops, whose minimum durations add up to more than ``duration``."""
+    """A feasible set plus a conflict, by ``seed % 3``: a chain of three mandatory signals,
+    each starting when the previous stops, too long for the timeline; four of the set's own
+    signals of one exclusive modality required and made too long to fit side by side; or a
+    precedence cycle among three of the set's signals, all required."""
     text = feasible_set(signals, constraints, seed, duration)
     rng = random.Random(seed + 1)
     ids = [f"s{index + 1:03d}" for index in range(signals)]
-    a, b, c = rng.sample(ids, 3)
-    third = duration / 3 + 0.2
-    extra = [
-        f'    <signal id="k1" modality="head" lexeme="head=k1" min_duration="{third:g}"/>',
-        f'    <signal id="k2" modality="head" lexeme="head=k2" min_duration="{third:g}"/>',
-        f'    <signal id="k3" modality="head" lexeme="head=k3" min_duration="{third:g}"/>',
-    ]
-    conflict = [
-        '    <constraint id="k_needs">exists(k1) and exists(k2) and exists(k3)</constraint>',
-        '    <constraint id="k_chain">start(k2) = stop(k1) and start(k3) &gt;= stop(k2)</constraint>',
-        f'    <constraint id="k_first">stop(k1) &lt;= start({a}) or not exists({b}) or exists({c})</constraint>',
-    ]
-    text = text.replace("  </signals>", "\n".join(extra) + "\n  </signals>", 1)
+    kind = seed % 3
+    extra: list[str] = []
+    modality = rng.choice(EXCLUSIVE)
+    members = [m for m, where in re.findall(r'<signal id="(s\d+)" modality="(\w+)"', text) if where == modality]
+    if kind == 1 and len(members) < 2:
+        kind = 0
+    if kind == 0:
+        a, b, c = rng.sample(ids, 3)
+        third = duration / 3 + 0.2
+        extra = [f'    <signal id="k{i}" modality="head" lexeme="head=k{i}" min_duration="{third:g}"/>'
+                 for i in (1, 2, 3)]
+        conflict = [
+            '    <constraint id="k_needs">exists(k1) and exists(k2) and exists(k3)</constraint>',
+            '    <constraint id="k_chain">start(k2) = stop(k1) and start(k3) &gt;= stop(k2)</constraint>',
+            f'    <constraint id="k_first">stop(k1) &lt;= start({a}) or not exists({b}) or exists({c})</constraint>',
+        ]
+    elif kind == 1:
+        chosen = rng.sample(members, min(4, len(members)))
+        longest = duration / len(chosen) + 0.3
+        conflict = [f'    <constraint id="k_need">{" and ".join(f"exists({n})" for n in chosen)}</constraint>']
+        conflict += [f'    <constraint id="k_long_{n}">stop({n}) &gt;= start({n}) + {longest:g}</constraint>'
+                     for n in chosen]
+    else:
+        a, b, c = rng.sample(ids, 3)
+        conflict = [
+            f'    <constraint id="k_needs">exists({a}) and exists({b}) and exists({c})</constraint>',
+            f'    <constraint id="k_ab">precedes({a}, {b})</constraint>',
+            f'    <constraint id="k_bc">start({c}) &gt;= stop({b})</constraint>',
+            f'    <constraint id="k_ca">precedes({c}, {a})</constraint>',
+        ]
+    if extra:
+        text = text.replace("  </signals>", "\n".join(extra) + "\n  </signals>", 1)
     return text.replace("  </constraints>", "\n".join(conflict) + "\n  </constraints>", 1)

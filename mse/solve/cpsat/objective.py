@@ -298,6 +298,7 @@ def set_objective(
     # Lexicographic: one occurrence of a never-occurring signal costs more than every other
     # term of the stage together can gain or lose.
     stages.first.extend(-(floor + 1) * slot.present for slot in never)
+    stages.options.extend(slot.present for slot in never)  # stage 2 keeps them absent too
     enc.cp.maximize(sum(stages.first))
     return stages
 

@@ -38,7 +38,7 @@ from mse.solve.bounds import length_bounds
 
 #: Start bins per window: one per BIN_TICKS, at least 1 and at most MAX_BINS.
 BIN_TICKS = 500
-MAX_BINS = 8
+MAX_BINS = 20
 #: A log-probability standing for "impossible under the prior" (an option constraints may
 #: still force, at this cost).
 IMPOSSIBLE = math.log(1e-4)

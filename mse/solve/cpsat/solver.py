@@ -331,6 +331,7 @@ def _solver(request: SolveRequest, seed: int, deadline: float, work: float, *, l
         solver.parameters.stop_after_first_solution = True
     else:
         solver.parameters.linearization_level = 2
+        solver.parameters.max_cut_rounds_at_level_zero = 1  # cuts cost more than they save here
     solver.parameters.max_deterministic_time = work
     return solver
 
