@@ -97,13 +97,22 @@ def long(name: str, duration: float, seed: int) -> dict[str, Any]:
     starts: list[float] = []
     began = time.perf_counter()
     if "stream" in solver.supports:
-        marks = []
+        import mse.solve.cpsat.solver as cpsat_solver
+
+        marks: list[tuple[int, float]] = []  # (window begin, seconds) as each window is drawn
+        drawing = cpsat_solver.frame_priors
+
+        def marked(*args: Any, **kwargs: Any) -> Any:
+            marks.append((args[2], time.perf_counter() - began))
+            return drawing(*args, **kwargs)
+
+        cpsat_solver.frame_priors = marked  # type: ignore[assignment]
         for occurrence in solver.stream(model, request):
             counts[occurrence.signal] = counts.get(occurrence.signal, 0) + 1
-            marks.append((occurrence.start, time.perf_counter() - began))
+        total = time.perf_counter() - began
         quarter = to_ticks(duration) // 4
-        first = max((t for s, t in marks if s < quarter), default=0.0)
-        last = (time.perf_counter() - began) - max((t for s, t in marks if s < 3 * quarter), default=0.0)
+        first = min((t for b, t in marks if b >= quarter), default=total)
+        last = total - min((t for b, t in marks if b >= 3 * quarter), default=total)
         starts = [first, last]
     else:
         [schedule] = solver.solve(model, request)

@@ -25,7 +25,7 @@ __version__ = "0.1.0"
 from typing import TYPE_CHECKING, Any
 
 if TYPE_CHECKING:
-    from mse.api import check, explain, iter_sample, lint, load, loads, sample
+    from mse.api import check, explain, iter_sample, iter_timelines, lint, load, loads, sample
     from mse.diagnostics import Diagnostic, MseError
     from mse.ir.evaluate import Violation
     from mse.ir.model import Model
@@ -39,6 +39,7 @@ _LAZY = {
     "check": "mse.api",
     "explain": "mse.api",
     "iter_sample": "mse.api",
+    "iter_timelines": "mse.api",
     "lint": "mse.api",
     "load": "mse.api",
     "loads": "mse.api",
@@ -82,6 +83,7 @@ __all__ = [
     "check",
     "explain",
     "iter_sample",
+    "iter_timelines",
     "lint",
     "load",
     "loads",

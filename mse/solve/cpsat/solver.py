@@ -59,6 +59,8 @@ LARGE_SLOTS = 40
 POSITION_WORK = 0.1
 #: ... and on one --diverse timeline after the first.
 DIVERSE_WORK = 0.2
+#: Gibbs sweeps after CP-SAT (one frame, profile objective): :mod:`mse.solve.cpsat.refine`.
+REFINE_SWEEPS = 12
 
 
 class CpSatSolver:
@@ -159,14 +161,32 @@ def _frames(model: ir.Model, request: SolveRequest, seed: int, previous: Sequenc
             if drawn is not None:
                 yield from drawn
                 return
+        if index > 0 and request.objective not in ("most-signals", "fewest-signals") and not any(
+                o.start < end for o in later_hints) and not any(
+                p.present and p.choice < len(p.bins) for slots in priors.values() for p in slots):
+            # Nothing drawn here and nothing planned here: committing nothing is the best this
+            # window can do, and the previous window's plan for the rest still completes it.
+            continue
         frame = Frame(begin, end, committed.representatives(), dict(committed.counts),
                       frozenset(committed.falsified), _later_counts(model, duration, end, committed))
         solution = _solve_frame(model, request, seed, frame, priors, previous, later_hints,
                                 first=index == 0, deadline=deadline)
+        if len(windows) == 1 and not previous and request.objective is None:
+            solution = list(_refined(model, request, seed, Schedule.of(duration, solution)).occurrences)
         kept = sorted(o for o in solution if o.start < end or end == duration)
         later_hints = [o for o in solution if not (o.start < end or end == duration)]
         committed.commit(kept)
         yield from kept
+
+
+def _refined(model: ir.Model, request: SolveRequest, seed: int, schedule: Schedule) -> Schedule:
+    """Gibbs sweeps from CP-SAT's timeline towards the exact target (:mod:`refine`)."""
+    from mse.solve.cpsat.refine import refine
+
+    sweeps = int(request.options.get("sweeps", REFINE_SWEEPS))  # type: ignore[call-overload]
+    return refine(model, schedule, random.Random(f"refine/{seed}"), violate=request.mode == "constraint-less",
+                  keep=[p.signal for p in request.pinned], require=request.require, forbid=request.forbid,
+                  sweeps=sweeps)
 
 
 def _draw_if_acceptable(model: ir.Model, request: SolveRequest, duration: int,
