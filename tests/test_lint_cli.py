@@ -148,14 +148,14 @@ def test_times_finer_than_the_grid_are_warned_not_silently_rounded(
     path = tmp_path / "grid.xml"
     path.write_text(GRID, encoding="utf-8")
     found = lint([path])
-    w308 = [d for d in found if d.code == "W308"]
-    assert [d.span.line for d in w308] == [4, 8]
-    assert "rounded to 0.002 s" in w308[0].message and "0.0005 s" in w308[1].message
+    w309 = [d for d in found if d.code == "W309"]
+    assert [d.span.line for d in w309] == [4, 8]
+    assert "rounded to 0.002 s" in w309[0].message and "0.0005 s" in w309[1].message
     timeline = tmp_path / "t.json"
     timeline.write_text(json.dumps({"format": "mse-timeline/1", "duration": 10, "signals": [
         {"id": "a", "start": 0.0004, "stop": 1.0}, {"id": "b", "start": 1.5, "stop": 2.0}]}), encoding="utf-8")
     assert main(["check", str(path), str(timeline)]) == 0
-    assert "W308" in capsys.readouterr().err
+    assert "W309" in capsys.readouterr().err
 
 
 INFEASIBLE = """<?xml version="1.0" encoding="UTF-8"?>

@@ -97,7 +97,7 @@ def build_model(document: ast.Document) -> tuple[ir.Model | None, list[Diagnosti
     problem = xml_char_problem(document.description)
     if problem is not None:
         checker.error("E204", f"description {problem}", document.span)
-    if checker.diagnostics:
+    if has_errors(checker.diagnostics):
         return None, checker.diagnostics
     return (
         ir.Model(
