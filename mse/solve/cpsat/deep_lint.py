@@ -113,8 +113,9 @@ class _Linter:
         from mse.solve.protocol import NoSolution, SolveRequest
 
         for seed in range(SAMPLES):
+            # Any consistent timeline will do: a short search, no position stage, no sweeps.
             request = SolveRequest(duration=self.duration, seed=seed, time_limit=max(2.0, 4 * self.query_time),
-                                   options={"work": SAMPLE_WORK})
+                                   options={"work": SAMPLE_WORK, "positions": False, "sweeps": 0, "first": True})
             try:
                 intervals = intervals_of(solve_one(self.model, request, seed))
             except NoSolution as error:

@@ -37,8 +37,9 @@ from mse.solve.bounds import length_bounds, slot_counts
 from mse.solve.cpsat.encode import Encoding, Frame, Lit, build
 
 Intervals = dict[str, list[tuple[int, int]]]
-#: Placements tried per free signal by the quick step.
+#: Placements tried per free signal by the quick step, and combinations in all.
 QUICK_STARTS = 6
+QUICK_COMBOS = 160
 #: Consistent timelines besides the base that the quick step tries.
 POOL = 3
 
@@ -226,8 +227,8 @@ class Oracle:
         combos: list[tuple[tuple[int, int] | None, ...]] = [()]
         for options in choices:
             combos = [(*combo, option) for combo in combos for option in options]
-            if len(combos) > 400:
-                combos = self._rng.sample(combos, 400)
+            if len(combos) > QUICK_COMBOS:
+                combos = combos[:QUICK_COMBOS // 2] + self._rng.sample(combos[QUICK_COMBOS // 2:], QUICK_COMBOS // 2)
         for combo in combos:
             taken: dict[str, list[tuple[int, int]]] = {}
             clash = False

@@ -109,7 +109,7 @@ class _OnceProfile:
         self.last = duration - low  # latest start where min_duration fits
         self.a = signal.probability_start
         self.slope = (signal.probability_end - signal.probability_start) / max(1, duration)
-        self.total = self.cdf(self.last)
+        self.total = self.cdf(self.last) if self.last >= 0 else 0.0  # 0: it never fits
 
     def cdf(self, t: int) -> float:
         """Unnormalised mass of starts in [0, t]."""
@@ -175,6 +175,16 @@ def once_prior(signal: ir.Signal, duration: int, begin: int, end: int, rng: rand
     start = targets[picked] if 0 <= picked < len(bins) else targets[0]
     return SlotPrior(signal.id, 0, bins, tuple(log_bins), _log(absent), log_later, picked, targets,
                      draw_length(signal, start, duration, rng, mode=mode), never)
+
+
+def draw_once(signal: ir.Signal, duration: int, rng: random.Random) -> tuple[int, int] | None:
+    """A once-only signal over the whole timeline, drawn from the prior: absent (None) or
+    one occurrence (start, stop)."""
+    profile = _OnceProfile(signal, duration)
+    if never_occurs(signal) or profile.total <= 0 or rng.random() >= occurrence_probability(signal):
+        return None
+    start = profile.sample(0, duration, rng, mode="sample")
+    return start, start + draw_length(signal, start, duration, rng, mode="sample")
 
 
 def _mean_length(signal: ir.Signal, duration: int) -> float:

@@ -22,25 +22,20 @@ from collections.abc import Sequence
 from mse.ir import model as ir
 from mse.ir.evaluate import constraint_status
 from mse.ir.schedule import Occurrence, Schedule
-from mse.solve.cpsat.prior import once_prior, renewal_starts
-
-#: Sweeps over every signal (each one Metropolis-Hastings step per signal).
-SWEEPS = 12
+from mse.solve.cpsat.prior import draw_once, renewal_starts
 
 
 def _draw(signal: ir.Signal, duration: int, rng: random.Random) -> list[tuple[int, int]]:
     """The occurrences of ``signal`` alone over the whole timeline, drawn from the prior."""
     if signal.repetitive:
         return renewal_starts(signal, duration, 0, duration, signal.max_occurrences, rng)
-    prior = once_prior(signal, duration, 0, duration, rng)
-    if not prior.present or prior.choice >= len(prior.bins) or prior.never:
-        return []
-    return [(prior.start, prior.start + prior.length)]
+    drawn = draw_once(signal, duration, rng)
+    return [] if drawn is None else [drawn]
 
 
 def refine(model: ir.Model, schedule: Schedule, rng: random.Random, *, violate: bool = False,
            keep: Sequence[str] = (), require: Sequence[str] = (), forbid: Sequence[str] = (),
-           sweeps: int = SWEEPS) -> Schedule:
+           sweeps: int = 12) -> Schedule:
     """``schedule`` (consistent; with ``violate``, violating some constraint) after ``sweeps``
     Gibbs sweeps; ``keep`` signals (pinned) never move, the request stays met."""
     duration = schedule.duration

@@ -293,12 +293,14 @@ def _solve_frame(
         enc = _build(model, request, priors, frame, duration)
         stages = set_objective(enc, request.objective, seed, priors, previous, request.require)
         _hint_later(enc, later_hints)
-        large = sum(len(enc.decided(s.id)) for s in model.signals) > LARGE_SLOTS
+        large = (sum(len(enc.decided(s.id)) for s in model.signals) > LARGE_SLOTS
+                 or bool(request.options.get("first", False)))
         work = DIVERSE_WORK if previous else LARGE_WORK if large else SAMPLE_WORK
         work = float(request.options.get("work", work))  # type: ignore[arg-type]
         status, solver = _run(enc, request, seed, deadline, work, large=large)
         if status in (cp_model.OPTIMAL, cp_model.FEASIBLE):
-            if stages.second and not large and solver.value(sum(stages.second)) < 0:
+            if (stages.second and not large and request.options.get("positions", True)
+                    and solver.value(sum(stages.second)) < 0):
                 return _positions(enc, request, seed, deadline, solver, stages, large=large)
             return _decode(enc, solver)
         if status != cp_model.INFEASIBLE:
