@@ -8,6 +8,14 @@ import os
 from pathlib import Path
 
 import pytest
+from hypothesis import settings
+
+# Property tests are deterministic by default (the "ci" profile: the same examples on every
+# run, so that a red CI is reproducible and never a coin toss); HYPOTHESIS_PROFILE=explore
+# draws fresh examples for bug hunting.
+settings.register_profile("ci", derandomize=True, database=None)
+settings.register_profile("explore", derandomize=False)
+settings.load_profile(os.environ.get("HYPOTHESIS_PROFILE", "ci"))
 
 REPO_ROOT = Path(__file__).resolve().parent.parent
 FIXTURES = Path(__file__).resolve().parent / "fixtures"

@@ -148,6 +148,8 @@ def _mode(request: SolveRequest) -> str:
 
 def _frames(model: ir.Model, request: SolveRequest, seed: int, previous: Sequence[Schedule]) -> Iterator[Occurrence]:
     """The occurrences of one timeline, window by window, each window once committed."""
+    import ortools.sat.python.cp_model  # noqa: F401  (loading it, ~1 s on a busy machine, is not solving time)
+
     duration = to_ticks(request.duration)
     deadline = time.monotonic() + request.time_limit
     windows = _windows(duration, bool(previous) or request.diverse)
@@ -454,7 +456,10 @@ def enumerate_schedules(
             if len(found) >= limit:
                 self.stop_search()
 
-    solver = make_solver(time_limit)
+    # No presolve, no probing: with them CP-SAT 9.15's enumeration drops schedules that the
+    # model admits (three repetitive face signals, docs/solvers.md "Enumeration"); the
+    # search alone enumerates every one.
+    solver = make_solver(time_limit, light=True)
     solver.parameters.enumerate_all_solutions = True
     status = solver.solve(enc.cp, Collector())
     if status not in (cp_model.OPTIMAL, cp_model.FEASIBLE, cp_model.INFEASIBLE):
