@@ -21,6 +21,9 @@ section.  Sections:
 * ``lint``: deep lint of the bundled and imported Greta sets, and of generated sets of
   125-1000 constraints (grouped signals; and ungrouped) with the growth exponent (target:
   about linear, 1000 constraints <= 5 s; vs baseline);
+* ``controls``: ``--mode constraint-less`` timelines that violate a constraint, and
+  occurrences of a signal whose probabilities are both 0 (each signal muted in turn), for
+  CP-SAT and the default solver on every bundled and imported Greta set;
 * ``fidelity``: per-signal occurrence rate and mean start of CP-SAT and of the greedy walk
   against rejection sampling of the target, on every bundled and imported Greta set.
 """
@@ -42,7 +45,7 @@ from typing import Any
 
 REPO = Path(__file__).resolve().parent.parent
 MEASURE = Path(__file__).resolve().parent / "cpsat_measure.py"
-SECTIONS = ("sampling", "scale", "explain", "long", "lint", "fidelity")
+SECTIONS = ("sampling", "scale", "explain", "long", "lint", "fidelity", "controls")
 
 
 def load_average() -> str:
@@ -110,6 +113,13 @@ def section_scale(args: argparse.Namespace, base: Path | None) -> None:
                 line += (f"   {statistics.median(old['times']):7.2f} {pct(old['times'], 0.95):7.2f} "
                          f"{old['failures']:4d}   {speed}")
         print(line)
+    # The same size from the default sampler's generator (bench/corpus.py, planted timeline).
+    new = measure("scale", signals=200, constraints=400, sets=sets, duration=10.0, generator="corpus")
+    if "times" in new:
+        print(f"{'200/400 corpus.py':20s} {statistics.median(new['times']):7.2f} {pct(new['times'], 0.95):7.2f} "
+              f"{new['failures']:5d}")
+    else:
+        print(f"200/400 corpus.py: {new.get('error')}")
     print("target: 200/400 p50 <= 1 s")
 
 
@@ -218,6 +228,31 @@ def section_fidelity(args: argparse.Namespace, base: Path | None) -> None:
         print(f"cpsat vs target (sets with >= 200 accepted draws): occurrence rate |diff| p50 "
               f"{statistics.median(worst['rate']):.3f} max {max(worst['rate']):.3f}; mean relative start |diff| "
               f"p50 {statistics.median(worst['start']):.3f} max {max(worst['start']):.3f}")
+
+
+def section_controls(args: argparse.Namespace, base: Path | None) -> None:
+    print(f"\n## controls at 10 s: --mode constraint-less must violate a constraint; a signal whose "
+          f"probabilities are both 0 must never occur (load {load_average()})")
+    from mse.resources import bundled_names
+
+    runs = 20 if args.quick else 100
+    sources = list(bundled_names())
+    if args.greta_sets:
+        sources += [str(p) for p in sorted(Path(args.greta_sets).glob("*.xml"))]
+    print(f"{'set':24s} {'solver':7s} {'violating':>10s} {'0/0 shown':>10s}")
+    for solver_name in ("cpsat", "greedy"):
+        totals = [0, 0, 0, 0]
+        for source in sources:
+            got = measure("controls", source=source, solver_name=solver_name, runs=runs, duration=10.0)
+            if "error" in got:
+                print(f"{Path(source).stem:24s} {solver_name:7s} {got['error']}")
+                continue
+            totals = [totals[0] + got["violating"], totals[1] + got["runs"] - got["failures"],
+                      totals[2] + got["zero_shown"], totals[3] + got["zero_timelines"]]
+            note = " (no constraint)" if not got["constraints"] else ""
+            print(f"{Path(source).stem:24s} {solver_name:7s} {got['violating']:4d}/{got['runs'] - got['failures']:<5d} "
+                  f"{got['zero_shown']:4d}/{got['zero_timelines']:<5d}{note}")
+        print(f"{'all':24s} {solver_name:7s} {totals[0]:4d}/{totals[1]:<5d} {totals[2]:4d}/{totals[3]:<5d}")
 
 
 def baseline_worktree(ref: str) -> Path | None:

@@ -50,12 +50,19 @@ def bundled(duration: float, runs: int) -> dict[str, Any]:
 
 
 def scale(signals: int, constraints: int, sets: int, duration: float, seeds: int = 1,
-          locality: int | None = None) -> dict[str, Any]:
+          locality: int | None = None, generator: str = "cpsat_sets") -> dict[str, Any]:
+    """``generator``: ``cpsat_sets`` (bench/cpsat_sets.py) or ``corpus`` (bench/corpus.py's
+    planted sets, the default sampler's bench generator: every operator, wide constraints)."""
     solver = get_solver("cpsat")
     solver.solve(load("anger"), SolveRequest(duration=10.0, seed=0))
     times, failures = [], 0
     for index in range(sets):
-        model = loads(feasible_set(signals, constraints, index, duration, locality=locality))
+        if generator == "corpus":
+            from corpus import planted_model
+
+            model = planted_model(1000 + index, signals, constraints, duration)
+        else:
+            model = loads(feasible_set(signals, constraints, index, duration, locality=locality))
         for seed in range(seeds):
             started = time.perf_counter()
             try:
@@ -196,7 +203,42 @@ def long_prior(name: str, duration: float, draws: int = 5) -> dict[str, Any]:
     return {"counts": counts}
 
 
-KINDS = {"bundled": bundled, "long_prior": long_prior, "scale": scale, "explain": explain_sets, "long": long,
+def controls(source: str, solver_name: str, runs: int, duration: float) -> dict[str, Any]:
+    """The control condition and never-occurring signals: of ``runs`` constraint-less
+    timelines, how many violate a constraint; then, with every signal's probabilities set to 0
+    in turn (one at a time, a set per signal), how many default timelines still show it."""
+    import dataclasses
+
+    from mse.ir.evaluate import check_schedule
+
+    model = load(source)
+    solver = get_solver(solver_name)
+    violating = failures = 0
+    for seed in range(runs):
+        try:
+            [schedule] = solver.solve(model, SolveRequest(duration=duration, seed=seed, mode="constraint-less"))
+        except NoSolution:
+            failures += 1
+            continue
+        violating += any(v.kind == "constraint" for v in check_schedule(model, schedule))
+    shown = timelines = zero_failures = 0
+    for signal in model.signals:
+        muted = dataclasses.replace(signal, probability_start=0.0, probability_end=0.0)
+        variant = dataclasses.replace(model, signals=tuple(muted if s.id == signal.id else s for s in model.signals))
+        for seed in range(max(1, runs // 10)):
+            try:
+                [schedule] = solver.solve(variant, SolveRequest(duration=duration, seed=seed))
+            except NoSolution:
+                zero_failures += 1
+                continue
+            timelines += 1
+            shown += any(o.signal == signal.id for o in schedule.occurrences)
+    return {"constraints": len(model.constraints), "violating": violating, "runs": runs, "failures": failures,
+            "zero_shown": shown, "zero_timelines": timelines, "zero_failures": zero_failures}
+
+
+KINDS = {"controls": controls, "bundled": bundled, "long_prior": long_prior, "scale": scale, "explain": explain_sets,
+         "long": long,
          "lint": lint, "fidelity": fidelity, "prior": prior}
 
 if __name__ == "__main__":
