@@ -33,12 +33,13 @@ from mse.solve.cpsat.oracle import Oracle, Question
 
 #: Length of the first time stamp (the greedy sampler's slot is about 1 s).
 FIRST_STAMP = 1.0
-#: Default time limit of one query, in seconds.
+#: Default budget of one query, in seconds of CP-SAT deterministic time (oracle.py).
 QUERY_TIME = 0.5
 #: Timelines sampled first (each harvested), with this much CP-SAT work each.
 SAMPLES = 1
 SAMPLE_WORK = 0.02
-#: Seconds spent in all on questions only the whole set could answer (after the cheap steps);
+SAMPLE_TIME = 10.0
+#: CPU seconds spent in all on questions only the whole set could answer (after the cheap steps);
 #: questions left then are summed up in one W400 note instead of being asked.
 WHOLE_BUDGET = 2.0
 
@@ -114,7 +115,10 @@ class _Linter:
 
         for seed in range(SAMPLES):
             # Any consistent timeline will do: a short search, no position stage, no sweeps.
-            request = SolveRequest(duration=self.duration, seed=seed, time_limit=max(2.0, 4 * self.query_time),
+            # The wall-clock limit only matters when the deterministic budget finds nothing:
+            # as generous as `mse sample`'s default, so a busy machine does not turn a
+            # feasible set into "undecided".
+            request = SolveRequest(duration=self.duration, seed=seed, time_limit=max(SAMPLE_TIME, 4 * self.query_time),
                                    options={"work": SAMPLE_WORK, "positions": False, "sweeps": 0, "first": True})
             try:
                 intervals = intervals_of(solve_one(self.model, request, seed))
