@@ -130,8 +130,12 @@ def long(name: str, duration: float, seed: int) -> dict[str, Any]:
             "quarters": starts}
 
 
-def lint(constraints: int, locality: int | None, mandatory: float, folder: str | None) -> dict[str, Any]:
+def lint(constraints: int, locality: int | None, mandatory: float, folder: str | None,
+         full: bool = False) -> dict[str, Any]:
+    """Deep lint with its default budget, or with ``full`` every question asked (budget None)."""
     from mse.solve.cpsat.deep_lint import deep_lint
+
+    options: dict[str, Any] = {"budget": None} if full else {}
 
     deep_lint(loads(feasible_set(6, 6, 0)), 10.0)  # imports
     if folder:
@@ -143,7 +147,7 @@ def lint(constraints: int, locality: int | None, mandatory: float, folder: str |
     started, used = time.perf_counter(), time.process_time()
     codes: dict[str, int] = {}
     for model in models:
-        for diagnostic in deep_lint(model, 10.0):
+        for diagnostic in deep_lint(model, 10.0, **options):
             codes[diagnostic.code] = codes.get(diagnostic.code, 0) + 1
     return {"seconds": time.perf_counter() - started, "cpu": time.process_time() - used, "codes": codes}
 

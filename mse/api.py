@@ -223,6 +223,7 @@ def lint(
     duration: float = 10.0,
     realizer: str | None = None,
     library_dir: str | Path | None = None,
+    deep_budget: float | None = 4.0,
 ) -> list[Diagnostic]:
     """Errors and lint warnings of every file, as ``mse lint`` reports them.
 
@@ -231,7 +232,9 @@ def lint(
     code raises :class:`MseError`); ``deep`` (the default, as on the command line) adds the
     solver-backed W4xx rules at ``duration`` seconds; ``realizer="greta"`` with ``library_dir``
     (Greta's BehaviorLexicon folder) adds W308 for every signal whose lexeme Greta cannot
-    resolve (docs/realizers.md).
+    resolve (docs/realizers.md). ``deep_budget`` caps the CPU seconds of the solver-backed
+    questions per file (None: no cap; whether a timeline exists is always answered, and the
+    questions left are listed in a W400 note).
 
     >>> import mse
     >>> [d.code for d in mse.lint("embarrassment")]
@@ -281,7 +284,7 @@ def lint(
             if deep:
                 from mse.solve.cpsat.deep_lint import deep_lint
 
-                found.extend(deep_lint(model, duration))
+                found.extend(deep_lint(model, duration, budget=deep_budget))
 
     def wanted(diagnostic: Diagnostic) -> bool:
         if diagnostic.is_error:

@@ -66,6 +66,16 @@ def test_no_timeline_is_an_error_with_the_explanation_at_file_line() -> None:
     assert "no timeline of 2 s" in found[0].message and "needs_a (" in found[0].message
 
 
+def test_a_spent_budget_lists_the_questions_not_asked() -> None:
+    model = loads(LINT_ME, path="lint_me.xml")
+    found = deep_lint(model, 10.0, budget=0.0)  # spent at once: only the existence question
+    notes = [d for d in found if d.code == "W400"]
+    assert [d.code for d in found] == ["W400"] and "not asked" in notes[0].message
+    assert notes[0].span.line > 0 and "--deep-budget 0" in notes[0].message
+    assert [d.code for d in deep_lint(load(FIXTURES / "conflict.xml"), 2.0, budget=0.0)] == ["E401"]
+    assert "W400" not in {d.code for d in deep_lint(model, 10.0, budget=None)}
+
+
 def test_clean_fixture() -> None:
     assert deep_lint(load(FIXTURES / "tiny.xml"), 4.0) == []
 

@@ -39,6 +39,11 @@ def register(subparsers: Any) -> None:
         "--duration", type=float, default=10.0, help="timeline duration for the solver-backed rules (default 10 s)"
     )
     parser.add_argument(
+        "--deep-budget", type=float, default=4.0, metavar="SECONDS",
+        help="CPU seconds per file for the solver-backed questions (default 4; whether a timeline exists is "
+        "always answered; questions left are listed in a W400 note); 0: no limit",
+    )
+    parser.add_argument(
         "--realizer",
         choices=("generic", "greta", "asap"),
         help="also report signals this realizer cannot resolve in its libraries (W308; needs --library-dir)",
@@ -64,6 +69,7 @@ def run(args: argparse.Namespace) -> int:
             ignore=args.ignore,
             deep=deep,
             duration=args.duration,
+            deep_budget=args.deep_budget if args.deep_budget > 0 else None,
             realizer=args.realizer,
             library_dir=args.library_dir,
         )

@@ -23,6 +23,8 @@ undecided, with the same code, rather than guessed.
 
 from __future__ import annotations
 
+import time
+
 from mse.diagnostics import Diagnostic, Span
 from mse.ir import model as ir
 from mse.ir.evaluate import constraint_status, intervals_of, is_instantiated
@@ -42,6 +44,10 @@ SAMPLE_TIME = 10.0
 #: CPU seconds spent in all on questions only the whole set could answer (after the cheap steps);
 #: questions left then are summed up in one W400 note instead of being asked.
 WHOLE_BUDGET = 2.0
+#: CPU seconds for all of one set's questions, counted from the start (whether a timeline exists,
+#: which is always answered); questions left then are listed in one W400 note.  None: no
+#: limit (``mse lint --deep-budget 0``).
+LINT_BUDGET: float | None = 4.0
 
 
 def early_literal(enc: Encoding, signal_id: str, stamp: int) -> Lit:
@@ -80,8 +86,11 @@ def _violated(constraint: ir.Constraint, ticks: int) -> Question:
 
 
 class _Linter:
-    def __init__(self, model: ir.Model, duration: float, query_time: float) -> None:
+    def __init__(self, model: ir.Model, duration: float, query_time: float, budget: float | None) -> None:
         self.model = model
+        self.budget = budget
+        self.began = time.process_time()
+        self.unasked: list[str] = []  # questions not asked once the budget was spent
         self.duration = duration
         self.ticks = to_ticks(duration)
         self.query_time = query_time
@@ -100,6 +109,11 @@ class _Linter:
             return self.found
         self._signals()
         self._constraints()
+        if self.unasked:
+            self.found.append(Diagnostic(
+                "W400", f"{len(self.unasked)} question(s) not asked: the lint budget of {self.budget:g} CPU "
+                f"seconds was spent (mse lint --deep-budget 0 asks them all; first: "
+                f"{', '.join(self.unasked[:5])})", whole_set_span(self.model)))
         if self.skipped:
             self.found.append(Diagnostic(
                 "W400", f"{len(self.skipped)} question(s) left undecided: neither a nearby timeline nor the "
@@ -137,6 +151,8 @@ class _Linter:
         return True
 
     def _ask(self, question: Question) -> str:
+        if self.budget is not None and time.process_time() - self.began > self.budget:
+            return "unasked"
         return self.oracle.ask(question, whole=self.oracle.whole_seconds < WHOLE_BUDGET)
 
     def _finding(self, code: str, subject: str, status: str, message: str, span: Span) -> bool:
@@ -144,6 +160,9 @@ class _Linter:
         (remembered for the W400 note); True when something is wrong or undecided."""
         if status == "skipped":
             self.skipped.append(f"{code} {subject}")
+            return False
+        if status == "unasked":
+            self.unasked.append(f"{code} {subject}")
             return False
         if status == "feasible":
             return False
@@ -201,6 +220,8 @@ def _directly_required(model: ir.Model) -> frozenset[str]:
     return frozenset(required)
 
 
-def deep_lint(model: ir.Model, duration: float = 10.0, *, query_time: float = QUERY_TIME) -> list[Diagnostic]:
-    """The E401/W4xx diagnostics of ``model`` for timelines of ``duration`` seconds."""
-    return _Linter(model, float(duration), query_time).run()
+def deep_lint(model: ir.Model, duration: float = 10.0, *, query_time: float = QUERY_TIME,
+              budget: float | None = LINT_BUDGET) -> list[Diagnostic]:
+    """The E401/W4xx diagnostics of ``model`` for timelines of ``duration`` seconds; after
+    ``budget`` CPU seconds (None: no limit) the questions left are summed up in a W400 note."""
+    return _Linter(model, float(duration), query_time, budget).run()
