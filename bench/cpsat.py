@@ -82,17 +82,18 @@ def section_sampling(args: argparse.Namespace, base: Path | None) -> None:
     runs = 5 if args.quick else 20
     new = measure("bundled", duration=10.0, runs=runs)
     old = measure("bundled", base, duration=10.0, runs=runs) if base else {}
-    print(f"{'set':15s} {'p50':>8s} {'p95':>8s}   baseline p50/p95   speed-up(p50)")
-    everything, before = [], []
+    print(f"{'set':15s} {'p50':>8s} {'p95':>8s} {'CPU p50':>8s} {'p95':>8s}   baseline p50/p95   speed-up(p50)")
+    everything, before, used = [], [], []
     for name, times in new["times"].items():
         everything += times
-        line = f"{name:15s} {ms(times)}"
+        used += new.get("cpu", {}).get(name, [])
+        line = f"{name:15s} {ms(times)} {ms(new['cpu'][name]) if 'cpu' in new else ''}"
         if old.get("times"):
             speed = ratio(statistics.median(times), statistics.median(old["times"][name]))
             line += f"   {ms(old['times'][name])}   {speed}"
             before += old["times"][name]
         print(line)
-    line = f"{'all':15s} {ms(everything)}"
+    line = f"{'all':15s} {ms(everything)} {ms(used) if used else ''}"
     if before:
         line += f"   {ms(before)}   {ratio(statistics.median(everything), statistics.median(before))}"
     print(line)
@@ -154,7 +155,9 @@ def section_long(args: argparse.Namespace, base: Path | None) -> None:
             continue
         expected = measure("long_prior", name=name, duration=duration)
         quarters = new.get("quarters") or [0.0, 0.0]
-        print(f"{name}: {new['seconds']:.1f} s ({duration / new['seconds']:.0f}x real time), "
+        cpu = new.get("cpu", float("nan"))
+        print(f"{name}: {new['seconds']:.1f} s ({duration / new['seconds']:.0f}x real time; CPU {cpu:.1f} s, "
+              f"{duration / cpu:.0f}x), "
               f"peak {new['peak_mb']:.0f} MB, first/last quarter {quarters[0]:.1f}/{quarters[1]:.1f} s")
         counts, prior = new["counts"], expected.get("counts", {})
         cells = [f"{signal} {counts.get(signal, 0)}/{prior.get(signal, 0):.1f}"
@@ -286,8 +289,9 @@ def main() -> None:
     shared = Path(os.environ.get("MSE_SHARED", REPO.parent / "shared"))
     parser.add_argument("--greta-sets", help="folder of imported Greta sets (mse import-greta ... -o DIR)")
     args = parser.parse_args()
+    imported: Path | None = None
     if args.greta_sets is None and (shared / "greta" / "lexicon.xml").is_file():
-        folder = Path(tempfile.mkdtemp(prefix="mse-greta-"))
+        folder = imported = Path(tempfile.mkdtemp(prefix="mse-greta-"))
         subprocess.run([sys.executable, "-m", "mse", "import-greta", str(shared / "greta" / "lexicon.xml"),
                         str(shared / "greta" / "constraint.xml"), "-o", str(folder)], capture_output=True, check=False)
         args.greta_sets = str(folder)
@@ -301,6 +305,8 @@ def main() -> None:
             subprocess.run(["git", "-C", str(REPO), "worktree", "remove", "--force", str(base)],
                            capture_output=True, check=False)
             shutil.rmtree(base.parent, ignore_errors=True)
+        if imported is not None:
+            shutil.rmtree(imported, ignore_errors=True)
 
 
 if __name__ == "__main__":
