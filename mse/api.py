@@ -464,7 +464,7 @@ def iter_timelines(
                      for index, schedule in enumerate(together))
     else:
         schedules = (_one(backend, model, replace(request, seed=derive_seed(request.seed, index), count=1))
-                     for index in range(count))
+                     for index in progress.each(range(count), "sample", unit="timeline"))
     for index, (schedule, method) in enumerate(schedules):
         timeline = with_source(
             replace(

@@ -62,7 +62,9 @@ class DefaultSolver:
         self.methods, self.attempts, self.restarts = [], 0, 0
         self._zeros_needed = self._exists_with_zeros = False
         schedules = []
-        for index in progress.each(range(request.count), "sample", unit="timeline"):
+        indices = range(request.count)
+        # One timeline per call when mse.api streams --count (its own bar counts them).
+        for index in progress.each(indices, "sample", unit="timeline") if request.count > 1 else indices:
             schedule, method = self.one(model, request, derive_seed(request.seed, index))
             schedules.append(schedule)
             self.methods.append(method)
