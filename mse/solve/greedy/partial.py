@@ -27,6 +27,7 @@ from collections.abc import Callable, Mapping, Sequence
 from operator import itemgetter
 
 from mse.ir import model as ir
+from mse.solve.greedy.codegen import generate
 
 T, F, N = 1, 2, 4
 #: A possible-times box: (start_lo, start_hi, stop_lo, stop_hi) in ms.
@@ -337,6 +338,16 @@ def compile_expr(expr: ir.Expr, duration: int) -> Node:
     return lambda env: combine([part(env) for part in parts])
 
 
+_TABLES = {"NOT": NOT_TABLE, "AND": AND_TABLE, "OR": OR_TABLE, "IMPLIES": IMPLIES_TABLE, "AND_MANY": mask_and,
+           "OR_MANY": mask_or}
+
+
+def _generated(expr: ir.Expr, triggers: tuple[str, ...] | None, duration: int) -> Callable[[Env], int]:
+    """``compile_expr`` (``triggers`` None) or ``_acceptance`` as one generated function
+    (codegen.py): the same values, without a call per node."""
+    return generate(expr, triggers, lambda atom: compile_expr(atom, duration), _TABLES)
+
+
 def _acceptance(triggers: tuple[str, ...], node: Node) -> Callable[[Env], bool | int]:
     """``acceptable`` of :class:`CompiledConstraint`, specialised on the number of triggers.
     Its value is only used for its truth (a non-zero mask is true: no ``bool()`` call)."""
@@ -415,13 +426,13 @@ class CompiledConstraint:
         self.constraint = constraint
         self.id = constraint.id
         self.duration = duration
-        self.node = compile_expr(constraint.expr, duration)
+        self.node = _generated(constraint.expr, None, duration)
         self.triggers = tuple(sorted(constraint.triggers))
         self.mentioned = tuple(sorted(ir.mentioned_signals(constraint.expr)))
         #: In this one world: ignored (no trigger occurs), or may end up true or unknown
         #: (not surely false); true or false in the sense of ``if``.  A closure rather than
         #: a method: it is the hottest call.
-        self.acceptable = _acceptance(self.triggers, self.node)
+        self.acceptable = _generated(constraint.expr, self.triggers, duration)
         self._lifted: Callable[[Env, Mapping[str, Box]], int] | None = None
         # A top-level "or" / "and": its operands, each with the signals it names, so that the
         # worlds of operands naming different optional signals are searched one operand at a
@@ -431,7 +442,7 @@ class CompiledConstraint:
         self.parts: tuple[tuple[Node, tuple[str, ...]], ...] = ()
         if isinstance(expr, ir.Or | ir.And) and len(expr.operands) > 1:
             self.parts = tuple(
-                (compile_expr(part, duration), tuple(sorted(ir.mentioned_signals(part)))) for part in expr.operands
+                (_generated(part, None, duration), tuple(sorted(ir.mentioned_signals(part)))) for part in expr.operands
             )
 
     def violated(self, env: Env) -> bool:

@@ -1,0 +1,116 @@
+"""Constraint checks compiled to one flat Python function each (docs/sampler.md, "Speed").
+
+:func:`mse.solve.greedy.partial.compile_expr` builds a tree of closures: one call per node of
+the expression per check, and the walk makes tens of thousands of checks per second.  Here a
+whole constraint becomes the source of one function, made once per plan with ``exec``: every
+signal's boxes are fetched once, every atom's usual case (one occurrence of each signal) is
+inlined, and the connectives are lookups in the same tables.  The rarer cases (a signal with
+several occurrences, an atom naming one signal twice, comparisons) call the closure of that
+atom, so every atom yields exactly the mask :func:`compile_expr` gives: the same verdicts, the
+same walk, the same outputs (tests/test_greedy_partial.py compares the two).
+
+The generated source only ever contains signal ids as ``repr`` string literals, integers and
+names of this module's namespace.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Mapping, Sequence
+from typing import Any
+
+from mse.ir import model as ir
+
+#: The inlined usual case of each relation, on one box ``a`` of the left signal and one ``b``
+#: of the right (partial.py's ``_precedes`` ... ``_rightincludes``, written out).
+_RELATION_SOURCE = {
+    "precedes": "(1 if a[2] <= b[1] else 0) | (2 if a[3] > b[0] else 0)",
+    "includes": "(1 if a[0] <= b[1] and b[2] <= a[3] else 0) | (2 if a[1] > b[0] or b[3] > a[2] else 0)",
+    "excludes": "(1 if a[2] <= b[1] or b[2] <= a[1] else 0) | (2 if a[3] > b[0] and b[3] > a[0] else 0)",
+    "rightincludes": "(1 if a[0] <= b[3] and b[2] <= a[3] else 0) | (2 if a[1] > b[2] or b[3] > a[2] else 0)",
+}
+
+
+class _Writer:
+    """The body of one generated function: statements computing the atoms' masks into
+    locals, then one expression combining them."""
+
+    def __init__(self, compile_atom: Callable[[ir.Expr], Callable[[Any], int]]) -> None:
+        self.compile_atom = compile_atom
+        self.loads: dict[str, str] = {}  # signal id -> local holding its boxes
+        self.statements: list[str] = []
+        self.namespace: dict[str, object] = {}
+
+    def boxes(self, signal: str) -> str:
+        local = self.loads.get(signal)
+        if local is None:
+            local = self.loads[signal] = f"s{len(self.loads)}"
+        return local
+
+    def fallback(self, atom: ir.Expr) -> str:
+        """A local holding the mask of ``atom`` computed by its closure."""
+        name = f"atom{len(self.namespace)}"
+        self.namespace[name] = self.compile_atom(atom)
+        local = f"m{len(self.statements)}"
+        self.statements.append(f"{local} = {name}(env)")
+        return local
+
+    def expression(self, expr: ir.Expr) -> str:
+        """Source of an expression for the mask of ``expr`` (statements added as needed)."""
+        if isinstance(expr, ir.Exists):
+            return f"(1 if {self.boxes(expr.signal)} else 2)"
+        if isinstance(expr, ir.Relation):
+            if expr.left == expr.right:
+                return self.fallback(expr)
+            left, right = self.boxes(expr.left), self.boxes(expr.right)
+            local = self.fallback(expr)  # the general case; the usual one is written out below
+            general = self.statements.pop()
+            self.statements.append(
+                f"if not {left} or not {right}:\n"
+                f"        {local} = 4\n"
+                f"    elif len({left}) == 1 and len({right}) == 1:\n"
+                f"        a = {left}[0]\n"
+                f"        b = {right}[0]\n"
+                f"        {local} = {_RELATION_SOURCE[expr.kind]}\n"
+                f"    else:\n"
+                f"        {general}"
+            )
+            return local
+        if isinstance(expr, ir.Compare):
+            return self.fallback(expr)
+        if isinstance(expr, ir.Not):
+            return f"NOT[{self.expression(expr.operand)}]"
+        if isinstance(expr, ir.Implies):
+            return f"IMPLIES[{self.expression(expr.left)} << 3 | {self.expression(expr.right)}]"
+        table = "AND" if isinstance(expr, ir.And) else "OR"
+        parts = [self.expression(e) for e in ir.children(expr)]
+        if len(parts) == 1:
+            return f"({table}_MANY(({parts[0]},)))"
+        if len(parts) == 2:
+            return f"{table}[{parts[0]} << 3 | {parts[1]}]"
+        return f"{table}_MANY(({', '.join(parts)}))"
+
+
+def generate(
+    expr: ir.Expr,
+    triggers: Sequence[str] | None,
+    compile_atom: Callable[[ir.Expr], Callable[[Any], int]],
+    tables: Mapping[str, object],
+) -> Callable[[Any], Any]:
+    """One function of the environment: with ``triggers`` None, the mask of ``expr``
+    (``compile_expr``); otherwise ``CompiledConstraint.acceptable`` (true when no trigger
+    occurs, else the mask and ``T | N``, only used for its truth)."""
+    writer = _Writer(compile_atom)
+    result = writer.expression(expr)
+    guard: list[str] = []
+    if triggers is not None:
+        result = f"({result}) & 5"
+    if triggers:
+        names = [writer.boxes(t) for t in triggers]
+        guard = [f"if not ({' or '.join(names)}):\n        return True"]
+    loads = [f"{local} = get({signal!r})" for signal, local in writer.loads.items()]
+    body = ["get = env.get", *loads, *guard, *writer.statements, f"return {result}"]
+    source = "def check(env):\n" + "".join(f"    {line}\n" for line in body)
+    namespace: dict[str, Any] = {**tables, **writer.namespace}
+    exec(compile(source, "<mse.solve.greedy.codegen>", "exec"), namespace)  # noqa: S102 -- built above
+    check: Callable[[Any], Any] = namespace["check"]
+    return check
