@@ -23,7 +23,8 @@ from mse.solve.greedy.partial import Box, CompiledConstraint
 from mse.solve.greedy.plan import InitialDebts, Plan, SignalPlan
 from mse.solve.greedy.windows import (
     Intervals,
-    critical_points,
+    critical_rules,
+    critical_values,
     feasible,
     latest_feasible,
     nearest_feasible,
@@ -171,7 +172,11 @@ class Attempt:
             boxes.pop()
 
     def critical(self, signal: SignalPlan, variable: str, start: int | None) -> list[int]:
-        return critical_points(self.plan.edges[signal.id], self.env, signal, variable, start)
+        """The critical points of :func:`critical_points` (the same set)."""
+        rules = self.plan.critical.get((signal.id, variable))
+        if rules is None:
+            rules = self.plan.critical[signal.id, variable] = critical_rules(self.plan.edges[signal.id], signal, variable)
+        return critical_values(rules, self.env, start)
 
     def start_box(self, signal: SignalPlan, start: int) -> Box:
         return (start, start, start + signal.shortest, min(start + signal.longest, self.plan.duration))

@@ -40,6 +40,12 @@ class Edge(NamedTuple):
     tolerance: int
 
 
+#: The critical-point rules of one signal and drawn edge (windows.critical_rules): the constant
+#: points, the offsets from the candidate's own start, and per partner (signal, box index of
+#: the edge's low end, offsets).
+CriticalRules = tuple[tuple[int, ...], tuple[int, ...], tuple[tuple[str, int, tuple[int, ...]], ...]]
+
+
 class StartBound(NamedTuple):
     """A necessary bound on the start of a signal: ``start <= / >= edge(other) + delta`` for
     every placed occurrence of ``other`` (or the constant ``delta`` when other is None).
@@ -91,7 +97,8 @@ class Plan:
     """Everything about one model, duration and slot that does not depend on the draws."""
 
     __slots__ = (
-        "bounds", "by_constraint_id", "by_id", "by_signal", "constraints", "cumulative", "duration", "edges", "fixed",
+        "bounds", "by_constraint_id", "by_id", "by_signal", "constraints", "critical", "cumulative", "duration", "edges",
+        "fixed",
         "in_modality", "influence", "initial_debts", "initial_owing", "masses", "needs_before", "partner_bounds",
         "related", "signals", "stamps", "table",
     )
@@ -154,6 +161,9 @@ class Plan:
             for s in signals
         }
         self.edges = edges
+        # (signal, "start" or "stop") -> its edges compiled for windows.critical_values, filled
+        # on first use (engine.Attempt.critical)
+        self.critical: dict[tuple[str, str], CriticalRules] = {}
         self.bounds = bounds
         # earliest/latest start from the constant bounds alone
         self.fixed = {s.id: _fixed_window(s, bounds[s.id], duration) for s in signals}

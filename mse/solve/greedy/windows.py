@@ -11,7 +11,7 @@ from __future__ import annotations
 import random
 from collections.abc import Callable, Iterable, Mapping, Sequence
 
-from mse.solve.greedy.plan import Edge, SignalPlan
+from mse.solve.greedy.plan import CriticalRules, Edge, SignalPlan
 
 Intervals = list[tuple[int, int]]
 
@@ -50,6 +50,60 @@ def critical_points(
             for shift in shifts:
                 for delta in (-edge.tolerance - 1, -edge.tolerance, edge.tolerance, edge.tolerance + 1):
                     points.append(pivot - shift + delta)
+    return points
+
+
+def critical_rules(edges: Iterable[Edge], signal: SignalPlan, variable: str) -> CriticalRules:
+    """:func:`critical_points` compiled once per plan: for each kind of value (a constant, the
+    candidate's own start, an edge of a partner's boxes) the offsets to add to it.  The
+    callers only use the points as a set, so :func:`critical_values` gives the same set."""
+    constant: set[int] = set()
+    own: set[int] = set()
+    partners: dict[tuple[str, int], set[int]] = {}
+    for edge in edges:
+        shifts = [0]
+        if variable == "start" and edge.my_edge == "stop":
+            shifts = [signal.shortest, signal.longest]
+        elif variable != edge.my_edge:
+            continue
+        tolerance = edge.tolerance
+        offsets = {
+            edge.other_offset - edge.my_offset - shift + delta
+            for shift in shifts
+            for delta in (-tolerance - 1, -tolerance, tolerance, tolerance + 1)
+        }
+        if edge.other_signal is None:
+            constant |= offsets
+        elif edge.other_signal == signal.id:
+            if edge.other_edge == "start":
+                own |= offsets
+        else:
+            index = 0 if edge.other_edge == "start" else 2
+            partners.setdefault((edge.other_signal, index), set()).update(offsets)
+    return (
+        tuple(sorted(constant)),
+        tuple(sorted(own)),
+        tuple((other, index, tuple(sorted(offsets))) for (other, index), offsets in partners.items()),
+    )
+
+
+def critical_values(
+    rules: CriticalRules, env: Mapping[str, Sequence[tuple[int, int, int, int]]], start: int | None
+) -> list[int]:
+    """The points of :func:`critical_points` (as a set: perhaps in another order, repeated)."""
+    constant, own, partners = rules
+    points = list(constant)
+    if start is not None and own:
+        points += [start + offset for offset in own]
+    for other, index, offsets in partners:
+        boxes = env.get(other)
+        if not boxes:
+            continue
+        for box in boxes:
+            low, high = box[index], box[index + 1]
+            points += [low + offset for offset in offsets]
+            if high != low:  # a range (an open-stop trial): both of its ends
+                points += [high + offset for offset in offsets]
     return points
 
 
