@@ -48,7 +48,7 @@ class Attempt:
 
     __slots__ = (
         "buckets", "checked", "count", "dead", "env", "forbid", "frontier", "last_stop", "latest",
-        "modality_free", "needs", "occurrences", "owing", "placements", "plan", "require", "rng", "stamp_low",
+        "memo", "modality_free", "needs", "occurrences", "owing", "placements", "plan", "require", "rng", "stamp_low",
         "stuck", "work",
     )
 
@@ -72,6 +72,10 @@ class Attempt:
         self.needs: dict[str, tuple[str, ...]] = {}
         self.stuck: frozenset[str] = frozenset()  # owed signals that found no latest start
         self.checked: tuple[str, Box, list[str]] | None = None  # last accepted check
+        # (signal, box) -> the verdict of allows() and the constraints it leaves owing, for the
+        # current state: emptied by every change of the placed occurrences (place, truncate)
+        # and put back when a placement is taken back (_undo restores the state before it).
+        self.memo: dict[tuple[str, Box], list[str] | None] = {}
         self.dead: set[str] = set(forbid)  # signals that can no longer be placed in this walk
         # buckets[j]: signals whose next candidacy is at stamp j (see Plan.cumulative)
         self.buckets: list[list[SignalPlan]] = [[] for _ in range(len(plan.stamps) - 1)]
@@ -142,7 +146,14 @@ class Attempt:
         constraints = self.plan.by_signal[signal.id]
         if not constraints:
             return True
-        self.work += 1
+        self.work += 1  # a repeated check counts too: the walk's work bound stays as it was
+        key = (signal.id, box)
+        known = self.memo.get(key, False)
+        if known is not False:
+            if known is None:
+                return False
+            self.checked = (signal.id, box, known)
+            return True
         env = self.env
         boxes = env.get(signal.id)
         if boxes is None:
@@ -164,9 +175,11 @@ class Attempt:
                     if compiled is not constraints[0]:  # check the usual culprit first next time
                         constraints.remove(compiled)
                         constraints.insert(0, compiled)
+                    self.memo[key] = None
                     return False
             # For a point box these are exactly the constraints that placing it leaves owing.
             self.checked = (signal.id, box, owing)
+            self.memo[key] = owing
             return True
         finally:
             boxes.pop()
@@ -329,11 +342,12 @@ class Attempt:
     # -- placing and taking back -----------------------------------------------------------------
     def commit(self, signal: SignalPlan, start: int, stop: int) -> bool:
         """Place the occurrence unless that leaves an obligation nothing can meet."""
-        saved = self._saved(signal)
+        saved, memo = self._saved(signal), self.memo
         try:
             self.place(signal, start, stop)
         except Doomed:
             self._undo(signal, saved)
+            self.memo = memo
             return False
         return True
 
@@ -342,7 +356,7 @@ class Attempt:
         leave every obligation payable; the state is left as it was.  False means that no
         stop of [low, high] can be committed (the checks are monotone in boxes: a box holding
         every stop may only add truth values and room)."""
-        saved, checked = self._saved(signal), self.checked
+        saved, checked, memo = self._saved(signal), self.checked, self.memo
         self.checked = None
         try:
             self.place(signal, start, low, high)
@@ -351,6 +365,7 @@ class Attempt:
         finally:
             self._undo(signal, saved)
             self.checked = checked  # its checks still count in self.work (the walk's bound)
+            self.memo = memo
         return True
 
     def _saved(self, signal: SignalPlan) -> _Saved:
@@ -400,6 +415,7 @@ class Attempt:
         self.frontier = start
         self.occurrences.append(Occurrence(start, stop, sid))
         self.placements += 1
+        self.memo = {}
         checked, self.checked = self.checked, None
         constraints = self.plan.by_signal[sid]
         if checked is not None and checked[0] == sid and checked[1] == box:
@@ -471,6 +487,7 @@ class Attempt:
         self.frontier = frontier
         self.owing = set(owing)
         self.latest, self.needs, self.checked, self.stuck = {}, {}, None, frozenset()
+        self.memo = {}
         self.dead = set(self.forbid) | {s.id for s in self.plan.signals if self.count.get(s.id, 0) >= s.limit}
 
     # -- obligations (docs/sampler.md, "Obligations that only the end settles") ------------------
