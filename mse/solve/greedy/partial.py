@@ -415,11 +415,45 @@ class _OutOfBudget(Exception):
     pass
 
 
+def _some_world(
+    node: Node, world: dict[str, Sequence[Box]], env: Env, names: Sequence[str], optional: Mapping[str, Box]
+) -> bool:
+    """Some world of ``names`` (each absent, or present once more in its ``optional`` box)
+    makes ``node`` true or unknown.  ``world`` is a copy of ``env`` (the node reads only the
+    signals it names), left as it was."""
+    maybe = T | N
+    if node(env) & maybe:  # the world where none of them occurs more: env itself
+        return True
+    extended = [[*(env.get(name) or ()), optional[name]] for name in names]
+    try:
+        for bits in range(1, 1 << len(names)):
+            for index, name in enumerate(names):
+                if bits >> index & 1:
+                    world[name] = extended[index]
+                else:
+                    base = env.get(name)
+                    if base:
+                        world[name] = base
+                    else:
+                        world.pop(name, None)
+            if node(world) & maybe:
+                return True
+        return False
+    finally:
+        for name in names:
+            base = env.get(name)
+            if base is None:
+                world.pop(name, None)
+            else:
+                world[name] = base
+
+
 class CompiledConstraint:
     """One constraint, compiled for a timeline of ``duration`` ms."""
 
     __slots__ = (
-        "_lifted", "acceptable", "constraint", "duration", "id", "mentioned", "node", "parts", "parts_or", "triggers",
+        "_lifted", "acceptable", "constraint", "duration", "id", "mentioned", "node", "parts", "parts_or", "shared",
+        "triggers",
     )
 
     def __init__(self, constraint: ir.Constraint, duration: int) -> None:
@@ -444,6 +478,10 @@ class CompiledConstraint:
             self.parts = tuple(
                 (_generated(part, None, duration), tuple(sorted(ir.mentioned_signals(part)))) for part in expr.operands
             )
+        # signals named by two operands or more: when one of them is optional, the operands'
+        # worlds are not independent
+        named = [name for _, mentioned in self.parts for name in mentioned]
+        self.shared = tuple(sorted({name for name in named if named.count(name) > 1}))
 
     def violated(self, env: Env) -> bool:
         """On a complete timeline (points only): exactly :func:`mse.ir.evaluate.is_violated`."""
@@ -494,33 +532,27 @@ class CompiledConstraint:
         its own; an "or" is acceptable (true or unknown) when some operand can be, an "and"
         when every operand can be.  (Some trigger occurs, or the caller would have accepted
         the world where nothing more occurs, so the instantiation rule plays no part.)"""
-        per_part = [[n for n in mentioned if n in optional] for _, mentioned in self.parts]
-        if sum(len(names) for names in per_part) != total:
-            return None  # an optional signal named by two operands: no independence
+        for name in self.shared:
+            if name in optional:
+                return None  # an optional signal named by two operands: no independence
         maybe = T | N
-        for (node, mentioned), names in zip(self.parts, per_part, strict=True):
-            if len(names) > MAX_WORLD_SIGNALS:
+        parts_or = self.parts_or
+        world: dict[str, Sequence[Box]] | None = None  # a copy of env, each world set in it
+        for node, mentioned in self.parts:
+            names = [n for n in mentioned if n in optional]
+            if not names:
+                possible = bool(node(env) & maybe)
+            elif len(names) > MAX_WORLD_SIGNALS:
                 possible = True  # too many to enumerate: sound, not exact
             else:
-                local: dict[str, Sequence[Box]] = {n: env[n] for n in mentioned if n in env}
-                possible = False
-                for bits in range(1 << len(names)):
-                    for index, name in enumerate(names):
-                        base = env.get(name)
-                        if bits >> index & 1:
-                            local[name] = [*(base or ()), optional[name]]
-                        elif base:
-                            local[name] = base
-                        else:
-                            local.pop(name, None)
-                    if node(local) & maybe:
-                        possible = True
-                        break
-            if possible and self.parts_or:
+                if world is None:
+                    world = dict(env)
+                possible = _some_world(node, world, env, names, optional)
+            if possible and parts_or:
                 return True
-            if not possible and not self.parts_or:
+            if not possible and not parts_or:
                 return False
-        return not self.parts_or
+        return not parts_or
 
     def lifted_accepts(self, env: Env, maybe: Mapping[str, Box]) -> bool:
         """Some world of ``maybe`` may be acceptable, by the lifted evaluation (sound)."""
