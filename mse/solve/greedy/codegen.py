@@ -85,9 +85,12 @@ class _Writer:
         parts = [self.expression(e) for e in ir.children(expr)]
         if len(parts) == 1:
             return f"({table}_MANY(({parts[0]},)))"
-        if len(parts) == 2:
-            return f"{table}[{parts[0]} << 3 | {parts[1]}]"
-        return f"{table}_MANY(({', '.join(parts)}))"
+        # Folded over the binary table: the same mask as partial.mask_and / mask_or of all the
+        # operands (tests/test_greedy_partial.py checks every combination up to five).
+        folded = parts[0]
+        for part in parts[1:]:
+            folded = f"{table}[{folded} << 3 | {part}]"
+        return folded
 
 
 def generate(
