@@ -114,6 +114,6 @@ def generate(
     body = ["get = env.get", *loads, *guard, *writer.statements, f"return {result}"]
     source = "def check(env):\n" + "".join(f"    {line}\n" for line in body)
     namespace: dict[str, Any] = {**tables, **writer.namespace}
-    exec(compile(source, "<mse.solve.greedy.codegen>", "exec"), namespace)  # noqa: S102 -- built above
+    exec(compile(source, "<mse.solve.greedy.codegen>", "exec"), namespace)
     check: Callable[[Any], Any] = namespace["check"]
     return check

@@ -148,8 +148,8 @@ class Attempt:
             return True
         self.work += 1  # a repeated check counts too: the walk's work bound stays as it was
         key = (signal.id, box)
-        known = self.memo.get(key, False)
-        if known is not False:
+        if key in self.memo:
+            known = self.memo[key]
             if known is None:
                 return False
             self.checked = (signal.id, box, known)
@@ -186,9 +186,10 @@ class Attempt:
 
     def critical(self, signal: SignalPlan, variable: str, start: int | None) -> list[int]:
         """The critical points of :func:`critical_points` (the same set)."""
-        rules = self.plan.critical.get((signal.id, variable))
+        plan = self.plan
+        rules = plan.critical.get((signal.id, variable))
         if rules is None:
-            rules = self.plan.critical[signal.id, variable] = critical_rules(self.plan.edges[signal.id], signal, variable)
+            rules = plan.critical[signal.id, variable] = critical_rules(plan.edges[signal.id], signal, variable)
         return critical_values(rules, self.env, start)
 
     def start_box(self, signal: SignalPlan, start: int) -> Box:

@@ -25,6 +25,7 @@ from __future__ import annotations
 from bisect import bisect_right
 from collections.abc import Callable, Mapping, Sequence
 from operator import itemgetter
+from typing import Any
 
 from mse.ir import model as ir
 from mse.solve.greedy.codegen import generate
@@ -348,6 +349,28 @@ def _generated(expr: ir.Expr, triggers: tuple[str, ...] | None, duration: int) -
     return generate(expr, triggers, lambda atom: compile_expr(atom, duration), _TABLES)
 
 
+#: A constraint's check (or an operand's) runs as closures for its first HOT_CALLS calls, then
+#: as the function generated for it (codegen.py): generating costs about as much as a hundred
+#: closure calls, which a check called a few times (a one-off timeline, a huge set) never
+#: pays back.  Both give the same values: when the switch happens changes no result.
+HOT_CALLS = 64
+
+
+def _hot(closure: Callable[[Env], Any], make: Callable[[], Callable[[Env], Any]],
+         install: Callable[[Callable[[Env], Any]], None]) -> Callable[[Env], Any]:
+    """``closure``, counting its calls; at the HOT_CALLS-th, ``install(make())``."""
+    calls = 0
+
+    def counting(env: Env) -> Any:
+        nonlocal calls
+        calls += 1
+        if calls == HOT_CALLS:
+            install(make())
+        return closure(env)
+
+    return counting
+
+
 def _acceptance(triggers: tuple[str, ...], node: Node) -> Callable[[Env], bool | int]:
     """``acceptable`` of :class:`CompiledConstraint`, specialised on the number of triggers.
     Its value is only used for its truth (a non-zero mask is true: no ``bool()`` call)."""
@@ -460,28 +483,38 @@ class CompiledConstraint:
         self.constraint = constraint
         self.id = constraint.id
         self.duration = duration
-        self.node = _generated(constraint.expr, None, duration)
+        self.node = compile_expr(constraint.expr, duration)
         self.triggers = tuple(sorted(constraint.triggers))
         self.mentioned = tuple(sorted(ir.mentioned_signals(constraint.expr)))
         #: In this one world: ignored (no trigger occurs), or may end up true or unknown
         #: (not surely false); true or false in the sense of ``if``.  A closure rather than
         #: a method: it is the hottest call.
-        self.acceptable = _generated(constraint.expr, self.triggers, duration)
+        self.acceptable = _hot(
+            _acceptance(self.triggers, self.node),
+            lambda: _generated(constraint.expr, self.triggers, duration),
+            lambda generated: setattr(self, "acceptable", generated),
+        )
         self._lifted: Callable[[Env, Mapping[str, Box]], int] | None = None
         # A top-level "or" / "and": its operands, each with the signals it names, so that the
         # worlds of operands naming different optional signals are searched one operand at a
         # time (in_other_world): sum instead of product.
         expr = constraint.expr
         self.parts_or = isinstance(expr, ir.Or)
-        self.parts: tuple[tuple[Node, tuple[str, ...]], ...] = ()
+        self.parts: list[tuple[Node, tuple[str, ...]]] = []
         if isinstance(expr, ir.Or | ir.And) and len(expr.operands) > 1:
-            self.parts = tuple(
-                (_generated(part, None, duration), tuple(sorted(ir.mentioned_signals(part)))) for part in expr.operands
-            )
+            for index, part in enumerate(expr.operands):
+                self.parts.append((_hot(
+                    compile_expr(part, duration),
+                    lambda part=part: _generated(part, None, duration),  # type: ignore[misc]
+                    lambda generated, index=index: self._install_part(index, generated),  # type: ignore[misc]
+                ), tuple(sorted(ir.mentioned_signals(part)))))
         # signals named by two operands or more: when one of them is optional, the operands'
         # worlds are not independent
         named = [name for _, mentioned in self.parts for name in mentioned]
         self.shared = tuple(sorted({name for name in named if named.count(name) > 1}))
+
+    def _install_part(self, index: int, node: Node) -> None:
+        self.parts[index] = (node, self.parts[index][1])
 
     def violated(self, env: Env) -> bool:
         """On a complete timeline (points only): exactly :func:`mse.ir.evaluate.is_violated`."""

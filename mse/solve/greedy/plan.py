@@ -97,10 +97,9 @@ class Plan:
     """Everything about one model, duration and slot that does not depend on the draws."""
 
     __slots__ = (
-        "bounds", "by_constraint_id", "by_id", "by_signal", "constraints", "critical", "cumulative", "duration", "edges",
-        "fixed",
-        "in_modality", "influence", "initial_debts", "initial_owing", "masses", "needs_before", "partner_bounds",
-        "related", "signals", "stamps", "table",
+        "bounds", "by_constraint_id", "by_id", "by_signal", "constraints", "critical", "cumulative", "duration",
+        "edges", "fixed", "in_modality", "influence", "initial_debts", "initial_owing", "masses", "needs_before",
+        "partner_bounds", "related", "signals", "stamps", "table",
     )
 
     def __init__(
