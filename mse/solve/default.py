@@ -56,6 +56,9 @@ class DefaultSolver:
         # exists without the never-occurring signals; one exists with them.
         self._zeros_needed = False
         self._exists_with_zeros = False
+        # (model, request) -> its never-occurring signals and the walk's first request: the
+        # same for every seed, so made once per request rather than once per timeline
+        self._first: tuple[ir.Model, SolveRequest, tuple[str, ...], SolveRequest] | None = None
 
     def solve(self, model: ir.Model, request: SolveRequest) -> list[Schedule]:
         self._validate(model, request)
@@ -97,10 +100,15 @@ class DefaultSolver:
     def one(self, model: ir.Model, request: SolveRequest, seed: int, *, walk: bool = True) -> tuple[Schedule, str]:
         """One timeline for ``seed`` and how it was made; NoSolution (a proof, when CP-SAT
         gives one) when there is none."""
-        zeros = self._zeros(model, request)
+        known = self._first
+        if known is not None and known[0] is model and known[1] is request:
+            zeros, first = known[2], known[3]
+        else:
+            zeros = self._zeros(model, request)
+            first = replace(request, forbid=(*request.forbid, *zeros)) if zeros else request
+            self._first = (model, request, zeros, first)
         if not self._zeros_needed:
             try:
-                first = replace(request, forbid=(*request.forbid, *zeros)) if zeros else request
                 return self._pass(model, first, seed, walk)
             except NoSolution as failure:
                 if not (zeros and failure.proven):
