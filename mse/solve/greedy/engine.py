@@ -101,11 +101,29 @@ class Attempt:
     ) -> Box | None:
         """Where one more occurrence of ``signal`` could still go, or None.  ``bounded``: it
         starts after everything in the state (the bounds of start_window assume so)."""
-        pending = 1 if extra is not None and extra[0].id == signal.id else 0
-        if not self.can_add(signal, pending):
+        # can_add and earliest, written out (a hot path: once per partner per failing check)
+        sid, exclusive = signal.id, signal.exclusive
+        if sid in self.forbid:
             return None
-        low = self.earliest(signal, frontier, extra)
-        first, high = self.plan.fixed[signal.id]
+        count = self.count.get(sid, 0)
+        if extra is not None and extra[0].id == sid:
+            count += 1
+        if count >= signal.limit:
+            return None
+        low = self.last_stop.get(sid, 0)
+        if frontier > low:
+            low = frontier
+        if exclusive is not None:
+            free = self.modality_free.get(exclusive, 0)
+            if free > low:
+                low = free
+        if extra is not None:
+            other, start = extra
+            if other.id == sid or (exclusive is not None and other.exclusive == exclusive):
+                start += other.shortest
+                if start > low:
+                    low = start
+        first, high = self.plan.fixed[sid]
         if first > low:
             low = first
         # The necessary bounds of its constraints with the partners in the state (as
@@ -162,13 +180,14 @@ class Attempt:
         try:
             optional: dict[str, Box] = {}
             owing: list[str] = []
+            by_id, future_box, extra = self.plan.by_id, self.future_box, (signal, box[0])
             for compiled in constraints:
                 if compiled.acceptable(env):
                     continue
                 owing.append(compiled.id)
                 for name in compiled.mentioned:
                     if name not in optional:
-                        future = self.future_box(self.plan.by_id[name], box[0], (signal, box[0]))
+                        future = future_box(by_id[name], box[0], extra)
                         if future is not None:
                             optional[name] = future
                 if not compiled.in_other_world(env, optional):
