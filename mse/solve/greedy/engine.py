@@ -118,9 +118,9 @@ class Attempt:
             if free > low:
                 low = free
         if extra is not None:
-            other, start = extra
-            if other.id == sid or (exclusive is not None and other.exclusive == exclusive):
-                start += other.shortest
+            candidate, start = extra
+            if candidate.id == sid or (exclusive is not None and candidate.exclusive == exclusive):
+                start += candidate.shortest
                 if start > low:
                     low = start
         first, high = self.plan.fixed[sid]
