@@ -7,7 +7,7 @@ signal's boxes are fetched once, every atom's usual case (one occurrence of each
 inlined, and the connectives are lookups in the same tables.  The rarer cases (a signal with
 several occurrences, an atom naming one signal twice, comparisons) call the closure of that
 atom, so every atom yields exactly the mask :func:`compile_expr` gives: the same verdicts, the
-same walk, the same outputs (tests/test_greedy_partial.py compares the two).
+same walk, the same outputs (tests/test_greedy_codegen.py compares the two).
 
 The generated source only ever contains signal ids as ``repr`` string literals, integers and
 names of this module's namespace.
@@ -86,7 +86,7 @@ class _Writer:
         if len(parts) == 1:
             return f"({table}_MANY(({parts[0]},)))"
         # Folded over the binary table: the same mask as partial.mask_and / mask_or of all the
-        # operands (tests/test_greedy_partial.py checks every combination up to five).
+        # operands (tests/test_greedy_codegen.py checks every combination up to five).
         folded = parts[0]
         for part in parts[1:]:
             folded = f"{table}[{folded} << 3 | {part}]"
