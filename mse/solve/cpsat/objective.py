@@ -71,15 +71,70 @@ def perturbed_scores(prior: SlotPrior, rng: random.Random, mode: str) -> list[fl
     return scores
 
 
+@dataclass(frozen=True)
+class _Position:
+    """One slot's stage-2 terms before they are encoded: its start should be near
+    ``target`` (a linear expression of the bin literals; not when ``later`` holds) and its
+    length near ``length``."""
+
+    start: Any
+    length: Any
+    present: Any
+    target: Any
+    later: Any
+    length_target: int
+    duration: int
+
+
 @dataclass
 class Stages:
     """A lexicographic objective: first the options (presence and start bins, the
     perturb-and-MAP part), then, with every option fixed, the positions (distance to the
-    target starts and lengths).  ``options`` are the literals whose values stage 2 keeps."""
+    target starts and lengths).  ``options`` are the literals whose values stage 2 keeps.
+
+    The positions' distance variables and constraints are added to the model only when
+    stage 2 runs (:meth:`second`): in stage 1 they take no part in the objective, but their
+    long linear constraints would enter the LP relaxation and its cuts (most of stage 1's
+    time, docs/solvers.md "Sampling at 10 s")."""
 
     first: list[Any] = field(default_factory=list)
-    second: list[Any] = field(default_factory=list)
     options: list[Any] = field(default_factory=list)
+    positions: list[_Position] = field(default_factory=list)
+    _second: list[Any] | None = None
+
+    def second(self, cp: Any) -> list[Any]:
+        """The stage-2 terms (distance variables added to ``cp`` on the first call)."""
+        if self._second is None:
+            self._second = []
+            for position in self.positions:
+                self._second += _distance_terms(cp, position)
+        return self._second
+
+    def position_cost(self, solver: Any) -> int:
+        """How far a solution's positions are from their targets (the negated stage-2 value)."""
+        cost = 0
+        for position in self.positions:
+            if solver.boolean_value(position.present):
+                if position.later is None or not solver.boolean_value(position.later):
+                    cost += START_WEIGHT * abs(solver.value(position.start) - solver.value(position.target))
+                cost += LENGTH_WEIGHT * abs(solver.value(position.length) - position.length_target)
+            else:
+                cost += LENGTH_WEIGHT * solver.value(position.length)
+        return cost
+
+
+def _distance_terms(cp: Any, position: _Position) -> list[Any]:
+    start_distance = cp.new_int_var(0, position.duration, "")
+    away = [cp.add(start_distance >= position.start - position.target),
+            cp.add(start_distance >= position.target - position.start)]
+    if position.later is not None:
+        for constraint in away:
+            constraint.only_enforce_if(~position.later)
+    length_distance = cp.new_int_var(0, position.duration, "")
+    present_length = position.length_target * position.present
+    cp.add(length_distance >= position.length - present_length)
+    cp.add(length_distance >= present_length - position.length)
+    return [-START_WEIGHT * start_distance, -LENGTH_WEIGHT * length_distance]
 
 
 def _choice_terms(enc: Encoding, slot: Slot, prior: SlotPrior, scores: Sequence[float],
@@ -88,50 +143,46 @@ def _choice_terms(enc: Encoding, slot: Slot, prior: SlotPrior, scores: Sequence[
     and its distances to the target start and length.  Returns how low its option terms
     can go (negated).
 
-    Bins are order-encoded: ``after[b]`` is "start >= lower edge of bin b" (b >= 1), so the
-    score of bin k telescopes to ``score[0] + sum over b <= k of (score[b] - score[b-1])``
-    and the target start likewise; an absent slot starts at 0, where every ``after`` is
-    false."""
+    Options are one-hot: one literal per bin ("present and starting in bin b") and one for
+    "later", which sum to ``present``; each costs its own non-positive score.  (An order
+    encoding, "start >= edge b", telescopes the scores into coefficients of both signs, so
+    that the objective bound alone prunes nothing and CP-SAT has to prove the optimum with
+    the LP at every node: 2-3x slower, docs/solvers.md "Sampling at 10 s".)  The first bin
+    has no lower edge and the last one, without "later", no upper edge: an absent slot
+    starts at 0, where no bin literal holds."""
     cp = enc.cp
     start, length, present = var(slot.start), var(slot.length), slot.present
     best = scores[prior.choice + 1]
     units = [min(0, round(SCALE * (score - best))) for score in scores]
-    absent_unit, bin_units = units[0], units[1:1 + len(prior.bins)]
     terms = stages.first
-    if absent_unit:
-        terms.append(absent_unit * (1 - present))
-    if bin_units[0]:
-        terms.append(bin_units[0] * present)
+    if units[0]:
+        terms.append(units[0] * (1 - present))
     stages.options.append(present)
-    target: list[Any] = [prior.targets[0] * present]
-    edges = [lo for lo, _ in prior.bins[1:]]
-    steps = [(bin_units[b] - bin_units[b - 1], prior.targets[b] - prior.targets[b - 1])
-             for b in range(1, len(prior.bins))]
+    last = len(prior.bins) - 1
+    literals: list[Any] = []
+    target: list[Any] = []
+    for index, (lo, hi) in enumerate(prior.bins):
+        literal = cp.new_bool_var("")
+        if index > 0:
+            cp.add(start >= lo).only_enforce_if(literal)
+        if index < last or prior.log_later is not None:
+            cp.add(start <= hi - 1).only_enforce_if(literal)
+        literals.append(literal)
+        if units[index + 1]:
+            terms.append(units[index + 1] * literal)
+        if prior.targets[index]:
+            target.append(prior.targets[index] * literal)
     later_literal = None
     if prior.log_later is not None:
-        edges.append(prior.bins[-1][1])
-        steps.append((units[-1] - bin_units[-1], 0))
-    for index, (edge, (unit_step, target_step)) in enumerate(zip(edges, steps, strict=True)):
-        after = cp.new_bool_var("")
-        cp.add(start >= edge).only_enforce_if(after)
-        cp.add(start <= edge - 1).only_enforce_if(~after)
-        stages.options.append(after)
-        if unit_step:
-            terms.append(unit_step * after)
-        if target_step:
-            target.append(target_step * after)
-        if prior.log_later is not None and index == len(edges) - 1:
-            later_literal = after
-    start_distance = cp.new_int_var(0, enc.duration, "")
-    away = [cp.add(start_distance >= start - sum(target)),
-            cp.add(start_distance >= sum(target) - start)]
-    if later_literal is not None:
-        for constraint in away:
-            constraint.only_enforce_if(~later_literal)
-    length_distance = cp.new_int_var(0, enc.duration, "")
-    cp.add(length_distance >= length - prior.length * present)
-    cp.add(length_distance >= prior.length * present - length)
-    stages.second += [-START_WEIGHT * start_distance, -LENGTH_WEIGHT * length_distance]
+        later_literal = cp.new_bool_var("")
+        cp.add(start >= prior.bins[-1][1]).only_enforce_if(later_literal)
+        literals.append(later_literal)
+        if units[-1]:
+            terms.append(units[-1] * later_literal)
+    cp.add(sum(literals) == present)
+    stages.options.extend(literals)
+    stages.positions.append(_Position(start, length, present, sum(target), later_literal, prior.length,
+                                      enc.duration))
     return -min(units)
 
 
@@ -292,8 +343,9 @@ def set_objective(
     if previous:
         reward, most = _diversity_terms(enc, previous)
         stages.first.extend(reward)
-        stages.first.extend(stages.second)
-        stages.second = []
+        stages.first.extend(stages.second(enc.cp))
+        stages.positions = []
+        stages._second = None
         floor += most
     # Lexicographic: one occurrence of a never-occurring signal costs more than every other
     # term of the stage together can gain or lose.

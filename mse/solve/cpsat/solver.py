@@ -299,10 +299,12 @@ def _solve_frame(
                  or bool(request.options.get("first", False)))
         work = DIVERSE_WORK if previous else LARGE_WORK if large else SAMPLE_WORK
         work = float(request.options.get("work", work))  # type: ignore[arg-type]
-        status, solver = _run(enc, request, seed, deadline, work, large=large)
+        mixed = bool(previous) or request.objective in ("most-signals", "fewest-signals")
+        status, solver = _run(enc, request, seed, deadline, work, large=large,
+                              stage="mixed" if mixed else "options")
         if status in (cp_model.OPTIMAL, cp_model.FEASIBLE):
-            if (stages.second and not large and request.options.get("positions", True)
-                    and solver.value(sum(stages.second)) < 0):
+            if (stages.positions and not large and request.options.get("positions", True)
+                    and stages.position_cost(solver) > 0):
                 return _positions(enc, request, seed, deadline, solver, stages, large=large)
             return _decode(enc, solver)
         if status != cp_model.INFEASIBLE:
@@ -342,18 +344,32 @@ def _hint_later(enc: Encoding, later_hints: Sequence[Occurrence]) -> None:
                 hint(enc, slot, -1, 0)
 
 
-def _solver(request: SolveRequest, seed: int, deadline: float, work: float, *, large: bool) -> Any:
-    """No presolve (it costs more than the search on these models).  Small models: the LP
-    relaxation proves the optimum at once.  Large ones: no LP (it costs more than the whole
-    search), branching on the hint (the thinned draw) and stopping at the first timeline:
-    improving it costs seconds for little."""
+def _solver(request: SolveRequest, seed: int, deadline: float, work: float, *, large: bool,
+            stage: str = "options") -> Any:
+    """No presolve (it costs more than the search on these models).  Large models: no LP (it
+    costs more than the whole search), branching on the hint (the thinned draw) and stopping
+    at the first timeline: improving it costs seconds for little.  Small ones, by ``stage``
+    (measured in docs/solvers.md "Sampling at 10 s"):
+
+    * ``options`` (the profile's one-hot option scores): no LP either; every option costs
+      its own non-positive score, so the objective bound alone prunes the search, and
+      without the LP each node is cheap (2x faster than with it);
+    * ``positions`` (stage 2, every option fixed): presolve (it removes the fixed options),
+      the LP relaxation, which bounds the distances nearly at the optimum, and a search up
+      from that lower bound (the plain search closes the gap one unit per solution);
+    * ``mixed`` (preferences, --diverse): the LP relaxation proves the optimum at once."""
     from ortools.sat.python import cp_model
 
     solver = make_solver(max(0.01, deadline - time.monotonic()), request.workers, seed, light=True)
     if large:
         solver.parameters.search_branching = cp_model.HINT_SEARCH
         solver.parameters.stop_after_first_solution = True
-    else:
+    elif stage == "positions":
+        solver.parameters.cp_model_presolve = True
+        solver.parameters.linearization_level = 2
+        solver.parameters.max_cut_rounds_at_level_zero = 1
+        solver.parameters.use_objective_lb_search = True
+    elif stage == "mixed":
         solver.parameters.linearization_level = 2
         solver.parameters.max_cut_rounds_at_level_zero = 1  # cuts cost more than they save here
     solver.parameters.max_deterministic_time = work
@@ -361,12 +377,12 @@ def _solver(request: SolveRequest, seed: int, deadline: float, work: float, *, l
 
 
 def _run(enc: Encoding, request: SolveRequest, seed: int, deadline: float, work: float, *,
-         large: bool) -> tuple[Any, Any]:
+         large: bool, stage: str) -> tuple[Any, Any]:
     """Solve with a deterministic work budget; without any timeline by then, go on to the first
     one (or a proof) within the wall-clock deadline."""
     from ortools.sat.python import cp_model
 
-    solver = _solver(request, seed, deadline, work, large=large)
+    solver = _solver(request, seed, deadline, work, large=large, stage=stage)
     status = solver.solve(enc.cp)
     if status != cp_model.UNKNOWN:
         return status, solver
@@ -400,9 +416,9 @@ def _positions(enc: Encoding, request: SolveRequest, seed: int, deadline: float,
         for slot in slots:
             if slot.decided:
                 cp.add_hint(slot.present, first.boolean_value(slot.present))
-    cp.maximize(sum(stages.second))
+    cp.maximize(sum(stages.second(cp)))
     work = float(request.options.get("work", POSITION_WORK))  # type: ignore[arg-type]
-    solver = _solver(request, seed, deadline, work, large=large)
+    solver = _solver(request, seed, deadline, work, large=large, stage="positions")
     status = solver.solve(cp)
     if status in (cp_model.OPTIMAL, cp_model.FEASIBLE):
         return _decode(enc, solver)
