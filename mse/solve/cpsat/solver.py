@@ -399,23 +399,20 @@ def _positions(enc: Encoding, request: SolveRequest, seed: int, deadline: float,
 
     found = _decode(enc, first)
     cp = enc.cp
+    values = list(first.response_proto.solution)
+    variables = cp.proto.variables
     for literal in stages.options:
-        cp.add_bool_or([literal if first.boolean_value(literal) else ~literal])
+        if isinstance(literal, cp_model.IntVar):  # fixing its domain: no constraint to add
+            domain = variables[literal.index].domain
+            domain[0] = domain[1] = values[literal.index]
+        else:
+            cp.add_bool_or([literal if first.boolean_value(literal) else ~literal])
     cp.clear_hints()  # type: ignore[no-untyped-call]
     for slots in enc.slots.values():
         for slot in slots:
             if slot.decided:
                 for edge in (slot.start, slot.stop, slot.length):
-                    cp.add_hint(var(edge), first.value(edge))
-    hinted = {slot.present.index for slots in enc.slots.values() for slot in slots
-              if slot.decided}
-    for literal in stages.options:
-        if literal.index not in hinted:
-            cp.add_hint(literal, first.boolean_value(literal))
-    for slots in enc.slots.values():
-        for slot in slots:
-            if slot.decided:
-                cp.add_hint(slot.present, first.boolean_value(slot.present))
+                    cp.add_hint(var(edge), values[var(edge).index])
     cp.maximize(sum(stages.second(cp)))
     work = float(request.options.get("work", POSITION_WORK))  # type: ignore[arg-type]
     solver = _solver(request, seed, deadline, work, large=large, stage="positions")
