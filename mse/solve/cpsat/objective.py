@@ -30,6 +30,7 @@ from typing import Any
 from mse.ir import model as ir
 from mse.ir.evaluate import constraint_status
 from mse.ir.schedule import Schedule
+from mse.solve.bounds import length_bounds
 from mse.solve.cpsat.encode import Encoding, Slot, var
 from mse.solve.cpsat.prior import ABSENT, SlotPrior
 
@@ -159,9 +160,18 @@ def _choice_terms(enc: Encoding, slot: Slot, prior: SlotPrior, scores: Sequence[
         terms.append(units[0] * (1 - present))
     stages.options.append(present)
     last = len(prior.bins) - 1
+    # Bins where the slot cannot start get no literal: after the last start where the
+    # shortest occurrence fits, and, for the k-th slot of a repetitive signal, before k
+    # shortest occurrences since the frame's beginning (the slots are chained).
+    signal = enc.model.signal(slot.signal)
+    low, _ = length_bounds(signal, enc.duration)
+    latest = enc.duration - low
+    earliest = enc.frame.begin + (prior.index * low if signal.repetitive else 0)
     literals: list[Any] = []
     target: list[Any] = []
     for index, (lo, hi) in enumerate(prior.bins):
+        if lo > latest or hi - 1 < earliest:
+            continue
         literal = cp.new_bool_var("")
         if index > 0:
             cp.add(start >= lo).only_enforce_if(literal)
