@@ -80,7 +80,8 @@ def register(subparsers: Any) -> None:
         "timeline; random: ignore the probabilities; most-signals/fewest-signals: as many/few signals as possible",
     )
     exact.add_argument("--diverse", action="store_true", help="with --count: maximally different timelines")
-    exact.add_argument("--time-limit", type=float, default=10.0, help="seconds (default 10)")
+    exact.add_argument("--time-limit", type=float, default=10.0,
+                       help="seconds per timeline, and per window of the rolling horizon of a long one (default 10)")
     exact.add_argument("--workers", type=int, default=1, help="CP-SAT search workers (default 1: reproducible)")
     exact.add_argument("--grid", type=float, default=0.5, help="csp: grid step in seconds (default 0.5)")
     out = parser.add_argument_group("motion and export")

@@ -151,7 +151,6 @@ def _frames(model: ir.Model, request: SolveRequest, seed: int, previous: Sequenc
     import ortools.sat.python.cp_model  # noqa: F401  (loading it, ~1 s on a busy machine, is not solving time)
 
     duration = to_ticks(request.duration)
-    deadline = time.monotonic() + request.time_limit
     windows = _windows(duration, bool(previous) or request.diverse)
     committed = Committed(model, duration)
     later_hints: list[Occurrence] = []
@@ -169,6 +168,9 @@ def _frames(model: ir.Model, request: SolveRequest, seed: int, previous: Sequenc
             # Nothing drawn here and nothing planned here: committing nothing is the best this
             # window can do, and the previous window's plan for the rest still completes it.
             continue
+        # The time limit is per window: a long timeline is many small solves, and one
+        # budget shared by all of them would cap the duration a user can ask for.
+        deadline = time.monotonic() + request.time_limit
         frame = Frame(begin, end, committed.representatives(), dict(committed.counts),
                       frozenset(committed.falsified), _later_counts(model, duration, end, committed))
         solution = _solve_frame(model, request, seed, frame, priors, previous, later_hints,
