@@ -115,6 +115,8 @@ def main() -> int:
     parser.add_argument("--warp-augment", default="0.75,1.33", help="time-warp factors added to training ('' none)")
     parser.add_argument("--regenerate", default="means", choices=("means", "frames"))
     parser.add_argument("--states", type=int, default=12)
+    parser.add_argument("--timing", default="neighbours", choices=("neighbours", "desired"),
+                        help="state runs timed as the neighbours' (default) or as the desired path's (the paper's)")
     parser.add_argument("--actions", help="comma-separated (development)")
     parser.add_argument("--max-neighbours", type=int, default=8)
     parser.add_argument("--min-neighbours", type=int, default=8)
@@ -132,6 +134,7 @@ def main() -> int:
     descriptors = Descriptors(library, cache / "bench")
     params = GenerationParams(
         regenerate=args.regenerate,
+        timing=args.timing,
         states=args.states,
         min_neighbours=args.min_neighbours,
         max_neighbours=args.max_neighbours,

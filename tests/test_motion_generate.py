@@ -130,3 +130,28 @@ def test_state_aligned_frames_follow_the_desired_state_order() -> None:
     # a state no neighbour visits gives its mean
     unseen = state_aligned_frames(np.array([1, 1]), means, [neighbour[:3]], [labels[:3]])
     assert unseen[:, 0].tolist() == [10.0, 10.0]
+
+
+def test_retimed_runs_last_as_the_neighbours_runs() -> None:
+    from mse.motion.lma_hmm.hmm import retimed
+
+    # the desired path races through states 0-2 in 1-frame runs and idles in state 3; the
+    # neighbours hold 0-2 for 4 and 6 frames (mean 5) and never visit 3
+    neighbours = [np.array([0] * 4 + [1] * 4 + [2] * 4), np.array([0] * 6 + [1] * 6 + [2] * 6)]
+    out = retimed(np.array([0, 1, 2, 3, 3, 3]), neighbours)
+    assert out.tolist() == [0] * 5 + [1] * 5 + [2] * 5 + [3] * 3
+
+
+def test_one_shot_generation_keeps_the_neighbours_tempo() -> None:
+    """A slow tired raise drawn from the normal one: with the desired path's timing (the
+    paper's) the tired gesture is squeezed into the normal one's runs and its hands jerk
+    about 6x more than with the neighbours' timing (0.26 against 0.04)."""
+    library = starter_library()
+    jerks = {}
+    for timing in ("neighbours", "desired"):
+        motion = generate_motion(library, "arms_raised", "tired", duration=3.0,
+                                 params=GenerationParams(timing=timing)).motion
+        _check_clip(motion, 3.0)
+        hands = motion.positions()[:, [motion.skeleton.index("Hand_L"), motion.skeleton.index("Hand_R")]]
+        jerks[timing] = float(np.sqrt(np.mean(np.diff(hands, n=3, axis=0) ** 2)))
+    assert jerks["neighbours"] < jerks["desired"]

@@ -57,6 +57,7 @@ from mse.motion.lma_hmm.hmm import (
     decode,
     encode,
     encoding_for,
+    retimed,
     smooth,
     state_aligned_frames,
     state_means,
@@ -93,10 +94,16 @@ class GenerationParams:
     #: ``max_neighbours`` (the HMM's cost grows with them)
     min_neighbours: int = 8
     max_neighbours: int = 8
+    #: "neighbours": each state run of the desired path lasts as the neighbours' runs of that
+    #: state (:func:`~mse.motion.lma_hmm.hmm.retimed`: the target style's tempo); "desired":
+    #: the desired path's own Viterbi timing (the paper's)
+    timing: str = "neighbours"
 
     def __post_init__(self) -> None:
         if self.regenerate not in ("means", "frames"):
             raise ValueError(f"regenerate must be 'means' or 'frames', not {self.regenerate!r}")
+        if self.timing not in ("neighbours", "desired"):
+            raise ValueError(f"timing must be 'neighbours' or 'desired', not {self.timing!r}")
         if self.topology not in TOPOLOGIES:
             raise ValueError(f"topology must be one of {', '.join(TOPOLOGIES)}, not {self.topology!r}")
 
@@ -242,7 +249,11 @@ def _modulate(
     states = trained.viterbi(desired_phase)
     training_rotations = rotations + [np.hstack([encode(encoding, desired), support(desired)])] * copies
     means = state_means(trained, phases + [desired_phase] * copies, training_rotations)
-    labels = [trained.viterbi(p) for p in phases] if trained.cyclic or params.regenerate == "frames" else []
+    retime = params.timing == "neighbours"
+    needs_labels = trained.cyclic or params.regenerate == "frames" or retime
+    labels = [trained.viterbi(p) for p in phases] if needs_labels else []
+    if retime:
+        states = retimed(states, labels)
     if params.regenerate == "frames":
         frames = state_aligned_frames(states, means, rotations, labels)
     timings["viterbi"] = time.perf_counter() - clock

@@ -358,6 +358,24 @@ def _runs(states: npt.NDArray[np.int_]) -> list[tuple[int, int, int]]:
     return [(int(a), int(b), int(states[a])) for a, b in zip(starts, stops, strict=True)]
 
 
+def retimed(states: npt.NDArray[np.int_], sequence_states: Sequence[npt.NDArray[np.int_]]) -> npt.NDArray[np.int_]:
+    """The desired path's state order with the neighbours' timing: each run of state s
+    lasts the mean length of the runs of s in the neighbours' own Viterbi sequences (a
+    state they never visit keeps its run). The desired path's Viterbi runs carry its own
+    tempo: a chimpira guide drawn from a normal one raced through 46 states of the
+    chimpira's 186-frame gesture in 2-frame runs (jerk 6x the real clip's), a masculine
+    wave from a normal one swung at the normal wave's rate with a 2 cm amplitude."""
+    lengths: dict[int, list[int]] = {}
+    for labels in sequence_states:
+        for start, stop, state in _runs(labels):
+            lengths.setdefault(state, []).append(stop - start)
+    out = []
+    for start, stop, state in _runs(states):
+        own = lengths.get(state)
+        out.append(np.full(max(1, round(float(np.mean(own)))) if own else stop - start, state, dtype=np.int_))
+    return np.concatenate(out) if out else states.copy()
+
+
 def resample(segment: FloatArray, frames: int) -> FloatArray:
     """Linear resampling of (n, dims) to (frames, dims)."""
     if len(segment) == frames:

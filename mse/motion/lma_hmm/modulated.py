@@ -28,7 +28,7 @@ from mse.motion.lma_hmm.hmm import Encoding, resample, smooth, state_path
 CARRIED = 4
 #: a cyclic path is continued rather than slowed when the clip is this much longer than it
 LOOP_RATIO = 1.3
-DISK_FORMAT = "mse-lma-hmm-path/4"
+DISK_FORMAT = "mse-lma-hmm-path/5"
 
 
 @dataclass(frozen=True, eq=False)
@@ -83,8 +83,11 @@ def continue_cycle(
 
 def path_for(modulated: Modulated, frames: int) -> FloatArray:
     """The modulated path for a clip of ``frames`` frames at the desired frame rate: cyclic
-    paths much shorter than that are continued by :func:`continue_cycle`."""
+    paths much shorter than that are continued by :func:`continue_cycle`, longer ones cut (a
+    cycle keeps its tempo)."""
     path = modulated.path
+    if modulated.cyclic and frames < len(path):
+        return path[: max(frames, 2)]  # a cycle in its own tempo, cut rather than sped up
     if not modulated.cyclic or frames < LOOP_RATIO * len(path) or len(modulated.states) != len(path):
         return path
     states = continue_cycle(modulated.states, modulated.labels, frames)
