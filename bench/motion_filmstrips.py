@@ -26,6 +26,7 @@ from mse.motion.generator import GenerationRequest, generator_for
 
 CASES = (
     ("bandai-ds1", "bow", "angry", 7),
+    ("bandai-ds1", "guide", "chimpira", 7),
     ("bandai-ds2", "wave-both-hands", "elderly", 8),
     ("bandai-ds2", "walk", "active", 8),
     ("bandai-ds2", "raise-up-both-hands", "exhausted", 6),
