@@ -31,6 +31,7 @@ from mse.ir.evaluate import constraint_status, intervals_of, is_instantiated
 from mse.ir.schedule import to_ticks
 from mse.solve.cpsat.encode import Encoding, Lit, lnot
 from mse.solve.cpsat.explain import whole_set_span
+from mse.solve.cpsat.objective import required_signals
 from mse.solve.cpsat.oracle import Oracle, Question
 
 #: Length of the first time stamp (the greedy sampler's slot is about 1 s).
@@ -170,7 +171,7 @@ class _Linter:
         return True
 
     def _signals(self) -> None:
-        required = _directly_required(self.model)
+        required = required_signals(self.model)
         what = f"{self.duration:g} s"
         seen = self.oracle.seen
         stamp = self.stamp
@@ -205,19 +206,6 @@ class _Linter:
                 # Dropped from later checks: of two equivalent constraints only the
                 # second is reported, so removing every W404 constraint stays safe.
                 self.oracle.redundant.append(key)
-
-
-def _directly_required(model: ir.Model) -> frozenset[str]:
-    """Signals a constraint requires in so many words: ``exists(s)`` alone or in a
-    top-level ``and`` of a constraint without trigger signals (always evaluated)."""
-    required: set[str] = set()
-    for constraint in model.constraints:
-        if constraint.triggers:
-            continue
-        expr = constraint.expr
-        parts = expr.operands if isinstance(expr, ir.And) else (expr,)
-        required.update(p.signal for p in parts if isinstance(p, ir.Exists))
-    return frozenset(required)
 
 
 def deep_lint(model: ir.Model, duration: float = 10.0, *, query_time: float = QUERY_TIME,

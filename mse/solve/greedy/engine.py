@@ -20,7 +20,7 @@ import random
 from mse.ir.schedule import Occurrence
 from mse.solve.greedy.debts import Doomed, latest_start
 from mse.solve.greedy.partial import Box, CompiledConstraint
-from mse.solve.greedy.plan import InitialDebts, Plan, SignalPlan
+from mse.solve.greedy.plan import InitialDebts, PartnerBounds, Plan, SignalPlan
 from mse.solve.greedy.windows import (
     Intervals,
     critical_rules,
@@ -127,25 +127,9 @@ class Attempt:
         if first > low:
             low = first
         # The necessary bounds of its constraints with the partners in the state (as
-        # start_window) hold in every world where it occurs.  A partner may be a range (the
-        # candidate): a lower bound uses its lowest value, an upper bound its highest.
-        env = self.env
-        for other, rules in self.plan.partner_bounds[signal.id] if bounded else ():
-            boxes = env.get(other)
-            if not boxes:
-                continue
-            # components never decrease along a signal's boxes: the first has the smallest
-            # values (upper bounds), the last the largest (lower bounds)
-            first_box, last_box = boxes[0], boxes[-1]
-            for index, delta, upper in rules:
-                if upper:
-                    value = first_box[index + 1] + delta
-                    if value < high:
-                        high = value
-                else:
-                    value = last_box[index] + delta
-                    if value > low:
-                        low = value
+        # start_window) hold in every world where it occurs.
+        if bounded:
+            low, high = self.partner_narrowed(self.plan.partner_bounds[signal.id], low, high)
         if low > high:
             return None
         return (low, high, low + signal.shortest, self.plan.duration)
@@ -326,24 +310,31 @@ class Attempt:
             # Already empty: the partners could only narrow it more (both callers only ask
             # whether it is empty then), so they are not looked at.
             return first_start, last_start
+        return self.partner_narrowed(bounds, first_start, last_start)
+
+    def partner_narrowed(self, bounds: PartnerBounds, low: int, high: int) -> tuple[int, int]:
+        """[low, high] narrowed by the necessary start bounds ``bounds`` of a signal's
+        constraints with the partners placed in the state.  A partner may be a range (the
+        candidate, an open-stop trial's box): a lower bound uses its lowest value, an upper
+        bound its highest."""
         env = self.env
         for other, rules in bounds:
             boxes = env.get(other)
             if not boxes:
                 continue
-            # placed points, in start order (and an open-stop trial's box: the upper bound
-            # takes its highest value, the lower bound its lowest, as in future_box)
+            # components never decrease along a signal's boxes: the first has the smallest
+            # values (upper bounds), the last the largest (lower bounds)
             first_box, last_box = boxes[0], boxes[-1]
             for index, delta, upper in rules:
                 if upper:
                     value = first_box[index + 1] + delta
-                    if value < last_start:
-                        last_start = value
+                    if value < high:
+                        high = value
                 else:
                     value = last_box[index] + delta
-                    if value > first_start:
-                        first_start = value
-        return first_start, last_start
+                    if value > low:
+                        low = value
+        return low, high
 
     def draw_stop(self, signal: SignalPlan, start: int) -> int:
         """Triangular over [start + min, start + max] with the mode at the middle."""

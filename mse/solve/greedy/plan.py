@@ -305,7 +305,11 @@ def _cumulative(hazards: Sequence[float]) -> tuple[float, ...]:
     return tuple(found)
 
 
-def _by_partner(bounds: Sequence[StartBound]) -> tuple[tuple[str, tuple[tuple[int, int, bool], ...]], ...]:
+# per partner: (box index, delta, upper) of each necessary start bound with it
+PartnerBounds = tuple[tuple[str, tuple[tuple[int, int, bool], ...]], ...]
+
+
+def _by_partner(bounds: Sequence[StartBound]) -> PartnerBounds:
     grouped: dict[str, list[tuple[int, int, bool]]] = {}
     for bound in bounds:
         if bound.other is not None:
