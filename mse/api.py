@@ -253,6 +253,9 @@ def lint(
     problem = solve_duration_problem(duration)
     if problem is not None:
         raise MseError([Diagnostic("E100", f"lint duration {problem}", Span("<arguments>"))])
+    if deep_budget is not None and not 0 < deep_budget <= 86400:  # also refuses nan
+        message = f"deep budget {deep_budget:g} s is not in (0, 86400] s (no limit: --deep-budget 0, or None in Python)"
+        raise MseError([Diagnostic("E100", message, Span("<arguments>"))])
     rules = (*STATIC_RULES, unknown_motion_actions(STARTER_ACTIONS))
     found: list[Diagnostic] = []
     libraries = None

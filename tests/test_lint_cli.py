@@ -182,3 +182,10 @@ def test_a_set_without_timeline_is_a_lint_error_at_file_line(
     assert record["code"] == "E401" and record["severity"] == "error" and record["line"] > 0
     assert "both (" in record["message"] and "[duration]" in record["message"]
     assert main(["lint", str(path), "--duration", "13"]) == 0
+
+
+@pytest.mark.parametrize("budget", ["-1", "nan", "inf"])
+def test_a_bad_deep_budget_is_a_usage_error(budget: str, capsys: pytest.CaptureFixture[str]) -> None:
+    assert main(["lint", "relief", "--deep-budget", budget]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith("<arguments>: E100 deep budget") and "Traceback" not in err

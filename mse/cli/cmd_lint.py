@@ -69,7 +69,7 @@ def run(args: argparse.Namespace) -> int:
             ignore=args.ignore,
             deep=deep,
             duration=args.duration,
-            deep_budget=args.deep_budget if args.deep_budget > 0 else None,
+            deep_budget=None if args.deep_budget == 0 else args.deep_budget,
             realizer=args.realizer,
             library_dir=args.library_dir,
         )
