@@ -105,7 +105,10 @@ class DefaultSolver:
             zeros, first = known[2], known[3]
         else:
             zeros = self._zeros(model, request)
-            first = replace(request, forbid=(*request.forbid, *zeros)) if zeros else request
+            # Without the never-occurring signals, a proof only sends us to the second pass:
+            # CP-SAT need not explain it (docs/sampler.md "Proofs").
+            first = (replace(request, forbid=(*request.forbid, *zeros), options={**request.options, "explain": False})
+                     if zeros else request)
             self._first = (model, request, zeros, first)
         if not self._zeros_needed:
             try:

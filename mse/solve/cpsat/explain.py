@@ -76,8 +76,7 @@ class Explanation:
 
 def _status(enc: Encoding, keys: Sequence[str], time_limit: float, workers: int) -> tuple[str, list[str]]:
     """'feasible' | 'infeasible' | 'unknown' with ``keys`` assumed, and a sufficient core."""
-    from ortools.sat.python import cp_model
-
+    from mse.solve.cpsat import sat as cp_model
     from mse.solve.cpsat.engine import make_solver
 
     enc.cp.clear_assumptions()

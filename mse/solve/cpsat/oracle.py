@@ -339,8 +339,7 @@ class Oracle:
         return status
 
     def _solve(self, enc: Encoding, literals: Sequence[Lit]) -> tuple[str, Any]:
-        from ortools.sat.python import cp_model
-
+        from mse.solve.cpsat import sat as cp_model
         from mse.solve.cpsat.engine import make_solver
 
         if any(lit is False for lit in literals):
