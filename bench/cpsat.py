@@ -196,18 +196,22 @@ def section_lint(args: argparse.Namespace, base: Path | None) -> None:
         print(line)
     sizes = (125, 250, 500) if args.quick else (125, 250, 500, 1000)
     for label, locality, mandatory in (("grouped (10)", 10, 0.3), ("ungrouped", None, 1.0)):
-        seconds = []
+        seconds, cpus = [], []
         for constraints in sizes:
             new = measure("lint", constraints=constraints, locality=locality, mandatory=mandatory, folder=None)
             seconds.append(new.get("seconds", float("nan")))
+            cpus.append(new.get("cpu", float("nan")))
             line = (f"{label:12s} {constraints:5d} constraints: {seconds[-1]:7.2f} s (CPU "
-                    f"{new.get('cpu', float('nan')):6.2f} s) {new.get('codes')}")
-            if base and constraints <= 250:
+                    f"{cpus[-1]:6.2f} s) {new.get('codes')}")
+            if base:
                 old = measure("lint", base, constraints=constraints, locality=locality, mandatory=mandatory,
                               folder=None)
-                line += f"   baseline {old.get('seconds', float('nan')):7.2f} s {old.get('codes')}"
+                old_cpu = old.get("cpu", float("nan"))
+                line += (f"   baseline {old.get('seconds', float('nan')):7.2f} s (CPU {old_cpu:6.2f} s, "
+                         f"CPU ratio {old_cpu / max(cpus[-1], 1e-9):4.2f}) {old.get('codes')}")
             print(line)
-        print(f"{label}: growth exponent {_exponent(sizes, seconds):.2f} (1 = linear)")
+        print(f"{label}: growth exponent {_exponent(sizes, seconds):.2f} in wall time, {_exponent(sizes, cpus):.2f} "
+              "in CPU time (1 = linear)")
         if not args.quick:
             full = measure("lint", constraints=sizes[-1], locality=locality, mandatory=mandatory, folder=None,
                            full=True)
