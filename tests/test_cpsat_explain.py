@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 from strategies import models
@@ -59,3 +60,32 @@ def test_explanations_agree_with_solving_and_are_minimal(model: ir.Model, data: 
     assert not _feasible_without(model, duration, require, keys)
     for dropped in keys:
         assert _feasible_without(model, duration, require, [k for k in keys if k != dropped]), dropped
+
+
+def test_a_verdict_without_its_explanation_when_only_the_verdict_is_needed(monkeypatch: pytest.MonkeyPatch) -> None:
+    """The default solver's first pass over never-occurring signals asks CP-SAT for the verdict
+    alone; the proof it shows (second pass) is explained once."""
+    import mse.solve.cpsat.explain as explainer
+    from mse.solve.default import DefaultSolver
+    from mse.solve.protocol import get_solver
+
+    quiet = ir.Signal("q", "face", "q", 0.5, 1.0, probability_start=0.0, probability_end=0.0)
+    loud = ir.Signal("l", "head", "l", 0.5, 1.0)
+    model = ir.Model("zero", (quiet, loud), (
+        ir.Constraint("c1", ir.Exists("q")), ir.Constraint("c2", ir.Not(ir.Exists("q"))),
+    ))
+    calls: list[float] = []
+    real = explainer.explain
+
+    def counted(model: ir.Model, duration: float, **options: object) -> object:
+        calls.append(duration)
+        return real(model, duration, **options)  # type: ignore[arg-type]
+
+    monkeypatch.setattr(explainer, "explain", counted)
+    with pytest.raises(NoSolution) as caught:
+        get_solver("cpsat").solve(model, SolveRequest(duration=5, seed=0, options={"explain": False}))
+    assert caught.value.proven and calls == [] and caught.value.reason == "no timeline of 5 s exists"
+    with pytest.raises(NoSolution) as caught:
+        DefaultSolver().solve(model, SolveRequest(duration=5, seed=1))
+    assert caught.value.proven and "c1" in caught.value.reason and "c2" in caught.value.reason
+    assert calls == [5]
