@@ -35,8 +35,6 @@ if TYPE_CHECKING:
     from ortools.sat.python import cp_model
     from ortools.sat.python.cp_model_helper import Literal as CpLiteral
 
-    from mse.solve.cpsat.sat import CpModel
-
     Lit = Union[CpLiteral, bool]  # noqa: UP007 (a runtime-free alias)
     Edge = Union[cp_model.IntVar, int]  # noqa: UP007
 else:
@@ -119,7 +117,7 @@ def _time(edge: Edge, offset: int = 0) -> _Time:
 class Encoding:
     """A built CP-SAT model and the handles the solver, explainer and linter need."""
 
-    cp: CpModel
+    cp: cp_model.CpModel
     model: ir.Model
     duration: int
     slots: dict[str, list[Slot]]
@@ -135,11 +133,28 @@ class Encoding:
         return [slot for slot in self.slots[signal_id] if slot.decided]
 
 
+_MODEL_CLASS: Any = None
+
+
+def _model_class(cp_model: Any) -> Any:
+    """``CpModel`` without its per-instance camelCase aliases: OR-Tools 9.15 adds one
+    deprecated alias per method to every new model (4 ms each), which dominated lint's
+    many small local models.  We only use the snake_case names."""
+    global _MODEL_CLASS
+    if _MODEL_CLASS is None:
+        class Model(cp_model.CpModel):  # type: ignore[misc]
+            def _add_pre_pep8_methods(self) -> None:
+                pass
+
+        _MODEL_CLASS = Model
+    return _MODEL_CLASS
+
+
 class _Builder:
     def __init__(self, model: ir.Model, duration: int, switchable: bool, frame: Frame) -> None:
-        from mse.solve.cpsat.sat import CpModel
+        from ortools.sat.python import cp_model
 
-        self.cp: CpModel = CpModel()
+        self.cp: cp_model.CpModel = _model_class(cp_model)()
         self.model = model
         self.duration = duration
         self.switchable = switchable

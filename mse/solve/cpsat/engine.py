@@ -9,17 +9,15 @@ from mse.ir.schedule import Occurrence, Schedule
 from mse.solve.cpsat.encode import Encoding
 
 if TYPE_CHECKING:
-    from ortools.sat.python.cp_model import CpSolverSolutionCallback
-
-    from mse.solve.cpsat.sat import CpSolver
+    from ortools.sat.python import cp_model
 
 
 def make_solver(
     time_limit: float, workers: int = 1, seed: int = 0, *, light: bool = False
-) -> CpSolver:
+) -> cp_model.CpSolver:
     """A CP-SAT solver; ``light`` skips presolve and LP relaxation, which cost more than
     they save on the small sampling models (measured in bench/cpsat.py: 3x faster)."""
-    from mse.solve.cpsat import sat as cp_model
+    from ortools.sat.python import cp_model
 
     solver = cp_model.CpSolver()
     if light:
@@ -33,7 +31,7 @@ def make_solver(
     return solver
 
 
-def decode(enc: Encoding, solver: CpSolver | CpSolverSolutionCallback) -> Schedule:
+def decode(enc: Encoding, solver: cp_model.CpSolver | cp_model.CpSolverSolutionCallback) -> Schedule:
     occurrences = [
         Occurrence(solver.value(slot.start), solver.value(slot.stop), signal_id)
         for signal_id, slots in enc.slots.items()

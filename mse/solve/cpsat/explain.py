@@ -76,7 +76,8 @@ class Explanation:
 
 def _status(enc: Encoding, keys: Sequence[str], time_limit: float, workers: int) -> tuple[str, list[str]]:
     """'feasible' | 'infeasible' | 'unknown' with ``keys`` assumed, and a sufficient core."""
-    from mse.solve.cpsat import sat as cp_model
+    from ortools.sat.python import cp_model
+
     from mse.solve.cpsat.engine import make_solver
 
     enc.cp.clear_assumptions()

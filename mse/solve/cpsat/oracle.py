@@ -354,7 +354,8 @@ class Oracle:
         return status
 
     def _solve(self, enc: Encoding, literals: Sequence[Lit]) -> tuple[str, Any]:
-        from mse.solve.cpsat import sat as cp_model
+        from ortools.sat.python import cp_model
+
         from mse.solve.cpsat.engine import make_solver
 
         if any(lit is False for lit in literals):

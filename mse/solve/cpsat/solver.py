@@ -148,7 +148,7 @@ def _mode(request: SolveRequest) -> str:
 
 def _frames(model: ir.Model, request: SolveRequest, seed: int, previous: Sequence[Schedule]) -> Iterator[Occurrence]:
     """The occurrences of one timeline, window by window, each window once committed."""
-    import mse.solve.cpsat.sat  # noqa: F401  (loading OR-Tools is not solving time)
+    import ortools.sat.python.cp_model  # noqa: F401  (loading it, ~1 s on a busy machine, is not solving time)
 
     duration = to_ticks(request.duration)
     windows = _windows(duration, bool(previous) or request.diverse)
@@ -287,7 +287,8 @@ def _solve_frame(
     deadline: float,
 ) -> list[Occurrence]:
     """The decided occurrences of one frame (window and later slots)."""
-    from mse.solve.cpsat import sat as cp_model
+    from ortools.sat.python import cp_model
+
     from mse.solve.cpsat.objective import set_objective
 
     duration = to_ticks(request.duration)
@@ -359,7 +360,7 @@ def _solver(request: SolveRequest, seed: int, deadline: float, work: float, *, l
       the LP relaxation, which bounds the distances nearly at the optimum, and a search up
       from that lower bound (the plain search closes the gap one unit per solution);
     * ``mixed`` (preferences, --diverse): the LP relaxation proves the optimum at once."""
-    from mse.solve.cpsat import sat as cp_model
+    from ortools.sat.python import cp_model
 
     solver = make_solver(max(0.01, deadline - time.monotonic()), request.workers, seed, light=True)
     if large:
@@ -381,7 +382,7 @@ def _run(enc: Encoding, request: SolveRequest, seed: int, deadline: float, work:
          large: bool, stage: str) -> tuple[Any, Any]:
     """Solve with a deterministic work budget; without any timeline by then, go on to the first
     one (or a proof) within the wall-clock deadline."""
-    from mse.solve.cpsat import sat as cp_model
+    from ortools.sat.python import cp_model
 
     solver = _solver(request, seed, deadline, work, large=large, stage=stage)
     status = solver.solve(enc.cp)
@@ -396,7 +397,7 @@ def _positions(enc: Encoding, request: SolveRequest, seed: int, deadline: float,
                stages: Stages, *, large: bool) -> list[Occurrence]:
     """Stage 2: every option kept as stage 1 chose it, positions as close as possible to
     their targets (within POSITION_WORK); stage 1's timeline if nothing better is found."""
-    from mse.solve.cpsat import sat as cp_model
+    from ortools.sat.python import cp_model
 
     found = _decode(enc, first)
     cp = enc.cp
@@ -408,7 +409,7 @@ def _positions(enc: Encoding, request: SolveRequest, seed: int, deadline: float,
             domain[0] = domain[1] = values[literal.index]
         else:
             cp.add_bool_or([literal if first.boolean_value(literal) else ~literal])
-    cp.clear_hints()
+    cp.clear_hints()  # type: ignore[no-untyped-call]
     for slots in enc.slots.values():
         for slot in slots:
             if slot.decided:
@@ -459,16 +460,15 @@ def enumerate_schedules(
 ) -> list[Schedule]:
     """Every consistent schedule whose times lie on a grid of ``grid`` seconds (tests: the
     csp oracle must find exactly as many).  Occurrence slots are the semantic limit."""
-    from ortools.sat.python.cp_model import CpSolverSolutionCallback
+    from ortools.sat.python import cp_model
 
-    from mse.solve.cpsat import sat as cp_model
     from mse.solve.cpsat.engine import decode
 
     ticks, step = to_ticks(duration), to_ticks(grid)
     enc = build(model, ticks, slot_counts(model, ticks, complete=False, step=step, exact=True), step=step)
     found: list[Schedule] = []
 
-    class Collector(CpSolverSolutionCallback):
+    class Collector(cp_model.CpSolverSolutionCallback):
         def on_solution_callback(self) -> None:
             found.append(decode(enc, self))
             if len(found) >= limit:
