@@ -1,0 +1,226 @@
+"""The obligations of a walk (docs/sampler.md, "Obligations that only the end settles"): the
+owed signals, their latest useful starts (deadlines) and the prerequisites an owed signal waits
+for, searched with the partial checks of state.py; engine.py calls them after each placement."""
+
+from __future__ import annotations
+
+from mse.solve.greedy.debts import Doomed, latest_start
+from mse.solve.greedy.partial import Box, CompiledConstraint
+from mse.solve.greedy.plan import InitialDebts, SignalPlan
+from mse.solve.greedy.state import State
+from mse.solve.greedy.windows import latest_feasible
+
+
+class Obligations(State):
+    """:class:`State` with the deadlines of its owed signals."""
+
+    __slots__ = ()
+
+    def narrows_debts(self, signal: SignalPlan) -> bool:
+        """Whether placing ``signal`` may have moved the latest start of an owed signal (or
+        of a prerequisite: they have latest starts too)."""
+        influence = self.plan.influence[signal.id]
+        return any(name in influence for name in self.latest)
+
+    def owed_signals(self) -> set[str]:
+        owed = {s for s in self.require if not self.env.get(s)}
+        owing = self.owing
+        if not owing:
+            return owed
+        by_id, forbid = self.plan.by_constraint_id, self.forbid
+        for cid in owing:
+            owed.update(name for name in by_id[cid].mentioned if name not in forbid)
+        return owed
+
+    def initial_debts(self) -> None:
+        """:meth:`refresh_latest` on the empty timeline at stamp 0, computed once per plan and
+        request (``Plan.initial_debts``) and copied into this walk: the same result, state
+        and work count as computing it (it draws nothing)."""
+        key = (self.forbid, self.require)
+        found = self.plan.initial_debts.get(key)
+        if found is None:
+            work = self.work
+            try:
+                self.refresh_latest()
+                doomed = None
+            except Doomed as failure:
+                doomed = str(failure)
+            found = InitialDebts(doomed, dict(self.latest), dict(self.needs), self.stuck, self.checked,
+                                 self.work - work)
+            self.plan.initial_debts[key] = found
+            self.work -= found.work
+        self.work += found.work
+        self.latest, self.needs = dict(found.latest), dict(found.needs)
+        self.stuck, self.checked = found.stuck, found.checked
+        if found.doomed is not None:
+            raise Doomed(found.doomed)
+
+    def refresh_latest(self, changed: str | None = None, *, expired_only: bool = False) -> None:
+        """Latest useful start of every owed signal (the ad-hoc inference over the rest of
+        the timeline) and of the prerequisites an owed signal waits for; raise
+        :class:`Doomed` when some debt can no longer be paid.
+
+        Incremental: after placing ``changed``, only the signals whose checks it may have
+        changed (``Plan.influence``) are searched again, and with ``expired_only`` only
+        those whose latest start has passed; the others keep their latest start."""
+        plan = self.plan
+        previous, previous_needs, previous_stuck = self.latest, self.needs, self.stuck
+        full = changed is None and not expired_only
+        stuck: set[str] = set()
+        influence = plan.influence[changed] if changed is not None else frozenset()
+        self.latest, self.needs = {}, {}
+        boxes: dict[str, Box] = {}
+        caps: dict[str, int] = {}  # prerequisite -> latest start of what waits for it
+        searched: set[str] = set()
+        pending = sorted(self.owed_signals())
+        visits = 0
+        while pending and visits < 4 * len(plan.signals):
+            name = pending.pop(0)
+            visits += 1
+            signal = plan.by_id[name]
+            if not self.can_add(signal):
+                continue
+            low, high = self.start_window(signal)
+            low = max(low, self.stamp_low)  # no start before the current stamp any more
+            high = min(high, caps.get(name, high))
+            if low > high:
+                continue
+            latest = previous.get(name)
+            needed = previous_needs.get(name, ())
+            if not full and name in previous_stuck and name not in influence and name not in caps:
+                stuck.add(name)  # nothing it depends on moved: still no way to place it
+                continue
+            if full or latest is None or name in influence or not low <= latest <= high:
+                searched.add(name)
+                needed = ()
+                whole = (low, high, low + signal.shortest, min(high + signal.longest, plan.duration))
+                before = previous.get(name, high)
+                latest = None
+                if any(not self.env.get(p) for p in plan.needs_before[name]):
+                    pass  # it waits for a prerequisite (order.py)
+                elif low <= before <= high and self.allows(signal, self.start_box(signal, before)):
+                    latest = before  # what latest_start would answer first: usually unchanged
+                elif self.allows(signal, whole):  # monotone: when the box fails, every start does
+                    latest = latest_start(
+                        lambda x: self.allows(signal, self.start_box(signal, x)),  # noqa: B023
+                        lambda: self.critical(signal, "start", None),  # noqa: B023
+                        low, high, before,
+                        lambda a, b: self.allows(signal, self.starts_box(signal, a, b)),  # noqa: B023
+                    )
+                if latest is None:
+                    # It cannot be placed now; perhaps once other signals are placed before it
+                    # (``exists(a) and precedes(a, b)`` with b owed): those become owed too,
+                    # due before it.
+                    found = self.prerequisites(signal, low, high)
+                    if found is not None:
+                        latest, needed = found
+            if latest is None:
+                stuck.add(name)
+                continue
+            if needed:
+                self.needs[name] = needed
+                for other in needed:
+                    if caps.get(other, high + 1) > latest:
+                        caps[other] = latest
+                        pending.append(other)
+            self.latest[name] = latest
+            boxes[name] = (low, latest, low + signal.shortest, plan.duration)
+        self.stuck = frozenset(stuck)
+        owing = self.owing
+        if owing:
+            if full:
+                suspects = [c for c in plan.constraints if c.id in owing]
+            else:
+                # Only a debt whose payers moved (or the placed signal's own) may have become
+                # unpayable.
+                touched = searched | previous.keys() - self.latest.keys()
+                if changed is not None:
+                    touched.add(changed)
+                seen: dict[str, CompiledConstraint] = {}
+                for name in sorted(touched):
+                    for compiled in plan.by_signal[name]:
+                        if compiled.id in owing:
+                            seen.setdefault(compiled.id, compiled)
+                suspects = list(seen.values())
+            for compiled in suspects:
+                # Doomed unless the signals that can still start may, together, pay this debt.
+                if not compiled.in_other_world(self.env, boxes):
+                    raise Doomed(compiled.id)
+        for name in self.require:
+            if not self.env.get(name) and name not in self.latest:
+                raise Doomed(f"require {name}")
+
+    def prerequisites(self, signal: SignalPlan, low: int, high: int) -> tuple[int, tuple[str, ...]] | None:
+        """The latest start in [low, high] at which ``signal`` could be placed if some other
+        signals were placed before it (from ``low`` on), and those signals; None if none."""
+        def needed_at(x: int) -> tuple[str, ...] | None:
+            box = self.start_box(signal, x)
+            boxes = self.env.setdefault(signal.id, [])
+            boxes.append(box)
+            try:
+                found: set[str] = set()
+                for compiled in self.plan.by_signal[signal.id]:
+                    if compiled.acceptable(self.env):
+                        continue
+                    optional: dict[str, Box] = {}
+                    strict: dict[str, Box] = {}
+                    for name in compiled.mentioned:
+                        other = self.plan.by_id[name]
+                        early = self.future_box(other, low, None, bounded=False)
+                        if early is not None and name != signal.id:
+                            optional[name] = early
+                        late = self.future_box(other, x, (signal, x))
+                        if late is not None:
+                            strict[name] = late
+                    world = compiled.accepting_world(self.env, optional)
+                    if world is None:
+                        return None
+                    for name in world:
+                        # a signal that may as well come after the candidate is no prerequisite
+                        trial = {n: optional[n] for n in world if n != name}
+                        if name in strict:
+                            trial[name] = strict[name]
+                        if not compiled.accepts_world(self.env, trial):
+                            found.add(name)
+                return tuple(sorted(found))
+            finally:
+                boxes.pop()
+                if not boxes:
+                    del self.env[signal.id]
+
+        # One relaxed check of the box of every start first (monotone, as in feasible_starts):
+        # usually nothing, with or without prerequisites, lets the signal in.
+        if not self.relaxed_allows(signal, (low, high, low + signal.shortest,
+                                            min(high + signal.longest, self.plan.duration)), low):
+            return None
+        latest = latest_feasible(
+            lambda x: bool(needed_at(x)), low, high, lambda: self.critical(signal, "start", None)
+        )
+        if latest is None:
+            return None
+        needed = needed_at(latest)
+        return (latest, needed) if needed else None
+
+    def relaxed_allows(self, signal: SignalPlan, box: Box, low: int) -> bool:
+        """:meth:`allows` where the other signals may still occur from ``low`` on (before the
+        candidate too): what the candidate could have if its prerequisites came first."""
+        env = self.env
+        boxes = env.setdefault(signal.id, [])
+        boxes.append(box)
+        try:
+            for compiled in self.plan.by_signal[signal.id]:
+                if compiled.acceptable(env):
+                    continue
+                optional: dict[str, Box] = {}
+                for name in compiled.mentioned:
+                    if name != signal.id:
+                        early = self.future_box(self.plan.by_id[name], low, None, bounded=False)
+                        if early is not None:
+                            optional[name] = early
+                if not compiled.in_other_world(env, optional):
+                    return False
+            return True
+        finally:
+            boxes.pop()
+            if not boxes:
+                del env[signal.id]
