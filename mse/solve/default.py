@@ -25,7 +25,7 @@ set the walk solves never loads ortools.
 from __future__ import annotations
 
 from collections.abc import Iterator
-from dataclasses import replace
+from dataclasses import fields, replace
 
 from mse import progress
 from mse.ir import model as ir
@@ -37,6 +37,18 @@ from mse.solve.protocol import NoSolution, SolveRequest, check_request, derive_s
 
 #: Name of the complete fallback solver, as recorded in ``"method"``.
 FALLBACK = "cpsat"
+
+#: The fields of a request other than its seed (a timeline's seed is passed on its own).
+_NOT_SEED = tuple(f.name for f in fields(SolveRequest) if f.name != "seed")
+
+
+def _same_but_seed(known: SolveRequest, request: SolveRequest) -> bool:
+    """``request`` asks what ``known`` asks, for another seed: what :meth:`DefaultSolver.one`
+    learnt of ``known`` (validity, never-occurring signals, the walk's request) holds for it.
+    A user's loop of one ``solve()`` per seed then pays for it once."""
+    if known is request:
+        return True
+    return all(getattr(known, name) == getattr(request, name) for name in _NOT_SEED)
 
 
 class DefaultSolver:
@@ -61,7 +73,9 @@ class DefaultSolver:
         self._first: tuple[ir.Model, SolveRequest, tuple[str, ...], SolveRequest] | None = None
 
     def solve(self, model: ir.Model, request: SolveRequest) -> list[Schedule]:
-        self._validate(model, request)
+        known = self._first
+        if known is None or known[0] is not model or not _same_but_seed(known[1], request):
+            self._validate(model, request)  # (the seed plays no part in it)
         self.methods, self.attempts, self.restarts = [], 0, 0
         self._zeros_needed = self._exists_with_zeros = False
         schedules = []
@@ -101,7 +115,7 @@ class DefaultSolver:
         """One timeline for ``seed`` and how it was made; NoSolution (a proof, when CP-SAT
         gives one) when there is none."""
         known = self._first
-        if known is not None and known[0] is model and known[1] is request:
+        if known is not None and known[0] is model and _same_but_seed(known[1], request):
             zeros, first = known[2], known[3]
         else:
             zeros = self._zeros(model, request)
