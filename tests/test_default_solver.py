@@ -234,3 +234,19 @@ def test_cli_json_carries_the_method(capsys: pytest.CaptureFixture[str], tmp_pat
     path.write_text(SEQ, encoding="utf-8")
     assert main(["sample", str(path), "--seed", "4", "--format", "json"]) == 0
     assert json.loads(capsys.readouterr().out)["method"] == "walk"
+
+
+def test_a_loop_of_one_solve_per_seed_reuses_the_request_and_still_validates() -> None:
+    """What a solve() learnt of its request is reused for another seed of the same request
+    only: the timelines are those of a --count run, and another request is checked again."""
+    model = api.load("relief")
+    solver = DefaultSolver()
+    counted = solver.solve(model, SolveRequest(duration=10.0, seed=5, count=4))
+    one_by_one = [solver.solve(model, SolveRequest(duration=10.0, seed=5 + i))[0] for i in range(4)]
+    assert [s.occurrences for s in one_by_one] == [s.occurrences for s in counted]
+    forbidden = model.signals[0].id
+    for schedule in (solver.solve(model, SolveRequest(duration=10.0, seed=s, forbid=(forbidden,)))[0]
+                     for s in range(3)):
+        assert all(o.signal != forbidden for o in schedule.occurrences)
+    with pytest.raises(Exception, match="unknown signal"):
+        solver.solve(model, SolveRequest(duration=10.0, seed=9, forbid=("no_such_signal",)))

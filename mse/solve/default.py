@@ -25,7 +25,7 @@ set the walk solves never loads ortools.
 from __future__ import annotations
 
 from collections.abc import Iterator
-from dataclasses import fields, replace
+from dataclasses import replace
 
 from mse import progress
 from mse.ir import model as ir
@@ -38,9 +38,6 @@ from mse.solve.protocol import NoSolution, SolveRequest, check_request, derive_s
 #: Name of the complete fallback solver, as recorded in ``"method"``.
 FALLBACK = "cpsat"
 
-#: The fields of a request other than its seed (a timeline's seed is passed on its own).
-_NOT_SEED = tuple(f.name for f in fields(SolveRequest) if f.name != "seed")
-
 
 def _same_but_seed(known: SolveRequest, request: SolveRequest) -> bool:
     """``request`` asks what ``known`` asks, for another seed: what :meth:`DefaultSolver.one`
@@ -48,7 +45,8 @@ def _same_but_seed(known: SolveRequest, request: SolveRequest) -> bool:
     A user's loop of one ``solve()`` per seed then pays for it once."""
     if known is request:
         return True
-    return all(getattr(known, name) == getattr(request, name) for name in _NOT_SEED)
+    fields_of = request.__dict__  # (a frozen dataclass without slots: one dict compare)
+    return {**known.__dict__, "seed": fields_of["seed"]} == fields_of
 
 
 class DefaultSolver:
