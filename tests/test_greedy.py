@@ -417,3 +417,39 @@ def test_open_stop_trial_agrees_with_every_stop_and_leaves_the_state_alone() -> 
                 if rng.random() < 0.5:
                     attempt.commit(signal, start, high)  # keep some: later trials see a fuller state
     assert refused  # the trial does refuse sometimes
+
+
+def test_prerequisites_by_halves_give_the_answer_of_every_cell(monkeypatch: pytest.MonkeyPatch) -> None:
+    """The search of an owed signal's prerequisites skips the halves of starts whose relaxed
+    box check fails: every answer is the one of probing every cell from the top."""
+    import contextlib
+    import random
+
+    from mse.solve.greedy import obligations, windows
+    from mse.solve.greedy.engine import Attempt
+    from mse.solve.greedy.plan import plan_for
+    from mse.solve.greedy.walk import OutOfBudget, walk
+
+    def every_cell(check, low, high, points, box=None):  # type: ignore[no-untyped-def]
+        return windows.latest_feasible(check, low, high, points)
+
+    searched = [0, 0]
+    halves = obligations.Obligations.prerequisites
+
+    def both(self: Attempt, signal: object, low: int, high: int) -> object:
+        found = halves(self, signal, low, high)  # type: ignore[arg-type]
+        with monkeypatch.context() as patch:
+            patch.setattr(obligations, "latest_feasible", every_cell)
+            assert halves(self, signal, low, high) == found  # type: ignore[arg-type]
+        searched[found is not None] += 1
+        return found
+
+    monkeypatch.setattr(obligations.Obligations, "prerequisites", both)
+    cases = [("relief", ("relief_smile",)), ("cheerfulness", ("laugh",)), ("tension", ("pressed_lips",)),
+             ("panic_fear", ("fear_face_lips_down",)), ("anger", ())]
+    for name, require in cases:
+        plan = plan_for(api.load(name), 10_000, 1.0)
+        for seed in range(15):
+            with contextlib.suppress(obligations.Doomed, OutOfBudget):
+                walk(Attempt(plan, random.Random(seed), frozenset(), frozenset(require)), budget=5)
+    assert searched[0] and searched[1]  # both outcomes were compared
