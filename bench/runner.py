@@ -42,6 +42,7 @@ for item in job:
             pass
     ok = attempts = restarts = 0
     times = []
+    cpu_times = []
     methods = []  # per seed: how the solver made it ("walk", "cpsat"), or "" when it failed
     cpu, wall = time.process_time(), time.perf_counter()
     skipped = 0
@@ -49,7 +50,7 @@ for item in job:
         if time.perf_counter() - wall > item.get("budget", float("inf")):
             skipped += 1  # this item already took its time budget: the rest is not run
             continue
-        began = time.perf_counter()
+        began, began_cpu = time.perf_counter(), time.process_time()
         try:
             solver.solve(model, SolveRequest(duration=item["duration"], seed=seed))
             ok += 1
@@ -57,10 +58,12 @@ for item in job:
         except NoSolution:
             methods.append("")
         times.append(time.perf_counter() - began)
+        cpu_times.append(time.process_time() - began_cpu)
         attempts += getattr(solver, "attempts", 0)
         restarts += getattr(solver, "restarts", 0)
     results.append({"name": item["name"], "cpu": time.process_time() - cpu, "wall": time.perf_counter() - wall,
-                    "ok": ok, "attempts": attempts, "restarts": restarts, "times": times, "skipped": skipped,
+                    "ok": ok, "attempts": attempts, "restarts": restarts, "times": times, "cpu_times": cpu_times,
+                    "skipped": skipped,
                     "methods": methods})
 print(json.dumps(results))
 """

@@ -263,7 +263,13 @@ def bench_scale(compare: Compare, models: int, seeds: int, repeat: int) -> None:
             fallbacks = sum(r["methods"].count("cpsat") for r in result)
             restarts = sum(r["restarts"] for r in result) / max(1, len(times))
             medians.append(statistics.median(times))
+            cpu = [t for r in result for t in r.get("cpu_times", ())]
+            walks = [t for r in result for t, m in zip(r.get("cpu_times", ()), r["methods"], strict=False)
+                     if m == "walk"]
             line += (f"  {label}: p50 {medians[-1] * 1000:7.1f} ms p99 {percentile(times, 0.99) * 1000:8.1f} ms "
+                     f"(CPU p50 {statistics.median(cpu) * 1000 if cpu else math.nan:7.1f} ms p99 "
+                     f"{percentile(cpu, 0.99) * 1000 if cpu else math.nan:8.1f} ms; walks alone: CPU p50 "
+                     f"{statistics.median(walks) * 1000 if walks else math.nan:6.1f} ms) "
                      f"failed {failed} fallbacks {fallbacks} backtracks/tl {restarts:5.1f} |")
         if len(medians) > 1:
             ratios.append(medians[1] / medians[0])
