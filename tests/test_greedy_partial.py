@@ -19,6 +19,7 @@ from mse.solve.greedy.partial import (
     F,
     N,
     T,
+    absent_gate,
     compare_mask,
     compile_expr,
     mask_and,
@@ -249,3 +250,29 @@ def test_folds_over_many_occurrences_are_exact(
     for atom in atoms:
         expected = {True: T, False: F, None: N}[evaluate_expr(atom, intervals, DURATION)]
         assert compile_expr(atom, DURATION)(env) == expected
+
+
+@settings(max_examples=200, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(data=st.data(), model=models(max_signals=4, max_constraints=4))
+def test_a_constraint_whose_gate_is_absent_is_acceptable(data: st.DataObject, model: ir.Model) -> None:
+    """State.allows skips a constraint whose gate (partial.absent_gate) does not occur: it
+    must then be acceptable (every atom unknown) whatever the checked signal's boxes."""
+    env = env_of(data.draw(timelines(model)))
+    for index, constraint in enumerate(model.constraints):
+        compiled = CompiledConstraint(ir.Constraint(id=f"c{index}", expr=constraint.expr), DURATION)
+        for name in compiled.mentioned:
+            gate = absent_gate(constraint.expr, name)
+            if gate is None:
+                continue
+            assert gate != name and gate in compiled.mentioned
+            without = {n: boxes for n, boxes in env.items() if n != gate}
+            assert compiled.acceptable(without)
+            assert compile_expr(constraint.expr, DURATION)(without) == N
+
+
+def test_absent_gate_of_pairwise_constraints() -> None:
+    pair = ir.Or((ir.Relation("rightincludes", "a", "b"), ir.Relation("rightincludes", "b", "a")))
+    assert absent_gate(pair, "a") == "b" and absent_gate(pair, "b") == "a"
+    assert absent_gate(ir.And((ir.Exists("a"), ir.Relation("excludes", "a", "b"))), "a") is None
+    three = ir.Or((ir.Relation("includes", "a", "b"), ir.Relation("includes", "c", "b")))
+    assert absent_gate(three, "a") == "b" and absent_gate(three, "b") is None

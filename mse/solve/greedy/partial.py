@@ -349,6 +349,23 @@ def _generated(expr: ir.Expr, triggers: tuple[str, ...] | None, duration: int) -
     return generate(expr, triggers, lambda atom: compile_expr(atom, duration), _TABLES)
 
 
+def absent_gate(expr: ir.Expr, signal: str) -> str | None:
+    """A signal other than ``signal`` that every atom of ``expr`` names, if any (the first
+    in order): while it does not occur, every atom is unknown, so the whole expression is
+    unknown (the connectives map unknown operands to unknown) and the constraint acceptable
+    whatever ``signal`` does.  None when an atom is an ``exists`` or names no such signal."""
+    common: set[str] | None = None
+    for node in ir.walk(expr):
+        if isinstance(node, ir.Exists):
+            return None
+        if isinstance(node, ir.Relation | ir.Compare):
+            names = set(ir.atom_signals(node)) - {signal}
+            common = names if common is None else common & names
+            if not common:
+                return None
+    return min(common) if common else None
+
+
 #: A constraint's check (or an operand's) runs as closures for its first HOT_CALLS calls, then
 #: as the function generated for it (codegen.py): generating costs about as much as a hundred
 #: closure calls, which a check called a few times (a one-off timeline, a huge set) never

@@ -19,7 +19,7 @@ from mse.ir import model as ir
 from mse.ir.profile import RATE_UNIT
 from mse.ir.schedule import to_ticks
 from mse.solve.greedy.order import needs_before
-from mse.solve.greedy.partial import CompiledConstraint
+from mse.solve.greedy.partial import CompiledConstraint, absent_gate
 
 #: Default length of a time stamp in seconds (the original implementation's ~1 s).
 DEFAULT_SLOT = 1.0
@@ -98,8 +98,8 @@ class Plan:
 
     __slots__ = (
         "bounds", "by_constraint_id", "by_id", "by_signal", "constraints", "critical", "cumulative", "duration",
-        "edges", "fixed", "in_modality", "influence", "initial_debts", "initial_owing", "masses", "needs_before",
-        "partner_bounds", "related", "signals", "stamps", "table",
+        "edges", "fixed", "gated", "in_modality", "influence", "initial_debts", "initial_owing", "masses",
+        "needs_before", "partner_bounds", "related", "signals", "stamps", "table",
     )
 
     def __init__(
@@ -148,6 +148,12 @@ class Plan:
         self.initial_debts: dict[tuple[frozenset[str], frozenset[str]], InitialDebts] = {}
         # Lists, reordered by the sampler (most recently failing first: order never changes results)
         self.by_signal = by_signal
+        # Per signal, its constraints with their gate (partial.absent_gate; the signal itself
+        # when none): a constraint whose gate does not occur is acceptable whatever the
+        # signal does, and State.allows skips its check.  Lists, reordered as by_signal.
+        self.gated = {
+            s.id: [(absent_gate(c.constraint.expr, s.id) or s.id, c) for c in by_signal[s.id]] for s in signals
+        }
         self.related = related  # signals sharing a constraint with it (itself too)
         # Placing a signal may change the checks of the signals related to it and, through the
         # future boxes of its exclusive modality's members, of the signals related to those.

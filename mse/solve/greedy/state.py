@@ -119,7 +119,7 @@ class State:
     def allows(self, signal: SignalPlan, box: Box) -> bool:
         """The partial animation plus ``box`` for ``signal`` may still satisfy every
         constraint that names the signal."""
-        constraints = self.plan.by_signal[signal.id]
+        constraints = self.plan.gated[signal.id]
         if not constraints:
             return True
         self.work += 1  # a repeated check counts too: the walk's work bound stays as it was
@@ -139,8 +139,10 @@ class State:
             optional: dict[str, Box] = {}
             owing: list[str] = []
             by_id, future_box, extra = self.plan.by_id, self.future_box, (signal, box[0])
-            for compiled in constraints:
-                if compiled.acceptable(env):
+            get = env.get
+            # The signal's own id is the gate of a constraint without one: it is in env here.
+            for gate, compiled in constraints:
+                if not get(gate) or compiled.acceptable(env):
                     continue
                 owing.append(compiled.id)
                 for name in compiled.mentioned:
@@ -149,9 +151,9 @@ class State:
                         if future is not None:
                             optional[name] = future
                 if not compiled.in_other_world(env, optional):
-                    if compiled is not constraints[0]:  # check the usual culprit first next time
-                        constraints.remove(compiled)
-                        constraints.insert(0, compiled)
+                    if constraints[0][1] is not compiled:  # check the usual culprit first next time
+                        constraints.remove((gate, compiled))
+                        constraints.insert(0, (gate, compiled))
                     self.memo[key] = None
                     return False
             # For a point box these are exactly the constraints that placing it leaves owing.
