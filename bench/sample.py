@@ -1,6 +1,7 @@
 """Benchmarks of the default sampler (issues 3, 12 and 19).  Prints numbers; asserts nothing.
 
     python bench/sample.py --sets                       # every bundled and Greta set, 10 s
+    python bench/sample.py --bytecodes --count 100      # the same, in bytecodes per timeline (load-free)
     python bench/sample.py --corpus                     # random sets, CP-SAT as ground truth
     python bench/sample.py --growth                     # growth exponents, 200/400 at 10 s
     python bench/sample.py --scale                      # 200 signals / 400 constraints at 10 s only
@@ -142,6 +143,61 @@ def bench_sets(compare: Compare, count: int, duration: float, rounds: int = 1, o
             line += f" {base:13.0f} {rate / base:6.2f} {count - theirs['ok']:14d}"
         print(line, flush=True)
     print(f"slowest set: {worst:.0f} timelines per CPU second (target >= 4000); {load_line()}")
+
+
+# -- --bytecodes: the same work counted in bytecodes (load-independent) -------------------------------
+BYTECODES_SCRIPT = r"""
+import json, sys
+sys.path.insert(0, sys.argv[1])
+from mse.ir.canonical import model_from_json
+from mse.solve.protocol import NoSolution, SolveRequest, get_solver
+job = json.load(sys.stdin)
+results = []
+for item in job:
+    model = model_from_json(item["model"], path=item["name"])
+    solver = get_solver("greedy")
+    def run(seeds):
+        for seed in seeds:
+            try:
+                solver.solve(model, SolveRequest(duration=item["duration"], seed=seed))
+            except NoSolution:
+                pass
+    run(range(10**6, 10**6 + 100))  # plans built, checks generated: the steady state is counted
+    count = [0]
+    def tracer(frame, event, arg):
+        frame.f_trace_opcodes = True
+        if event == "opcode":
+            count[0] += 1
+        return tracer
+    sys.settrace(tracer)
+    run(item["seeds"])
+    sys.settrace(None)
+    results.append({"name": item["name"], "bytecodes": count[0] / len(item["seeds"])})
+print(json.dumps(results))
+"""
+
+
+def bench_bytecodes(compare: Compare, count: int, duration: float, only: Sequence[str] = ()) -> None:
+    """Per set, the Python bytecodes executed per timeline (sys.settrace opcode events, a
+    loop of one solve() per seed as --sets) by this tree and the baseline: the same for any
+    load, so a ratio that the shared machine's noise does not move (C calls count as one)."""
+    sets = {name: model for name, model in all_sets().items() if not only or name in only}
+    print(f"== bytecodes per timeline, {duration:g} s, {count} timelines per set after 100 not counted "
+          f"(instruction counts: independent of the load; {load_line()})")
+    print(f"{'set':24s} {'bytecodes/tl':>12s} {'baseline':>10s} {'ratio':>6s}")
+    job = [{"name": name, "model": model_to_json(model), "duration": duration, "seeds": list(range(1, count + 1))}
+           for name, model in sets.items()]
+    roots = [REPO] + ([compare.baseline_root] if compare.baseline_root is not None else [])
+    counts = []
+    for root in roots:
+        done = subprocess.run([sys.executable, "-c", BYTECODES_SCRIPT, str(root)], input=json.dumps(job),
+                              capture_output=True, text=True, check=True)
+        counts.append({r["name"]: r["bytecodes"] for r in json.loads(done.stdout.strip().splitlines()[-1])})
+    for name in sets:
+        line = f"{name:24s} {counts[0][name]:12.0f}"
+        if len(counts) > 1:
+            line += f" {counts[1][name]:10.0f} {counts[1][name] / counts[0][name]:6.2f}"
+        print(line)
 
 
 # -- --corpus: random sets with CP-SAT as ground truth (issue 12) ------------------------------------
@@ -531,10 +587,12 @@ def bench_cli(repeat: int) -> None:
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     modes: dict[str, Callable[[], None]] = {}
-    for flag in ("sets", "corpus", "growth", "scale", "long", "infeasible", "fidelity", "constraint-less", "cli"):
+    for flag in ("sets", "bytecodes", "corpus", "growth", "scale", "long", "infeasible", "fidelity",
+                 "constraint-less", "cli"):
         parser.add_argument(f"--{flag}", action="store_true")
     parser.add_argument("--baseline-ref", default="14df718", help="revision to compare with ('' for none)")
-    parser.add_argument("--count", type=int, default=2000, help="--sets: timelines per set")
+    parser.add_argument("--count", type=int, default=2000,
+                        help="--sets: timelines per set (--bytecodes: at most 200)")
     parser.add_argument("--duration", type=float, default=None, help="--sets (10), --long (3600), --fidelity (10)")
     parser.add_argument("--corpus-size", type=int, default=400, help="--corpus: random sets")
     parser.add_argument("--seeds", type=int, default=5, help="--corpus, --growth: seeds per set")
@@ -549,10 +607,12 @@ def main() -> None:
 
     print(load_line(" before"))
     with tempfile.TemporaryDirectory() as folder:
-        needs_compare = args.sets or args.corpus or args.growth or args.scale or args.infeasible
+        needs_compare = args.sets or args.bytecodes or args.corpus or args.growth or args.scale or args.infeasible
         compare = Compare(args.baseline_ref or None, Path(folder)) if needs_compare else Compare(None, Path(folder))
         modes = {
             "sets": lambda: bench_sets(compare, args.count, args.duration or 10.0, args.rounds, args.sets_only or ()),
+            "bytecodes": lambda: bench_bytecodes(compare, min(args.count, 200), args.duration or 10.0,
+                                                 args.sets_only or ()),
             "corpus": lambda: bench_corpus(compare, args.corpus_size, args.seeds, args.seed, args.time_limit),
             "growth": lambda: bench_growth(compare, args.models, args.seeds),
             "long": lambda: bench_long(args.duration or 3600.0, args.sets_only or list(all_sets())),
