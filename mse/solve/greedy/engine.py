@@ -202,18 +202,13 @@ class Attempt(Obligations):
             owing = checked[2]
             changed = False
             if owing or self.owing:
-                current = self.owing
-                for compiled in constraints:
-                    cid = compiled.id
-                    owes = cid in owing
-                    if owes != (cid in current):
-                        if not changed:
-                            current = self.owing = set(current)  # copy on write (see set_owing)
-                            changed = True
-                        if owes:
-                            current.add(cid)
-                        else:
-                            current.discard(cid)
+                # The signal's constraints owing now are exactly ``owing``: replace their part
+                # of the owing set when it differs (a new set: commit() keeps the old one).
+                mine, current = self.plan.constraint_ids[sid], self.owing
+                now = set(owing)
+                if current & mine != now:
+                    self.owing = (current - mine) | now
+                    changed = True
         else:
             changed = False
             for compiled in constraints:

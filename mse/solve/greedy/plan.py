@@ -97,8 +97,8 @@ class Plan:
     """Everything about one model, duration and slot that does not depend on the draws."""
 
     __slots__ = (
-        "bounds", "by_constraint_id", "by_id", "by_signal", "constraints", "critical", "cumulative", "duration",
-        "edges", "fixed", "gated", "in_modality", "influence", "initial_debts", "initial_owing", "masses",
+        "bounds", "by_constraint_id", "by_id", "by_signal", "constraint_ids", "constraints", "critical", "cumulative",
+        "duration", "edges", "fixed", "gated", "in_modality", "influence", "initial_debts", "initial_owing", "masses",
         "needs_before", "partner_bounds", "related", "signals", "stamps", "table",
     )
 
@@ -148,6 +148,7 @@ class Plan:
         self.initial_debts: dict[tuple[frozenset[str], frozenset[str]], InitialDebts] = {}
         # Lists, reordered by the sampler (most recently failing first: order never changes results)
         self.by_signal = by_signal
+        self.constraint_ids = {s.id: frozenset(c.id for c in by_signal[s.id]) for s in signals}
         # Per signal, its constraints with their gate (partial.absent_gate; the signal itself
         # when none): a constraint whose gate does not occur is acceptable whatever the
         # signal does, and State.allows skips its check.  Lists, reordered as by_signal.
