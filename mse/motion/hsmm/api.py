@@ -20,6 +20,7 @@ import numpy as np
 
 from mse.motion.base.bvh import Motion
 from mse.motion.hsmm.adapt import adapt_units, adaptive_training, auto_blocks, blocks_for
+from mse.motion.hsmm.carried import carried_profiles, clip_carried
 from mse.motion.hsmm.features import FloatArray, observations
 from mse.motion.hsmm.mlpg import global_variance
 from mse.motion.hsmm.model import (
@@ -143,8 +144,15 @@ def clip_instances(
                     f"clip's {statics.shape[0]} frames"
                 )
         statics = statics[min(s.start for s in segments) : max(s.stop for s in segments)]
+    carried = clip_carried(motion, template) if cyclic else None
     instances = [
-        Instance(s.unit, style, obs[s.start : s.stop], uniform_bounds(s.length, states))
+        Instance(
+            s.unit,
+            style,
+            obs[s.start : s.stop],
+            uniform_bounds(s.length, states),
+            carried[s.start : s.stop] if carried is not None else None,
+        )
         for s in segments
         if s.length >= states
     ]
@@ -252,6 +260,7 @@ def train_average(
         variance_floor=floor,
         first_leg=_first_leg(instances),
         info={"clips": len(clips), "styles": sorted({s for _, s in clips}), **asdict(options)},
+        carried=carried_profiles(units, instances) if cyclic else {},
     )
 
 
@@ -285,6 +294,7 @@ def train_scratch(
         floor,
         _first_leg(instances),
         info={"takes": len(clips), "trained_on": "style data only", **asdict(options)},
+        carried=carried_profiles(units, instances) if cyclic else {},
     )
 
 
@@ -346,5 +356,6 @@ def adapt_model(
             "takes": len(motions),
             "adapt_blocks": kind,
         },
+        carried=carried_profiles(units, instances, prior=average.carried) if average.carried else {},
     )
 

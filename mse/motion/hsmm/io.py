@@ -1,10 +1,12 @@
 """Model files: one ``.npz`` archive (no pickle) with a JSON header under the key ``meta``.
 
-Format ``mse-hsmm/2`` (``/1`` models were trained with the parity-linked Δ² window and are
-refused): ``meta`` holds the action, style, unit names, skeleton layout and
+Format ``mse-hsmm/3`` (``/2`` files load, without flight profiles; ``/1`` models were
+trained with the parity-linked Δ² window and are refused): ``meta`` holds the action,
+style, unit names, skeleton layout and
 template scalars; arrays hold the skeleton offsets, template translations and reference
 rotations, global variance statistics, variance floor and, per unit, ``unit:{name}:means``,
-``:variances``, ``:duration_means``, ``:duration_variances``.
+``:variances``, ``:duration_means``, ``:duration_variances`` and, for cyclic actions,
+``:carried`` (per state: root velocity, foot lift, support; :mod:`mse.motion.hsmm.carried`).
 """
 
 from __future__ import annotations
@@ -25,7 +27,9 @@ from mse.motion.base.bvh import Skeleton
 from mse.motion.hsmm.model import HsmmModel, UnitModel
 from mse.motion.hsmm.prep import Template
 
-FORMAT = "mse-hsmm/2"
+FORMAT = "mse-hsmm/3"
+#: formats this version reads (``/2``: no flight profiles, feet always pinned)
+READABLE_FORMATS = ("mse-hsmm/2", FORMAT)
 _UNIT_FIELDS = ("means", "variances", "duration_means", "duration_variances")
 
 
@@ -68,6 +72,8 @@ def model_bytes(model: HsmmModel) -> bytes:
     for name, unit in model.units.items():
         for field_name in _UNIT_FIELDS:
             arrays[f"unit:{name}:{field_name}"] = getattr(unit, field_name)
+        if name in model.carried:
+            arrays[f"unit:{name}:carried"] = model.carried[name]
     buffer = io.BytesIO()
     np.savez_compressed(buffer, **arrays)
     return buffer.getvalue()
@@ -121,6 +127,9 @@ def _check(model: HsmmModel) -> str | None:
             return f"unit {unit_name!r} has inconsistent array shapes"
         if not all(np.isfinite(a).all() for a in arrays) or (unit.variances <= 0).any():
             return f"unit {unit_name!r} holds non-finite numbers or non-positive variances"
+        carried = model.carried.get(unit_name)
+        if carried is not None and (carried.shape != (states, 4) or not np.isfinite(carried).all()):
+            return f"unit {unit_name!r} has a malformed carried profile"
         seconds = float(unit.duration_means.sum()) * template.frame_time
         if (unit.duration_means < 0).any() or seconds > MAX_MOTION_SECONDS:
             return f"unit {unit_name!r} has durations outside [0, {MAX_MOTION_SECONDS:g}] s"
@@ -133,7 +142,7 @@ def load_model(path: str | os.PathLike[str]) -> HsmmModel:
     arrays = _read_arrays(name)
     try:
         meta = json.loads(str(arrays["meta"]))
-        if meta.get("format") != FORMAT:
+        if meta.get("format") not in READABLE_FORMATS:
             raise _error(name, f"not an HSMM model (format {meta.get('format')!r})")
         sk = meta["skeleton"]
         skeleton = Skeleton(
@@ -177,6 +186,11 @@ def load_model(path: str | os.PathLike[str]) -> HsmmModel:
             variance_floor=np.asarray(arrays["variance_floor"], dtype=np.float64),
             first_leg=str(meta["first_leg"]),
             info=dict(meta.get("info", {})),
+            carried={
+                unit: np.asarray(arrays[f"unit:{unit}:carried"], dtype=np.float64)
+                for unit in meta["units"]
+                if f"unit:{unit}:carried" in arrays
+            },
         )
         problem = _check(model)
     except (KeyError, IndexError, TypeError, ValueError, AttributeError) as error:

@@ -56,6 +56,9 @@ class HsmmModel:
     variance_floor: FloatArray  # (3D,)
     first_leg: str = "a"
     info: Mapping[str, object] = field(default_factory=dict)
+    #: per unit, (S, 4) how each state carries the body: root velocity along X and Z in the
+    #: aligned frame, foot lift, support (flight phases of runs; empty: feet always pinned)
+    carried: Mapping[str, FloatArray] = field(default_factory=dict)
 
     @property
     def states(self) -> int:
@@ -83,6 +86,8 @@ class Instance:
     style: str
     observations: FloatArray  # (L, 3D)
     bounds: tuple[int, ...]  # S + 1 increasing frame indices, 0 .. L
+    #: (L, 4) how the body is carried in these frames (see :mod:`mse.motion.hsmm.carried`)
+    carried: FloatArray | None = None
 
     def durations(self) -> FloatArray:
         return np.diff(np.asarray(self.bounds, dtype=np.float64))

@@ -21,6 +21,7 @@ from mse.motion.base.bvh import Motion
 from mse.motion.base.contacts import root_track
 from mse.motion.base.filters import zero_phase_lowpass
 from mse.motion.base.kinematics import forward_kinematics, matrix_to_euler
+from mse.motion.hsmm.carried import carried_track, smooth_carried
 from mse.motion.hsmm.features import FloatArray
 from mse.motion.hsmm.mlpg import generate_with_gv, mlpg
 from mse.motion.hsmm.model import HsmmModel, UnitModel
@@ -92,10 +93,11 @@ def state_durations(
     return whole
 
 
-def generate_statics(
+def generate(
     model: HsmmModel, unit_names: list[str], frames: int, gv: bool = True, seed: int | None = None
-) -> FloatArray:
-    """(frames, D) static features for the unit sequence."""
+) -> tuple[FloatArray, FloatArray | None]:
+    """(frames, D) static features for the unit sequence, and (frames, 4) how the body is
+    carried (:mod:`mse.motion.hsmm.carried`; None when the model has no such profiles)."""
     units = [model.unit(name) for name in unit_names]
     rng = np.random.default_rng(seed) if seed is not None else None
     durations = state_durations(units, frames, rng)
@@ -103,9 +105,17 @@ def generate_statics(
     variances = np.concatenate([u.variances for u in units])
     mean_seq = np.repeat(means, durations, axis=0)
     var_seq = np.repeat(variances, durations, axis=0)
+    carried = carried_track(units, [model.carried.get(model.resolve(n)) for n in unit_names], durations)
     if gv:
-        return generate_with_gv(mean_seq, var_seq, model.gv_mean, model.gv_var)
-    return mlpg(mean_seq, var_seq)
+        return generate_with_gv(mean_seq, var_seq, model.gv_mean, model.gv_var), carried
+    return mlpg(mean_seq, var_seq), carried
+
+
+def generate_statics(
+    model: HsmmModel, unit_names: list[str], frames: int, gv: bool = True, seed: int | None = None
+) -> FloatArray:
+    """(frames, D) static features for the unit sequence."""
+    return generate(model, unit_names, frames, gv, seed)[0]
 
 
 #: cut-off of the zero-phase low-pass of every generated trajectory (Hz)
@@ -142,17 +152,19 @@ def still_legs(statics: FloatArray, template: Template) -> FloatArray:
     return smoothed
 
 
-def root_positions(relative: FloatArray, template: Template) -> FloatArray:
+def root_positions(relative: FloatArray, template: Template, carried: FloatArray | None = None) -> FloatArray:
     """(T, 3) world root positions from joint positions relative to the root (T, J, 3): the
     lowest foot point sits at the training contact height and is pinned while it is the
-    lowest (:func:`mse.motion.base.contacts.root_track`)."""
+    lowest (:func:`mse.motion.base.contacts.root_track`); ``carried`` (T, 4): in flight
+    phases the root keeps that velocity and lift instead."""
     contacts = template.contacts[0] + template.contacts[1]
     feet = [list(range(len(template.contacts[0]))), list(range(len(template.contacts[0]), len(contacts)))]
-    return root_track(relative, contacts, template.contact_height, template.frame_time, groups=feet)
+    return root_track(relative, contacts, template.contact_height, template.frame_time, carried, groups=feet)
 
 
-def statics_to_motion(statics: FloatArray, model: HsmmModel) -> Motion:
-    """BVH motion from static features: rotations, template offsets, recomputed root."""
+def statics_to_motion(statics: FloatArray, model: HsmmModel, carried: FloatArray | None = None) -> Motion:
+    """BVH motion from static features: rotations, template offsets, recomputed root
+    (``carried``: per-frame flight phases, :mod:`mse.motion.hsmm.carried`)."""
     template = model.template
     skeleton = template.skeleton
     frames = statics.shape[0]
@@ -168,7 +180,9 @@ def statics_to_motion(statics: FloatArray, model: HsmmModel) -> Motion:
     positions, world = forward_kinematics(skeleton.parents, translations, rotations)
     root_world = positions[:, template.root_joint]
     relative = positions - root_world[:, None, :]
-    target = root_positions(relative, template)
+    if carried is not None:
+        carried = smooth_carried(carried, template.frame_time, OUTPUT_CUTOFF_HZ)
+    target = root_positions(relative, template, carried)
     parent = skeleton.parents[template.root_joint]
     local = (
         np.einsum("fba,fb->fa", world[:, parent], target - root_world) if parent >= 0 else target
@@ -212,7 +226,9 @@ def synthesize(
     while len(names) > 1 and requested < model.states * len(names):
         names = names[:-2] + names[-1:] if len(names) > 2 else names[:1]
     frames = max(requested, model.states)
-    statics = generate_statics(model, names, frames, gv=gv, seed=seed)
+    statics, carried = generate(model, names, frames, gv=gv, seed=seed)
     if frames != requested:  # fewer frames than states: sample the trajectory evenly
-        statics = statics[np.round(np.linspace(0, frames - 1, requested)).astype(np.int64)]
-    return statics_to_motion(statics, model)
+        kept = np.round(np.linspace(0, frames - 1, requested)).astype(np.int64)
+        statics = statics[kept]
+        carried = carried[kept] if carried is not None else None
+    return statics_to_motion(statics, model, carried)
