@@ -122,10 +122,14 @@ def root_track(
     frame_time: float,
     carried: FloatArray | None = None,
     groups: Sequence[Sequence[int]] = (),
+    hysteresis: float = STANCE_HYSTERESIS,
+    blend_s: float = STANCE_BLEND_S,
 ) -> FloatArray:
     """(T, 3) world root positions from joint positions relative to the root (T, J, 3);
     ``groups``: the contacts of each foot, as indices into ``contacts`` (default: each point
-    is a foot).
+    is a foot); ``hysteresis`` (share of the leg length) and ``blend_s`` (s): see
+    :data:`STANCE_HYSTERESIS` and :data:`STANCE_BLEND_S` (0 and 0: the lowest point is
+    pinned in every frame).
 
     ``carried`` (T, 4) as :func:`support` gives it: while a frame is unsupported, the root
     moves with its velocity and rises by its lift instead of following the lowest foot."""
@@ -135,7 +139,7 @@ def root_track(
     rise = np.zeros(frames) if carried is None else (1.0 - carried[:, 3]) * carried[:, 2]
     root[:, 1] = zero_phase_lowpass(height - points[:, :, 1].min(axis=1) + rise, frame_time, HEIGHT_CUTOFF_HZ)
     heights = points[:, :, 1]
-    margin = STANCE_HYSTERESIS * max(float(np.median(-heights.min(axis=1))), 1e-9)
+    margin = hysteresis * max(float(np.median(-heights.min(axis=1))), 1e-9)
     feet = [list(g) for g in groups] if groups else [[k] for k in range(count)]
     foot_heights = np.stack([heights[:, g].min(axis=1) for g in feet], axis=1)  # (T, feet)
     pinned = np.empty(frames, dtype=np.int_)
@@ -146,7 +150,7 @@ def root_track(
             current = lowest
         # within the stance foot, its lowest point (heel, then toes as the foot rolls)
         pinned[t] = feet[current][int(np.argmin(heights[t, feet[current]]))]
-    stance = _blend(np.eye(count)[pinned], STANCE_BLEND_S / frame_time)
+    stance = _blend(np.eye(count)[pinned], blend_s / frame_time)
     moves = np.zeros((frames, count, 2))
     moves[1:] = -np.diff(points[:, :, [0, 2]], axis=0)
     steps = np.sum(stance[:, :, None] * moves, axis=1)
