@@ -33,9 +33,12 @@ from mse.motion.hsmm.model import (
 from mse.motion.hsmm.prep import Template, build_template, pose_positions, static_features
 from mse.motion.hsmm.segment import (
     CYCLIC_ACTIONS,
+    HAND_CYCLE_ACTIONS,
+    LOCOMOTION,
     ONE_SHOT_UNIT,
     Segment,
     foot_separation,
+    hand_sway,
     segment_clip,
 )
 from mse.motion.hsmm.synth import synthesize as _synthesize
@@ -106,11 +109,24 @@ def is_cyclic(action: str) -> bool:
     return action in CYCLIC_ACTIONS
 
 
-def segment_motion(motion: Motion, template: Template, cyclic: bool) -> list[Segment]:
-    """The unit segments of a complete clip (steps in context for cyclic actions)."""
+def cycle_signal(statics: FloatArray, template: Template, action: str | None = None) -> FloatArray:
+    """The signal whose alternating extrema cut a clip into units: the feet's forward
+    separation (steps), or for :data:`HAND_CYCLE_ACTIONS` the hands' sway."""
+    positions = pose_positions(statics, template)
+    if action in HAND_CYCLE_ACTIONS:
+        from mse.motion.base.bodyparts import body_map
+
+        body = body_map(template.skeleton)
+        return hand_sway(positions, (body.left_hand, body.right_hand), body.torso, template.frame_time)
+    return foot_separation(positions, template.contacts)
+
+
+def segment_motion(motion: Motion, template: Template, cyclic: bool, action: str | None = None) -> list[Segment]:
+    """The unit segments of a complete clip (steps in context for cyclic actions; the hands'
+    swings for ``action`` in :data:`HAND_CYCLE_ACTIONS`)."""
     statics = static_features(motion, template)
-    separation = foot_separation(pose_positions(statics, template), template.contacts)
-    return segment_clip(statics.shape[0], cyclic, separation if cyclic else None)
+    separation = cycle_signal(statics, template, action) if cyclic else None
+    return segment_clip(statics.shape[0], cyclic, separation)
 
 
 #: Unit segments per clip, e.g. from a hand labelling or from :func:`segment_motion` on a
@@ -125,17 +141,19 @@ def clip_instances(
     cyclic: bool,
     states: int,
     segments: Sequence[Segment] | None = None,
+    action: str | None = None,
 ) -> tuple[list[Instance], FloatArray]:
     """Unit instances of one clip (equal state splits) and its static features.
 
     With ``segments`` (labelled frame ranges of the clip), only those frames are used and
-    the static features returned are those of the frames they span.
+    the static features returned are those of the frames they span. ``action`` selects the
+    cycle signal (:func:`cycle_signal`) and whether flight phases are learnt (locomotion).
     """
     statics = static_features(motion, template)
     obs = observations(statics)
     if segments is None:
-        separation = foot_separation(pose_positions(statics, template), template.contacts)
-        segments = segment_clip(statics.shape[0], cyclic, separation if cyclic else None)
+        separation = cycle_signal(statics, template, action) if cyclic else None
+        segments = segment_clip(statics.shape[0], cyclic, separation)
     elif segments:
         for segment in segments:
             if not 0 <= segment.start < segment.stop <= statics.shape[0]:
@@ -144,7 +162,7 @@ def clip_instances(
                     f"clip's {statics.shape[0]} frames"
                 )
         statics = statics[min(s.start for s in segments) : max(s.stop for s in segments)]
-    carried = clip_carried(motion, template) if cyclic else None
+    carried = clip_carried(motion, template) if cyclic and action not in HAND_CYCLE_ACTIONS else None
     instances = [
         Instance(
             s.unit,
@@ -165,6 +183,7 @@ def _gather(
     cyclic: bool,
     states: int,
     segmentation: Segmentation = None,
+    action: str | None = None,
 ) -> tuple[list[Instance], list[FloatArray]]:
     instances: list[Instance] = []
     statics: list[FloatArray] = []
@@ -172,7 +191,7 @@ def _gather(
         raise ValueError(f"{len(segmentation)} segmentations for {len(clips)} clips")
     for index, (motion, style) in enumerate(clips):
         segments = segmentation[index] if segmentation is not None else None
-        found, features = clip_instances(motion, style, template, cyclic, states, segments)
+        found, features = clip_instances(motion, style, template, cyclic, states, segments, action)
         instances.extend(found)
         statics.append(features)
     if cyclic and any(i.unit != ONE_SHOT_UNIT for i in instances):
@@ -225,7 +244,7 @@ def _prepare(
     else:
         lengths = [m.frame_count for m, _ in clips]
     options = replace(options, states=unit_states(cyclic, lengths, options))
-    instances, statics = _gather(clips, template, cyclic, options.states, segmentation)
+    instances, statics = _gather(clips, template, cyclic, options.states, segmentation, action)
     return cyclic, template, instances, statics, variance_floor(instances), options
 
 
@@ -260,7 +279,7 @@ def train_average(
         variance_floor=floor,
         first_leg=_first_leg(instances),
         info={"clips": len(clips), "styles": sorted({s for _, s in clips}), **asdict(options)},
-        carried=carried_profiles(units, instances) if cyclic else {},
+        carried=carried_profiles(units, instances) if action in LOCOMOTION else {},
     )
 
 
@@ -294,7 +313,7 @@ def train_scratch(
         floor,
         _first_leg(instances),
         info={"takes": len(clips), "trained_on": "style data only", **asdict(options)},
-        carried=carried_profiles(units, instances) if cyclic else {},
+        carried=carried_profiles(units, instances) if action in LOCOMOTION else {},
     )
 
 
@@ -313,7 +332,7 @@ def adapt_model(
     """
     template = average.template
     instances, statics = _gather(
-        [(m, style) for m in motions], template, average.cyclic, average.states, segmentation
+        [(m, style) for m in motions], template, average.cyclic, average.states, segmentation, average.action
     )
     instances = [replace(i, unit=average.resolve(i.unit)) for i in instances]
     kind = options.adapt_blocks

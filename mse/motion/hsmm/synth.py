@@ -26,7 +26,7 @@ from mse.motion.hsmm.features import FloatArray
 from mse.motion.hsmm.mlpg import generate_with_gv, mlpg
 from mse.motion.hsmm.model import HsmmModel, UnitModel
 from mse.motion.hsmm.prep import Template, local_rotations_from_features
-from mse.motion.hsmm.segment import ONE_SHOT_UNIT
+from mse.motion.hsmm.segment import HAND_CYCLE_ACTIONS, LOCOMOTION, ONE_SHOT_UNIT
 
 
 def _other(leg: str) -> str:
@@ -188,7 +188,8 @@ def statics_to_motion(statics: FloatArray, model: HsmmModel, carried: FloatArray
     # through the pinned feet it reaches the whole body: Bandai dataset 2 walks had head and
     # wrist jerk 2.3-2.6x the real walks' (limit 2x); at 6 Hz 0.8-1.2x, speed and stride kept.
     statics = zero_phase_lowpass(statics, template.frame_time, OUTPUT_CUTOFF_HZ)
-    if not model.cyclic:
+    standing = model.action not in LOCOMOTION  # one-shot actions and hand cycles (waves)
+    if standing:
         statics = still_legs(statics, template)
     rotations = local_rotations_from_features(statics, template)
     translations = np.broadcast_to(template.translations, (frames, skeleton.joint_count, 3)).copy()
@@ -198,7 +199,7 @@ def statics_to_motion(statics: FloatArray, model: HsmmModel, carried: FloatArray
     relative = positions - root_world[:, None, :]
     if carried is not None:
         carried = smooth_carried(carried, template.frame_time, OUTPUT_CUTOFF_HZ)
-    target = root_positions(relative, template, carried, standing=not model.cyclic)
+    target = root_positions(relative, template, carried, standing=standing)
     parent = skeleton.parents[template.root_joint]
     local = (
         np.einsum("fba,fb->fa", world[:, parent], target - root_world) if parent >= 0 else target
@@ -242,7 +243,8 @@ def synthesize(
     while len(names) > 1 and requested < model.states * len(names):
         names = names[:-2] + names[-1:] if len(names) > 2 else names[:1]
     frames = max(requested, model.states)
-    statics, carried = generate(model, names, frames, gv=gv, seed=seed)
+    # Hand cycles (waves) skip GV: see HAND_CYCLE_ACTIONS in segment.py
+    statics, carried = generate(model, names, frames, gv=gv and model.action not in HAND_CYCLE_ACTIONS, seed=seed)
     if frames != requested:  # fewer frames than states: sample the trajectory evenly
         kept = np.round(np.linspace(0, frames - 1, requested)).astype(np.int64)
         statics = statics[kept]
