@@ -238,7 +238,9 @@ def _prepare(
     """What both trainings start from: cyclic?, skeleton template, unit instances, static
     features, the variance floor and the options with the states per unit."""
     cyclic = is_cyclic(action)
-    template = template or build_template([m for m, _ in clips])
+    if template is None:
+        # Standing actions may spin a full turn: the root as swing-twist (prep.twist_features)
+        template = replace(build_template([m for m, _ in clips]), twisted_root=action not in LOCOMOTION)
     if segmentation is not None:
         lengths = [s.length for segments in segmentation if segments for s in segments]
     else:

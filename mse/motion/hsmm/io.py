@@ -1,6 +1,6 @@
 """Model files: one ``.npz`` archive (no pickle) with a JSON header under the key ``meta``.
 
-Format ``mse-hsmm/3`` (``/2`` files load, without flight profiles; ``/1`` models were
+Format ``mse-hsmm/3`` (``/2`` files load, without flight profiles or swing-twist roots; ``/1`` models were
 trained with the parity-linked Δ² window and are refused): ``meta`` holds the action,
 style, unit names, skeleton layout and
 template scalars; arrays hold the skeleton offsets, template translations and reference
@@ -58,6 +58,7 @@ def model_bytes(model: HsmmModel) -> bytes:
             "legs": list(template.legs),
             "contacts": [list(c) for c in template.contacts],
             "contact_height": template.contact_height,
+            "twisted_root": template.twisted_root,
         },
     }
     arrays: dict[str, Any] = {
@@ -168,6 +169,7 @@ def load_model(path: str | os.PathLike[str]) -> HsmmModel:
             legs=(legs[0], legs[1]),
             contacts=(contacts[0], contacts[1]),
             contact_height=float(tp["contact_height"]),
+            twisted_root=bool(tp.get("twisted_root", False)),
         )
         units = {
             unit: UnitModel(

@@ -24,8 +24,10 @@ from mse.motion.base.kinematics import forward_kinematics
 from mse.motion.hsmm.features import (
     FloatArray,
     continuous_expmaps,
+    expmap_from_matrix,
     matrix_from_expmap,
     mean_rotation,
+    quaternion_from_matrix,
     yaw_matrix,
 )
 
@@ -43,6 +45,8 @@ class Template:
     legs: tuple[int, int]  # the two leg roots (children of the root joint)
     contacts: tuple[tuple[int, ...], tuple[int, ...]]  # contact joints of each leg
     contact_height: float  # typical height of the lowest contact point above the floor
+    #: the root joint's features are swing-twist (:func:`twist_features`), not an exp map
+    twisted_root: bool = False
 
     @property
     def feature_count(self) -> int:
@@ -155,20 +159,70 @@ def build_template(motions: list[Motion]) -> Template:
     )
 
 
+def _axis_rotation(axis: FloatArray, angles: FloatArray) -> FloatArray:
+    """(T, 3, 3) rotations by ``angles`` about the unit ``axis``."""
+    return matrix_from_expmap(np.asarray(angles, dtype=np.float64)[:, None] * axis[None, :])
+
+
+def twist_features(relative: FloatArray, up: FloatArray) -> FloatArray:
+    """(T, 3, 3) rotations to (T, 3) swing-twist features: ``relative = twist(yaw about up)
+    @ swing``, the swing an exponential map perpendicular to ``up`` and the yaw, unwrapped
+    along time (it may exceed π), put in its place along ``up``.
+
+    The exponential map is singular at 2π: a performer who spins a full turn (Bandai's kick
+    and dance-short) sends the root's map through that shell, where its direction changes in
+    a few frames, and the state means cut the corner (the generated body tipped over for ~7
+    frames). The yaw as a scalar has no such shell."""
+    quats = quaternion_from_matrix(relative)
+    yaw = np.unwrap(2.0 * np.arctan2(quats[:, 1:] @ up, quats[:, 0]))
+    swing = np.swapaxes(_axis_rotation(up, yaw), -1, -2) @ relative
+    features = expmap_from_matrix(swing)
+    features += (yaw - features @ up)[:, None] * up[None, :]
+    result: FloatArray = features
+    return result
+
+
+def twist_matrices(features: FloatArray, up: FloatArray) -> FloatArray:
+    """Inverse of :func:`twist_features`."""
+    yaw = features @ up
+    swing = features - yaw[:, None] * up[None, :]
+    result: FloatArray = _axis_rotation(up, yaw) @ matrix_from_expmap(swing)
+    return result
+
+
+def _root_up(template: Template) -> tuple[int, FloatArray] | None:
+    """The root joint's feature index and the vertical in its reference frame, when the
+    template models the root as swing-twist."""
+    if not template.twisted_root or template.root_joint not in template.rotated:
+        return None
+    k = template.rotated.index(template.root_joint)
+    up: FloatArray = template.references[k].T @ np.array([0.0, 1.0, 0.0])
+    return k, up / np.linalg.norm(up)
+
+
 def static_features(motion: Motion, template: Template) -> FloatArray:
-    """(T, 3·joints) exponential maps of the aligned rotations relative to the references."""
+    """(T, 3·joints) exponential maps of the aligned rotations relative to the references
+    (the root joint's as swing-twist when ``template.twisted_root``)."""
     if not motion.skeleton.same_layout(template.skeleton):
         raise ValueError("the clip's skeleton differs from the model's")
     local = aligned_rotations(motion, template)[:, list(template.rotated)]
     relative = np.swapaxes(template.references, -1, -2)[None] @ local
-    return continuous_expmaps(relative).reshape(local.shape[0], -1)
+    features = continuous_expmaps(relative)
+    root = _root_up(template)
+    if root is not None:
+        features[:, root[0]] = twist_features(relative[:, root[0]], root[1])
+    return features.reshape(local.shape[0], -1)
 
 
 def local_rotations_from_features(statics: FloatArray, template: Template) -> FloatArray:
     """(T, J, 3, 3) local rotations from static features (identity for unrotated joints)."""
     frames = statics.shape[0]
     rotations = np.broadcast_to(np.eye(3), (frames, template.skeleton.joint_count, 3, 3)).copy()
-    relative = matrix_from_expmap(statics.reshape(frames, len(template.rotated), 3))
+    per_joint = statics.reshape(frames, len(template.rotated), 3)
+    relative = matrix_from_expmap(per_joint)
+    root = _root_up(template)
+    if root is not None:
+        relative[:, root[0]] = twist_matrices(per_joint[:, root[0]], root[1])
     rotations[:, list(template.rotated)] = template.references[None] @ relative
     return rotations
 
