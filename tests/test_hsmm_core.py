@@ -165,3 +165,22 @@ def test_global_variance_compensation_restores_the_target_variance() -> None:
     ratio = global_variance(compensated) / target
     assert np.all((ratio > 0.9) & (ratio < 1.1)), ratio
     assert np.all(np.isfinite(compensated))
+
+
+def test_swing_twist_root_features_round_trip_and_unwrap_a_full_spin() -> None:
+    from mse.motion.hsmm.prep import twist_features, twist_matrices
+
+    rng = np.random.default_rng(3)
+    up = np.array([0.1, -0.2, 0.97])
+    up /= np.linalg.norm(up)
+    yaw = np.linspace(0.0, 2.4 * np.pi, 60)  # more than a full turn
+    tilt = np.tile(rng.normal(size=3) * 0.2, (60, 1)) + rng.normal(size=(60, 3)) * 0.01
+    tilt -= (tilt @ up)[:, None] * up[None, :]  # a swing: no component about the vertical
+    rotations = matrix_from_expmap(yaw[:, None] * up[None, :]) @ matrix_from_expmap(tilt)
+    features = twist_features(rotations, up)
+    assert np.allclose(features @ up, yaw, atol=1e-9)  # a continuous scalar past 2π
+    assert np.allclose(twist_matrices(features, up), rotations, atol=1e-12)
+    # the exponential map of the same spin jumps near 2π; these features move smoothly
+    step = 2.4 * np.pi / 59
+    assert np.max(np.linalg.norm(np.diff(features, axis=0), axis=1)) < 1.5 * step
+    assert np.max(np.linalg.norm(np.diff(continuous_expmaps(rotations[:, None])[:, 0], axis=0), axis=1)) > 3 * step
