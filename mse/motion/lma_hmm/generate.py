@@ -297,7 +297,8 @@ def _steady_legs(path: FloatArray, encoding: Encoding, frame_time: float, hz: fl
     """``path`` with the legs' rotations low-passed at ``hz`` when the neighbours stand
     (their carried root speed, median, under :data:`STANDING_LEG_LENGTHS_PER_S` leg lengths
     per second) and the legs barely move (:data:`STILL_LEGS_RADIANS`). Both feet of a
-    standing body stay put, but only one is pinned (:func:`~mse.motion.base.contacts.ground`): the other follows the legs' state means,
+    standing body stay put, but only one is pinned (:func:`~mse.motion.base.contacts.ground`):
+    the other follows the legs' state means,
     which change from state to state with the neighbours' stances: a feminine wave of
     dataset 2 slid its free foot at 1.07 cm/s (real: 0.23); at 0.5 Hz, 0.23."""
     skeleton = encoding.skeleton
