@@ -4,6 +4,7 @@
 
 1. the desired path X_d is the leaf's ``clip`` (a library clip id) or, by default, the
    action's ``normal`` clip (else its first clip); its own style is the original emotion;
+   a leaf in that same style plays the desired path itself (:func:`_own_style`);
 2. LMA features of the clips (cached), RMLR saliency (cached) -> the affectively
    non-discriminative components for (original, target) (eq. 12);
 3. the ε-neighbourhood of X_d among the target-style clips of the same action, widened to
@@ -300,9 +301,9 @@ def _steady_legs(path: FloatArray, encoding: Encoding, frame_time: float, hz: fl
     (their carried root speed, median, under :data:`STANDING_LEG_LENGTHS_PER_S` leg lengths
     per second) and the legs barely move (:data:`STILL_LEGS_RADIANS`). Both feet of a
     standing body stay put, but only one is pinned (:func:`~mse.motion.base.contacts.ground`):
-    the other follows the legs' state means,
-    which change from state to state with the neighbours' stances: a feminine wave of
-    dataset 2 slid its free foot at 1.07 cm/s (real: 0.23); at 0.5 Hz, 0.23."""
+    the other follows the legs' state means, which change from state to state with the
+    neighbours' stances: a feminine wave of dataset 2 slid its free foot at 1.07 cm/s
+    (real: 0.23); at 0.5 Hz, 0.23. Off by default (``GenerationParams.standing_legs_hz``)."""
     skeleton = encoding.skeleton
     legs = set(limb_groups(skeleton)["legs"])
     columns = [3 * i + k for i, joint in enumerate(encoding.rotated) if joint in legs for k in range(3)]
