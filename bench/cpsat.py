@@ -221,15 +221,21 @@ def section_lint(args: argparse.Namespace, base: Path | None) -> None:
     print("target: 1000 constraints <= 5 s, about linear (default budget: 4 CPU seconds of questions per file)")
 
 
-def section_fidelity(args: argparse.Namespace, base: Path | None) -> None:
-    print(f"\n## fidelity at 10 s: per signal, occurrences per timeline and mean relative start "
-          f"(load {load_average()})")
+def _sources(args: argparse.Namespace) -> list[str]:
+    """The bundled sets, then the Greta sets of ``--greta-sets`` if given."""
     from mse.resources import bundled_names
 
-    runs = 60 if args.quick else 300
     sources = list(bundled_names())
     if args.greta_sets:
         sources += [str(p) for p in sorted(Path(args.greta_sets).glob("*.xml"))]
+    return sources
+
+
+def section_fidelity(args: argparse.Namespace, base: Path | None) -> None:
+    print(f"\n## fidelity at 10 s: per signal, occurrences per timeline and mean relative start "
+          f"(load {load_average()})")
+    runs = 60 if args.quick else 300
+    sources = _sources(args)
     worst: dict[str, list[float]] = {"rate": [], "start": []}
     for source in sources:
         cpsat = measure("fidelity", source=source, solver_name="cpsat", runs=runs, duration=10.0)
@@ -257,12 +263,8 @@ def section_fidelity(args: argparse.Namespace, base: Path | None) -> None:
 def section_controls(args: argparse.Namespace, base: Path | None) -> None:
     print(f"\n## controls at 10 s: --mode constraint-less must violate a constraint; a signal whose "
           f"probabilities are both 0 must never occur (load {load_average()})")
-    from mse.resources import bundled_names
-
     runs = 20 if args.quick else 100
-    sources = list(bundled_names())
-    if args.greta_sets:
-        sources += [str(p) for p in sorted(Path(args.greta_sets).glob("*.xml"))]
+    sources = _sources(args)
     print(f"{'set':24s} {'solver':7s} {'violating':>10s} {'0/0 shown':>10s}")
     for solver_name in ("cpsat", "greedy"):
         totals = [0, 0, 0, 0]
