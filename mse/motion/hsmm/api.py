@@ -336,6 +336,12 @@ def adapt_model(
     instances, statics = _gather(
         [(m, style) for m in motions], template, average.cyclic, average.states, segmentation, average.action
     )
+    # A style starts with the leg its takes start with: a walk started on the average model's
+    # leg swayed the pelvis in the opposite phase, and its first frame (which measures side
+    # travel) faced the wrong way (Bandai dataset 1 walk-left proud starts on leg b, the
+    # average on a: side speed 8.1 cm/s, its take 11.7)
+    starts = [i for i in instances if i.unit.startswith("first-")]
+    first_leg = _first_leg(starts) if starts and average.cyclic else average.first_leg
     instances = [replace(i, unit=average.resolve(i.unit)) for i in instances]
     kind = options.adapt_blocks
     if kind == "auto":
@@ -369,6 +375,7 @@ def adapt_model(
         average,
         style=style,
         units=units,
+        first_leg=first_leg,
         gv_mean=gv_mean,
         gv_var=gv_var,
         info={

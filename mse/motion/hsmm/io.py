@@ -27,9 +27,10 @@ from mse.motion.base.bvh import Skeleton
 from mse.motion.hsmm.model import HsmmModel, UnitModel
 from mse.motion.hsmm.prep import Template
 
-FORMAT = "mse-hsmm/3"
-#: formats this version reads (``/2``: no flight profiles, feet always pinned)
-READABLE_FORMATS = ("mse-hsmm/2", FORMAT)
+FORMAT = "mse-hsmm/4"
+#: formats this version reads (``/2``: no flight profiles, feet always pinned; ``/2`` and
+#: ``/3``: no feet lift of the training clips, standing legs always stilled)
+READABLE_FORMATS = ("mse-hsmm/2", "mse-hsmm/3", FORMAT)
 _UNIT_FIELDS = ("means", "variances", "duration_means", "duration_variances")
 
 
@@ -59,6 +60,7 @@ def model_bytes(model: HsmmModel) -> bytes:
             "contacts": [list(c) for c in template.contacts],
             "contact_height": template.contact_height,
             "twisted_root": template.twisted_root,
+            "feet_lift": template.feet_lift,
         },
     }
     arrays: dict[str, Any] = {
@@ -170,6 +172,7 @@ def load_model(path: str | os.PathLike[str]) -> HsmmModel:
             contacts=(contacts[0], contacts[1]),
             contact_height=float(tp["contact_height"]),
             twisted_root=bool(tp.get("twisted_root", False)),
+            feet_lift=float(tp.get("feet_lift", 0.0)),
         )
         units = {
             unit: UnitModel(

@@ -47,6 +47,10 @@ class Template:
     contact_height: float  # typical height of the lowest contact point above the floor
     #: the root joint's features are swing-twist (:func:`twist_features`), not an exp map
     twisted_root: bool = False
+    #: how far the training clips lift one foot over the other (:func:`feet_lift`, median
+    #: over the clips, share of the leg length): standing actions whose real legs act (a
+    #: kick, a punch's step) are not stilled at synthesis (``synth.still_legs``)
+    feet_lift: float = 0.0
 
     @property
     def feature_count(self) -> int:
@@ -130,9 +134,8 @@ def build_template(motions: list[Motion]) -> Template:
     legs, contacts = find_legs(skeleton, root, positions)
     rotated = tuple(j for j in range(skeleton.joint_count) if len(skeleton.rotation_order(j)) == 3)
     contact_joints = list(contacts[0] + contacts[1])
-    heights = [
-        float(np.median(np.min(m.positions()[:, contact_joints, 1], axis=1))) for m in motions
-    ]
+    clip_positions = [m.positions() for m in motions]
+    heights = [float(np.median(np.min(p[:, contact_joints, 1], axis=1))) for p in clip_positions]
     provisional = Template(
         skeleton=skeleton,
         frame_time=first.frame_time,
@@ -146,6 +149,7 @@ def build_template(motions: list[Motion]) -> Template:
     )
     stacked = np.concatenate([aligned_rotations(m, provisional)[:, list(rotated)] for m in motions])
     references = np.stack([mean_rotation(stacked[:, k]) for k in range(len(rotated))])
+    lifts = [feet_lift(p, provisional) for p in clip_positions]
     return Template(
         skeleton=provisional.skeleton,
         frame_time=provisional.frame_time,
@@ -156,7 +160,18 @@ def build_template(motions: list[Motion]) -> Template:
         legs=legs,
         contacts=contacts,
         contact_height=provisional.contact_height,
+        feet_lift=float(np.median(lifts)),
     )
+
+
+def feet_lift(positions: FloatArray, template: Template) -> float:
+    """95th percentile over frames of the height of one foot's lowest point over the
+    other's, as a share of the leg length (``positions``: (T, J, 3))."""
+    lows = [positions[:, list(points), 1].min(axis=1) for points in template.contacts]
+    hip = positions[:, template.legs[0]]
+    foot = positions[:, template.contacts[0][0]]
+    leg = float(np.median(np.linalg.norm(hip - foot, axis=-1)))
+    return float(np.percentile(np.abs(lows[0] - lows[1]), 95)) / max(leg, 1e-9)
 
 
 def _axis_rotation(axis: FloatArray, angles: FloatArray) -> FloatArray:
