@@ -243,3 +243,31 @@ def test_walks_generate_the_root_rotation_without_gv(walk_sad: HsmmModel) -> Non
     others = [c for c in range(with_gv.shape[1]) if c not in root]
     np.testing.assert_allclose(with_gv[:, root], without[:, root], atol=1e-9)
     assert not np.allclose(with_gv[:, others], without[:, others])
+
+
+def test_adapted_model_starts_on_the_leg_its_takes_start_on(
+    walk_sad: HsmmModel, walk_average: HsmmModel, small_library: MotionLibrary
+) -> None:
+    """Adaptation used to keep the average model's first leg; a style that starts on the
+    other leg then swayed its pelvis in the opposite phase (dataset 1 walk-left proud)."""
+    take = sorted(small_library.select(action="walk", style="sad"), key=lambda c: c.id)[0]
+    segments = api.segment_motion(small_library.motion(take), walk_average.template, cyclic=True, action="walk")
+    first = next(s.unit for s in segments if s.unit.startswith("first-"))
+    assert walk_sad.first_leg == first.rpartition("-")[2]
+    assert api.synthesize(walk_sad, steps=3).frame_count > 0
+
+
+def test_feet_lift_tells_standing_actions_from_acting_legs(
+    small_library: MotionLibrary, walk_sad: HsmmModel, tmp_path: Path
+) -> None:
+    """Bows keep both feet down (legs stilled at synthesis); walks lift a foot every step.
+    The template keeps the value through the model file."""
+    from mse.motion.hsmm import synth
+    from mse.motion.hsmm.prep import build_template
+
+    bows = [small_library.motion(c) for c in small_library.select(action="bow")]
+    assert build_template(bows).feet_lift <= synth.ACTING_LEGS_LIFT
+    assert walk_sad.template.feet_lift > synth.ACTING_LEGS_LIFT
+    path = tmp_path / "walk.sad"
+    save_model(path, walk_sad)
+    assert load_model(path).template.feet_lift == pytest.approx(walk_sad.template.feet_lift)
