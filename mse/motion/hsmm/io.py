@@ -1,6 +1,8 @@
 """Model files: one ``.npz`` archive (no pickle) with a JSON header under the key ``meta``.
 
-Format ``mse-hsmm/3`` (``/2`` files load, without flight profiles or swing-twist roots; ``/1`` models were
+Format ``mse-hsmm/4``, whose template scalars add the training clips' ``feet_lift`` (``/3``
+files load with their standing legs stilled; ``/2`` files load, without flight profiles or
+swing-twist roots either; ``/1`` models were
 trained with the parity-linked Δ² window and are refused): ``meta`` holds the action,
 style, unit names, skeleton layout and
 template scalars; arrays hold the skeleton offsets, template translations and reference
