@@ -44,6 +44,9 @@ TOTAL_FACTOR = 2
 #: then falls back to CP-SAT).  Ordinary walks use a few percent of it.
 WORK_PER_STAMP = 5
 WORK_BASE = 5_000
+#: After this many failures the walk starts over from its beginning (or its last commit)
+#: *careful*: a candidate that is not owed may not add a debt (Attempt.careful).
+CAREFUL_AFTER = 1
 
 
 class OutOfBudget(Exception):
@@ -160,6 +163,13 @@ def walk_steps(
             # sometimes by an old one.
             target = j - (1 << reach)
             index = max(0, bisect.bisect_right([c.stamp for c in checkpoints], target) - 1)
+            if total == CAREFUL_AFTER:
+                # The debt was made unpayable by optional choices, often early ones that
+                # backtracking 1, 2, 4, ... stamps draws again (an optional
+                # signal whose implication owes a signal excluding a required one; repeated
+                # partners closing a required signal's window).  Walk again from the start
+                # keeping the owed signals' room: optional placements may add no debt.
+                index, attempt.careful = 0, True
             reach = 0 if index == 0 else reach + 1
             resume = checkpoints[index]
             del checkpoints[index + 1:]
@@ -175,6 +185,7 @@ def walk_stamp(attempt: Attempt, j: int) -> None:
         return
     attempt.stamp_low = low
     queue: list[SignalPlan] = []
+    careful = attempt.careful
     if attempt.latest:
         if any(latest < low for latest in attempt.latest.values()):
             attempt.refresh_latest(expired_only=True)
@@ -189,7 +200,8 @@ def walk_stamp(attempt: Attempt, j: int) -> None:
             masses = plan.masses[signal.index]
             left = masses[due + 1] - masses[j]
             share = (masses[j + 1] - masses[j]) / left if left > 0 else 1 / (due - j + 1)
-            if rng.random() < max(row[signal.index], share):
+            # careful (after failures): every owed signal is a candidate at every stamp
+            if rng.random() < max(row[signal.index], share) or careful:
                 queue.append(signal)
     bucket = attempt.buckets[j]
     if not bucket and not queue:
