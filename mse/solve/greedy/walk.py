@@ -47,6 +47,11 @@ WORK_BASE = 5_000
 #: After this many failures the walk starts over from its beginning (or its last commit)
 #: *careful*: a candidate that is not owed may not add a debt (Attempt.careful).
 CAREFUL_AFTER = 1
+#: A walk whose empty timeline already owes this many debts (mandatory signals, ``--require``)
+#: is careful from the start: taking optional debts on top of them rarely ends well (half the
+#: walks of the planted 200-signal sets of ``bench/sample.py --scale``, which owe 7-25, failed
+#: after their backtracks).  The bundled and Greta sets owe at most one.
+CAREFUL_DEBTS = 4
 
 
 class OutOfBudget(Exception):
@@ -102,6 +107,8 @@ def walk_steps(
     plan = attempt.plan
     last_stamp = len(plan.stamps) - 1
     attempt.owing = set(plan.initial_owing)  # what an empty timeline violates, once per plan
+    if len(plan.initial_owing) + len(attempt.require) >= CAREFUL_DEBTS:
+        attempt.careful = True  # many debts from the start: careful at once (see CAREFUL_DEBTS)
     start_candidacies(attempt, 0)
     if plan.initial_owing or attempt.require:
         attempt.initial_debts()  # Doomed here: no walk can pay (the caller falls back)
