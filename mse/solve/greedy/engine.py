@@ -135,8 +135,9 @@ class Attempt(Obligations):
             self._undo(signal, saved)
             self.memo = memo
             return False
-        if self.careful and not self.owing <= saved[3] and signal.id not in saved[4] and signal.id not in self.require:
-            # careful: an optional placement that adds a debt is taken back (Doomed or not)
+        if self.careful and not self.owing <= saved[3] and signal.id not in saved[4]:
+            # careful: a placement that owes nothing but adds a debt is taken back (it could
+            # leave the owed signals no room together, which the lookahead does not see)
             self._undo(signal, saved)
             self.memo = memo
             return False
