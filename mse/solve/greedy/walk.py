@@ -47,6 +47,8 @@ WORK_BASE = 5_000
 #: After this many failures the walk starts over from its beginning (or its last commit)
 #: *careful*: a candidate that is not owed may not add a debt (Attempt.careful).
 CAREFUL_AFTER = 1
+#: After this many failures of careful walks, the walk starts over, not careful, for good.
+CAREFUL_TRIES = 10
 #: A walk whose empty timeline already owes this many debts (mandatory signals, ``--require``)
 #: is careful from the start: taking optional debts on top of them rarely ends well (half the
 #: walks of the planted 200-signal sets of ``bench/sample.py --scale``, which owe 7-25, failed
@@ -122,6 +124,7 @@ def walk_steps(
     reach = 0  # the next backtrack goes back 2**reach stamps
     work_limit = WORK_PER_STAMP * (len(plan.signals) + len(plan.constraints)) * last_stamp + WORK_BASE
     j = 0
+    careful_failures = 0  # failures of careful walks
     resume: Checkpoint | None = None
     while True:
         try:
@@ -170,12 +173,18 @@ def walk_steps(
             # sometimes by an old one.
             target = j - (1 << reach)
             index = max(0, bisect.bisect_right([c.stamp for c in checkpoints], target) - 1)
-            if total == CAREFUL_AFTER:
+            if attempt.careful:
+                careful_failures += 1
+                if careful_failures == CAREFUL_TRIES:
+                    # Careful does not pay here (a debt whose payment needs an optional
+                    # signal that owes something): walk again from the start as the paper.
+                    index, attempt.careful = 0, False
+            elif total == CAREFUL_AFTER and not careful_failures:
                 # The debt was made unpayable by optional choices, often early ones that
-                # backtracking 1, 2, 4, ... stamps draws again (an optional
-                # signal whose implication owes a signal excluding a required one; repeated
-                # partners closing a required signal's window).  Walk again from the start
-                # keeping the owed signals' room: optional placements may add no debt.
+                # backtracking 1, 2, 4, ... stamps draws again (an optional signal whose
+                # implication owes a signal excluding a required one; repeated partners
+                # closing a required signal's window).  Walk again from the start keeping
+                # the owed signals' room: optional placements may add no debt.
                 index, attempt.careful = 0, True
             reach = 0 if index == 0 else reach + 1
             resume = checkpoints[index]
