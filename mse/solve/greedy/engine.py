@@ -44,8 +44,9 @@ class Attempt(Obligations):
 
     def __init__(self, *args: Any, **kwargs: Any) -> None:
         super().__init__(*args, **kwargs)
-        #: Set by walk.py once the walk failed: a candidate that is not owed may not
-        #: add a debt (it keeps the room the owed signals need; docs/sampler.md).
+        #: Set by walk.py after the walk's first failure, or from its start when the empty
+        #: timeline owes many debts: a candidate that is not owed may not add a debt (it
+        #: keeps the room the owed signals need; docs/sampler.md, "Sixth pass").
         self.careful = False
 
     def try_place(self, signal: SignalPlan, low: int, high: int) -> bool:

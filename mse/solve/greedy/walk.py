@@ -10,11 +10,12 @@ The state at the start of every stamp is a *checkpoint*.  When the walk paints i
 corner (an obligation can no longer be met, or the end is reached with a debt), it goes back
 1, 2, 4, ... stamps (doubling on repeated failures, then starting over at 1) and walks on from
 there with fresh draws: bounded backtracking, ``budget`` failures without getting further than
-before, then :class:`OutOfBudget`.  A stamp where nothing is owed is *settled*: the
-occurrences placed so far are, alone, a consistent timeline, so the walk can always be
-completed from there (by adding nothing).  When streaming, every settled stamp *commits*: the
-occurrences before it are handed out and the walk never goes back past it
-(docs/sampler.md, "Streaming").
+before, then :class:`OutOfBudget`.  The first failure instead sends the walk back to its start
+*careful* (:data:`CAREFUL_AFTER`, ``Attempt.careful``: optional placements may add no debt).
+A stamp where nothing is owed is *settled*: the occurrences placed so far are, alone, a
+consistent timeline, so the walk can always be completed from there (by adding nothing).
+When streaming, every settled stamp *commits*: the occurrences before it are handed out and
+the walk never goes back past it (docs/sampler.md, "Streaming").
 """
 
 from __future__ import annotations
