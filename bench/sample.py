@@ -250,8 +250,11 @@ def bench_corpus(compare: Compare, count: int, seeds: int, seed: int, time_limit
         old_failed = sum(seeds - r["ok"] for r in theirs)
         old_sets = sum(1 for r in theirs if r["ok"] < seeds)
         old_times = [t for r in theirs for t in r["times"]]
-        print(f"baseline walk ({compare.baseline}): failed {old_failed}/{total} timelines "
-              f"({old_failed / max(1, total):.2%}) on {old_sets} sets; p50 {percentile(old_times, 0.5) * 1000:.1f} ms, "
+        old_fallbacks = sum(r["methods"].count("cpsat") for r in theirs)
+        old_fallback_sets = sum(1 for r in theirs if "cpsat" in r["methods"])
+        print(f"baseline ({compare.baseline}): failed {old_failed}/{total} timelines "
+              f"({old_failed / max(1, total):.2%}) on {old_sets} sets; CP-SAT fallbacks {old_fallbacks} "
+              f"(on {old_fallback_sets} sets); p50 {percentile(old_times, 0.5) * 1000:.1f} ms, "
               f"p99 {percentile(old_times, 0.99) * 1000:.1f} ms")
         ratios = [b / a for a, b in zip(times, old_times, strict=True) if a > 0 and b > 0]
         print(f"  speed ratio baseline/default per timeline: median {statistics.median(ratios):.2f}, "

@@ -16,6 +16,7 @@ trying, placing and taking back.
 from __future__ import annotations
 
 import math
+from typing import Any
 
 from mse.ir.schedule import Occurrence
 from mse.solve.greedy.debts import Doomed
@@ -39,7 +40,14 @@ _Saved = tuple[
 class Attempt(Obligations):
     """One walk's state and its moves: trying, placing and taking back occurrences."""
 
-    __slots__ = ()
+    __slots__ = ("careful",)
+
+    def __init__(self, *args: Any, **kwargs: Any) -> None:
+        super().__init__(*args, **kwargs)
+        #: Set by walk.py after the walk's first failure, or from its start when the empty
+        #: timeline owes many debts: a candidate that is not owed may not add a debt (it
+        #: keeps the room the owed signals need; docs/sampler.md, "Sixth pass").
+        self.careful = False
 
     def try_place(self, signal: SignalPlan, low: int, high: int) -> bool:
         """Draw, check and place one occurrence starting in [low, high]; False if impossible."""
@@ -125,6 +133,12 @@ class Attempt(Obligations):
         try:
             self.place(signal, start, stop)
         except Doomed:
+            self._undo(signal, saved)
+            self.memo = memo
+            return False
+        if self.careful and not self.owing <= saved[3] and signal.id not in saved[4]:
+            # careful: a placement that owes nothing but adds a debt is taken back (it could
+            # leave the owed signals no room together, which the lookahead does not see)
             self._undo(signal, saved)
             self.memo = memo
             return False

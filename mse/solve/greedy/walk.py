@@ -10,11 +10,12 @@ The state at the start of every stamp is a *checkpoint*.  When the walk paints i
 corner (an obligation can no longer be met, or the end is reached with a debt), it goes back
 1, 2, 4, ... stamps (doubling on repeated failures, then starting over at 1) and walks on from
 there with fresh draws: bounded backtracking, ``budget`` failures without getting further than
-before, then :class:`OutOfBudget`.  A stamp where nothing is owed is *settled*: the
-occurrences placed so far are, alone, a consistent timeline, so the walk can always be
-completed from there (by adding nothing).  When streaming, every settled stamp *commits*: the
-occurrences before it are handed out and the walk never goes back past it
-(docs/sampler.md, "Streaming").
+before, then :class:`OutOfBudget`.  The first failure instead sends the walk back to its start
+*careful* (:data:`CAREFUL_AFTER`, ``Attempt.careful``: optional placements may add no debt).
+A stamp where nothing is owed is *settled*: the occurrences placed so far are, alone, a
+consistent timeline, so the walk can always be completed from there (by adding nothing).
+When streaming, every settled stamp *commits*: the occurrences before it are handed out and
+the walk never goes back past it (docs/sampler.md, "Streaming").
 """
 
 from __future__ import annotations
@@ -44,6 +45,16 @@ TOTAL_FACTOR = 2
 #: then falls back to CP-SAT).  Ordinary walks use a few percent of it.
 WORK_PER_STAMP = 5
 WORK_BASE = 5_000
+#: After this many failures the walk starts over from its beginning (or its last commit)
+#: *careful*: a candidate that is not owed may not add a debt (Attempt.careful).
+CAREFUL_AFTER = 1
+#: After this many failures of careful walks, the walk starts over, not careful, for good.
+CAREFUL_TRIES = 10
+#: A walk whose empty timeline already owes this many debts (mandatory signals, ``--require``)
+#: is careful from the start: taking optional debts on top of them rarely ends well (half the
+#: walks of the planted 200-signal sets of ``bench/sample.py --scale``, which owe 7-25, failed
+#: after their backtracks).  The bundled and Greta sets owe at most one.
+CAREFUL_DEBTS = 4
 
 
 class OutOfBudget(Exception):
@@ -99,6 +110,8 @@ def walk_steps(
     plan = attempt.plan
     last_stamp = len(plan.stamps) - 1
     attempt.owing = set(plan.initial_owing)  # what an empty timeline violates, once per plan
+    if len(plan.initial_owing) + len(attempt.require) >= CAREFUL_DEBTS:
+        attempt.careful = True  # many debts from the start: careful at once (see CAREFUL_DEBTS)
     start_candidacies(attempt, 0)
     if plan.initial_owing or attempt.require:
         attempt.initial_debts()  # Doomed here: no walk can pay (the caller falls back)
@@ -112,6 +125,7 @@ def walk_steps(
     reach = 0  # the next backtrack goes back 2**reach stamps
     work_limit = WORK_PER_STAMP * (len(plan.signals) + len(plan.constraints)) * last_stamp + WORK_BASE
     j = 0
+    careful_failures = 0  # failures of careful walks
     resume: Checkpoint | None = None
     while True:
         try:
@@ -160,6 +174,19 @@ def walk_steps(
             # sometimes by an old one.
             target = j - (1 << reach)
             index = max(0, bisect.bisect_right([c.stamp for c in checkpoints], target) - 1)
+            if attempt.careful:
+                careful_failures += 1
+                if careful_failures == CAREFUL_TRIES:
+                    # Careful does not pay here (a debt whose payment needs an optional
+                    # signal that owes something): walk again from the start as the paper.
+                    index, attempt.careful = 0, False
+            elif total == CAREFUL_AFTER and not careful_failures:
+                # The debt was made unpayable by optional choices, often early ones that
+                # backtracking 1, 2, 4, ... stamps draws again (an optional signal whose
+                # implication owes a signal excluding a required one; repeated partners
+                # closing a required signal's window).  Walk again from the start keeping
+                # the owed signals' room: optional placements may add no debt.
+                index, attempt.careful = 0, True
             reach = 0 if index == 0 else reach + 1
             resume = checkpoints[index]
             del checkpoints[index + 1:]
@@ -175,6 +202,7 @@ def walk_stamp(attempt: Attempt, j: int) -> None:
         return
     attempt.stamp_low = low
     queue: list[SignalPlan] = []
+    careful = attempt.careful
     if attempt.latest:
         if any(latest < low for latest in attempt.latest.values()):
             attempt.refresh_latest(expired_only=True)
@@ -189,7 +217,8 @@ def walk_stamp(attempt: Attempt, j: int) -> None:
             masses = plan.masses[signal.index]
             left = masses[due + 1] - masses[j]
             share = (masses[j + 1] - masses[j]) / left if left > 0 else 1 / (due - j + 1)
-            if rng.random() < max(row[signal.index], share):
+            # careful (after failures): every owed signal is a candidate at every stamp
+            if rng.random() < max(row[signal.index], share) or careful:
                 queue.append(signal)
     bucket = attempt.buckets[j]
     if not bucket and not queue:
