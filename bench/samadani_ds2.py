@@ -152,6 +152,8 @@ def main() -> int:
                         help="generated length of travelling actions: the neighbours' time to cover the desired "
                         "path's travel (default) or the desired path's own (the paper's)")
     parser.add_argument("--only-folds", help="comma-separated fold numbers (development)")
+    parser.add_argument("--show-failures", action="store_true",
+                        help="print every conversion that fails a fidelity check, with the values")
     args = parser.parse_args()
     warnings.simplefilter("ignore")
     cache = Path(os.environ.get("MSE_CACHE_DIR", ".cache-mse"))
@@ -225,6 +227,14 @@ def main() -> int:
                     own = [library.motion(c) for c in train if c.action == action and c.style == target]
                     style_reference = reference(action, own[:: max(1, len(own) // 20)])
                     checks = check(measure(generated), references[action], style_reference)
+                    if args.show_failures and not all(c.passed for c in checks):
+                        print(
+                            f"fold {f} {desired.id} -> {target}: "
+                            + ", ".join(f"{c.name} {c.value:.2f} [{c.low:.2f}, {c.high:.2f}]"
+                                        for c in checks if not c.passed),
+                            file=sys.stderr,
+                            flush=True,
+                        )
                     rows.append(
                         {
                             "fold": f,
