@@ -27,6 +27,12 @@
    in the flight phases of runs (the neighbours' support, carried through the states like
    the rotations) the body keeps the neighbours' speed and lift.
 
+Waves (neighbours that stand and cycle): the phase space also holds the velocity, runs
+where the decoding sat in one state are played, and changes of state the neighbours never
+make bridged, by the neighbours' own sequences, the cut-off is at most twice their cycle rate,
+and a standing body pins its lowest foot point without the stance hysteresis
+(``GenerationParams.velocity`` and ``standing_pin``; docs/motion.md, "Generation", step 11).
+
 Steps 1-5 are cached per (library fingerprint, action, style, desired clip, parameters) in
 memory and, when ``cache_dir`` is given, on disk (:mod:`mse.motion.lma_hmm.modulated`), so a leaf
 seen before costs the time-warp and the grounding only. Rotations are generated, never
