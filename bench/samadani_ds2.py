@@ -32,6 +32,11 @@ cover the desired path's travel. Bandai's walk takes all cross the same room (el
 in 13-15 s, active ones in 7 s); an elderly walk generated at an active desired path's 7 s
 covers half of it, and the recognizer, trained on whole takes, rated it normal (fold 1:
 1 of 6 elderly walks recognised). ``--length desired`` is the paper's.
+
+``--show-failures`` prints every conversion that fails a fidelity check (clip, target,
+values and admitted ranges) on stderr; ``--no-standing-pin`` pins standing bodies with the
+walks' stance hysteresis, as before the fifth pass (docs/motion.md, "Generation", step 11).
+Note that ``--actions`` changes the folds (they are drawn over the clips kept).
 """
 
 from __future__ import annotations
@@ -152,6 +157,10 @@ def main() -> int:
                         help="generated length of travelling actions: the neighbours' time to cover the desired "
                         "path's travel (default) or the desired path's own (the paper's)")
     parser.add_argument("--only-folds", help="comma-separated fold numbers (development)")
+    parser.add_argument("--no-standing-pin", action="store_true",
+                        help="standing bodies pinned with the walks' stance hysteresis (before the fifth pass)")
+    parser.add_argument("--show-failures", action="store_true",
+                        help="print every conversion that fails a fidelity check, with the values")
     args = parser.parse_args()
     warnings.simplefilter("ignore")
     cache = Path(os.environ.get("MSE_CACHE_DIR", ".cache-mse"))
@@ -168,6 +177,7 @@ def main() -> int:
         states=args.states,
         min_neighbours=args.min_neighbours,
         max_neighbours=args.max_neighbours,
+        standing_pin=not args.no_standing_pin,
     )
     rng = np.random.default_rng(args.seed)
     speeds: dict[str, float] = {}
@@ -225,6 +235,14 @@ def main() -> int:
                     own = [library.motion(c) for c in train if c.action == action and c.style == target]
                     style_reference = reference(action, own[:: max(1, len(own) // 20)])
                     checks = check(measure(generated), references[action], style_reference)
+                    if args.show_failures and not all(c.passed for c in checks):
+                        print(
+                            f"fold {f} {desired.id} -> {target}: "
+                            + ", ".join(f"{c.name} {c.value:.2f} [{c.low:.2f}, {c.high:.2f}]"
+                                        for c in checks if not c.passed),
+                            file=sys.stderr,
+                            flush=True,
+                        )
                     rows.append(
                         {
                             "fold": f,

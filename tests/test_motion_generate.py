@@ -188,3 +188,42 @@ def test_standing_legs_are_steadied_only_when_they_barely_move() -> None:
     moving = still.copy()
     moving[:, : encoding.dimension] += np.linspace(0.0, 1.0, len(moving))[:, None]  # legs turn 1 rad: left alone
     assert np.array_equal(_steady_legs(moving, encoding, motion.frame_time, 0.5), moving)
+
+
+def test_a_stuck_run_is_played_by_the_neighbours_sequence() -> None:
+    from mse.motion.lma_hmm.hmm import retimed
+
+    # neighbours cycle 1 -> 2 -> 3 between a rest pose 0 at both ends; the desired path's
+    # decoding sits 30 frames in the rest state (no state fits its movement)
+    cycle = [1] * 3 + [2] * 3 + [3] * 3
+    neighbours = [np.array([0] * 4 + cycle * 4 + [0] * 4), np.array([0] * 5 + cycle * 5 + [0] * 5)]
+    stuck = np.array([0] * 30)
+    assert retimed(stuck, neighbours).tolist() == [0] * 4  # retimed alone: the movement is gone
+    out = retimed(stuck, neighbours, refill_stuck=True)
+    assert len(out) == 30 and set(out.tolist()) >= {1, 2, 3}
+    # after a state of the cycle, the neighbours' sequence continues from it
+    out = retimed(np.array([2] * 2 + [0] * 20), neighbours, refill_stuck=True)
+    assert out[:3].tolist() == [2] * 3 and out[3:6].tolist() == [2] * 3 and out[6] == 3
+
+
+def test_phase_velocity_tells_the_swing_directions_apart() -> None:
+    from mse.motion.lma_hmm.pose import with_velocity
+
+    t = np.linspace(0.0, 4.0 * np.pi, 200)
+    swing = np.sin(t)[:, None]
+    observed = with_velocity(swing, 0.5)
+    assert observed.shape == (200, 2)
+    # the same position swinging out and back differs by the sign of its velocity
+    out, back = observed[np.argmin(np.abs(t - 0.1))], observed[np.argmin(np.abs(t - (np.pi - 0.1)))]
+    assert abs(out[0] - back[0]) < 0.05 and out[1] * back[1] < 0
+
+
+def test_changes_the_neighbours_never_make_are_bridged() -> None:
+    from mse.motion.lma_hmm.hmm import retimed
+
+    # neighbours: rest 0 -> raise 1 -> swing 2 <-> 3 -> lower 4; the desired path jumps from
+    # the rest pose straight into the swing
+    neighbours = [np.array([0] * 4 + [1] * 2 + [2, 2, 3, 3] * 3 + [4] * 2)]
+    out = retimed(np.array([0, 0, 3, 3, 2, 2]), neighbours, refill_stuck=True)
+    assert out.tolist() == [0] * 4 + [1] * 2 + [2] * 2 + [3] * 2 + [2] * 2
+    assert retimed(np.array([0, 0, 3, 3, 2, 2]), neighbours).tolist() == [0] * 4 + [3] * 2 + [2] * 2

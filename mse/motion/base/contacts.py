@@ -161,9 +161,16 @@ def root_track(
     return root
 
 
-def ground(motion: Motion, height: float, root: int | None = None, carried: FloatArray | None = None) -> Motion:
+def ground(
+    motion: Motion,
+    height: float,
+    root: int | None = None,
+    carried: FloatArray | None = None,
+    hysteresis: float = STANCE_HYSTERESIS,
+) -> Motion:
     """``motion`` with its translating joint's position recomputed by :func:`root_track`
-    (``carried``: flight phases, see there), starting where it started on the floor plane.
+    (``carried``: flight phases, ``hysteresis``: see there), starting where it started on
+    the floor plane.
     Skeletons whose translating joint has no position channels are returned unchanged."""
     skeleton = motion.skeleton
     root = find_root_joint(motion) if root is None else root
@@ -180,7 +187,7 @@ def ground(motion: Motion, height: float, root: int | None = None, carried: Floa
     contacts = contact_joints(skeleton)
     half = len(contacts) // 2  # the left foot's points, then the right foot's
     feet = [list(range(half)), list(range(half, len(contacts)))]
-    target = root_track(relative, contacts, height, motion.frame_time, carried, feet)
+    target = root_track(relative, contacts, height, motion.frame_time, carried, feet, hysteresis=hysteresis)
     target[:, [0, 2]] += start[[0, 2]]
     parent = skeleton.parents[root]
     # the root's parent (Bandai's joint_Root) is taken as it is in each frame

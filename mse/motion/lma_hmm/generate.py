@@ -27,6 +27,12 @@
    in the flight phases of runs (the neighbours' support, carried through the states like
    the rotations) the body keeps the neighbours' speed and lift.
 
+Waves (neighbours that stand and cycle): the phase space also holds the velocity, runs
+where the decoding sat in one state are played, and changes of state the neighbours never
+make bridged, by the neighbours' own sequences, the cut-off is at most twice their cycle rate,
+and a standing body pins its lowest foot point without the stance hysteresis
+(``GenerationParams.velocity`` and ``standing_pin``; docs/motion.md, "Generation", step 11).
+
 Steps 1-5 are cached per (library fingerprint, action, style, desired clip, parameters) in
 memory and, when ``cache_dir`` is given, on disk (:mod:`mse.motion.lma_hmm.modulated`), so a leaf
 seen before costs the time-warp and the grounding only. Rotations are generated, never
@@ -45,11 +51,12 @@ from dataclasses import asdict, dataclass, field
 from pathlib import Path
 
 import numpy as np
+import numpy.typing as npt
 
 from mse.diagnostics import Diagnostic, MseError, Span
 from mse.motion.base.bodyparts import limb_groups
-from mse.motion.base.bvh import Motion
-from mse.motion.base.contacts import contact_height, ground, support
+from mse.motion.base.bvh import Motion, Skeleton
+from mse.motion.base.contacts import STANCE_HYSTERESIS, contact_height, ground, support
 from mse.motion.base.heading import heading, turned
 from mse.motion.base.kinematics import FloatArray
 from mse.motion.base.library import Clip, MotionLibrary, MotionUnavailable
@@ -68,7 +75,7 @@ from mse.motion.lma_hmm.hmm import (
     train_hmm,
 )
 from mse.motion.lma_hmm.modulated import CARRIED, DISK_FORMAT, Modulated, cutoff, load, path_for, save, time_warp
-from mse.motion.lma_hmm.pose import PhaseSpace, phase_space, pose_features
+from mse.motion.lma_hmm.pose import PhaseSpace, phase_space, pose_features, with_velocity
 from mse.motion.lma_hmm.search import (
     EPSILON_FRACTION,
     clip_features,
@@ -78,6 +85,9 @@ from mse.motion.lma_hmm.search import (
 )
 
 __all__ = ["Generated", "GenerationParams", "MotionUnavailable", "generate_motion", "time_warp"]
+
+
+VELOCITY_CHOICES = ("standing", "always", "never")
 
 
 @dataclass(frozen=True, slots=True)
@@ -105,12 +115,27 @@ class GenerationParams:
     #: default: at 0.5 Hz the feminine wave's free foot stopped sliding, 1.07 -> 0.23 cm/s,
     #: but active waves lost their legs' rhythm and were all rated youthful, fold 1)
     standing_legs_hz: float = 0.0
+    #: when the HMM is fully connected (the neighbours cycle), the phase space also holds the
+    #: movement's velocity (:func:`~mse.motion.lma_hmm.pose.with_velocity`) and the HMM is
+    #: fitted again, and a run where the desired path's decoding sat in one state is played
+    #: by the neighbours' own sequence (``retimed(refill_stuck=True)``): "standing" (default)
+    #: when the neighbours stand (waves), "always", "never" (the paper's positions only).
+    #: With positions only, waves decoded against slower styles turned back in the middle of
+    #: the swing: Samadani fold 1 wave jerk over 2x real in 8 of 42 conversions, 0 with it
+    velocity: str = "standing"
+    #: weight of the velocity against the positions in the phase space
+    velocity_weight: float = 0.3
+    #: a standing body (the neighbours' carried root speed under 0.1 leg lengths per second)
+    #: pins whichever foot point is lowest, without the walks' stance hysteresis
+    standing_pin: bool = True
 
     def __post_init__(self) -> None:
         if self.regenerate not in ("means", "frames"):
             raise ValueError(f"regenerate must be 'means' or 'frames', not {self.regenerate!r}")
         if self.timing not in ("neighbours", "desired"):
             raise ValueError(f"timing must be 'neighbours' or 'desired', not {self.timing!r}")
+        if self.velocity not in VELOCITY_CHOICES:
+            raise ValueError(f"velocity must be one of {', '.join(VELOCITY_CHOICES)}, not {self.velocity!r}")
         if self.topology not in TOPOLOGIES:
             raise ValueError(f"topology must be one of {', '.join(TOPOLOGIES)}, not {self.topology!r}")
 
@@ -243,7 +268,8 @@ def _modulate(
     desired_phase = space.observe(_pose(library, desired_clip))
     # rotations (faced as the desired path) and, in the last 4 columns, how the neighbours are
     # carried: root velocity, foot lift, support (flight phases of runs, base.contacts.support)
-    rotations = [np.hstack([encode(encoding, m), support(m)]) for m in motions]
+    carried = [support(m) for m in motions]
+    rotations = [np.hstack([encode(encoding, m), c]) for m, c in zip(motions, carried, strict=True)]
     copies = max(0, params.nd)
     trained = train_hmm(
         phases + [desired_phase] * copies,
@@ -252,6 +278,19 @@ def _modulate(
         n_iter=params.n_iter,
         decide_on=len(phases),
     )
+    # a cycling movement of a standing body (waves): the phase space also holds the velocity,
+    # and the HMM is fitted again, fully connected (see GenerationParams.velocity)
+    dynamic = params.velocity == "always" or (params.velocity == "standing" and _stand(carried, encoding.skeleton))
+    if dynamic and trained.cyclic:
+        phases = [with_velocity(p, params.velocity_weight) for p in phases]
+        desired_phase = with_velocity(desired_phase, params.velocity_weight)
+        trained = train_hmm(
+            phases + [desired_phase] * copies,
+            params.states,
+            topology="full" if params.topology == "auto" else params.topology,
+            n_iter=params.n_iter,
+            decide_on=len(phases),
+        )
     timings["hmm_fit"] = time.perf_counter() - clock
 
     clock = time.perf_counter()
@@ -262,7 +301,7 @@ def _modulate(
     needs_labels = trained.cyclic or params.regenerate == "frames" or retime
     labels = [trained.viterbi(p) for p in phases] if needs_labels else []
     if retime:
-        states = retimed(states, labels)
+        states = retimed(states, labels, refill_stuck=dynamic and trained.cyclic)
     if params.regenerate == "frames":
         frames = state_aligned_frames(states, means, rotations, labels)
     timings["viterbi"] = time.perf_counter() - clock
@@ -270,7 +309,13 @@ def _modulate(
     clock = time.perf_counter()
     raw = frames if params.regenerate == "frames" else state_path(means, states)
     runs = 1 + int(np.count_nonzero(np.diff(states)))
-    path = smooth(raw, desired.frame_time, cutoff(params.cutoff_hz, len(raw), runs, desired.frame_time))
+    hz = cutoff(params.cutoff_hz, len(raw), runs, desired.frame_time)
+    if dynamic and trained.cyclic:
+        # a wave's short runs raised the cut-off to 4-5 Hz, and the ramps between state means
+        # came through as jerk (a youthful wave, Samadani fold 1: 44,300 cm/s^3, limit 33,400;
+        # at 3 Hz 24,100, amplitude 31.2 -> 30.9 cm): up to twice the neighbours' cycle rate
+        hz = min(hz, max(params.cutoff_hz, 2.0 * _cycle_rate(labels, desired.frame_time)))
+    path = smooth(raw, desired.frame_time, hz)
     timings["filter"] = time.perf_counter() - clock
     return Modulated(
         encoding,
@@ -296,6 +341,42 @@ STANDING_LEG_LENGTHS_PER_S = 0.1
 STILL_LEGS_RADIANS = 0.15
 
 
+def _cycle_rate(labels: Sequence[npt.NDArray[np.int_]], frame_time: float) -> float:
+    """Cycles per second of the neighbours' state sequences (median): the runs of each
+    sequence's most often re-entered state per second."""
+    rates = []
+    for sequence in labels:
+        if len(sequence) < 2:
+            continue
+        starts = sequence[np.r_[True, sequence[1:] != sequence[:-1]]]
+        rates.append(float(np.bincount(starts).max()) / (len(sequence) * frame_time))
+    return float(np.median(rates)) if rates else 0.0
+
+
+def _leg_length(skeleton: Skeleton) -> float:
+    """Hip to ankle (down the first child) of the skeleton's legs, file units."""
+    legs = set(limb_groups(skeleton)["legs"])
+    length = 0.0
+    joint = next((j for j in legs if skeleton.parents[j] not in legs), None)
+    while joint is not None:  # hip -> knee -> ankle ... down the first child
+        children = [c for c in legs if skeleton.parents[c] == joint]
+        if not children:
+            break
+        joint = children[0]
+        length += float(np.linalg.norm(skeleton.offsets[joint]))
+    return length
+
+
+def _stand(carried: Sequence[FloatArray], skeleton: Skeleton) -> bool:
+    """Whether the neighbours stand: their root moves (median over their frames) under
+    :data:`STANDING_LEG_LENGTHS_PER_S` leg lengths per second."""
+    leg_length = _leg_length(skeleton)
+    if leg_length <= 0 or not carried:
+        return False
+    speed = float(np.median(np.concatenate([np.linalg.norm(c[:, :2], axis=1) for c in carried])))
+    return speed < STANDING_LEG_LENGTHS_PER_S * leg_length
+
+
 def _steady_legs(path: FloatArray, encoding: Encoding, frame_time: float, hz: float) -> FloatArray:
     """``path`` with the legs' rotations low-passed at ``hz`` when the neighbours stand
     (their carried root speed, median, under :data:`STANDING_LEG_LENGTHS_PER_S` leg lengths
@@ -309,14 +390,7 @@ def _steady_legs(path: FloatArray, encoding: Encoding, frame_time: float, hz: fl
     columns = [3 * i + k for i, joint in enumerate(encoding.rotated) if joint in legs for k in range(3)]
     if not columns or len(path) < 4:
         return path
-    leg_length = 0.0
-    joint = next((j for j in legs if skeleton.parents[j] not in legs), None)
-    while joint is not None:  # hip -> knee -> ankle ... down the first child
-        children = [c for c in legs if skeleton.parents[c] == joint]
-        if not children:
-            break
-        joint = children[0]
-        leg_length += float(np.linalg.norm(skeleton.offsets[joint]))
+    leg_length = _leg_length(skeleton)
     carried = path[:, encoding.dimension :]
     speed = float(np.median(np.linalg.norm(carried[:, :2], axis=1)))
     if leg_length <= 0 or speed >= STANDING_LEG_LENGTHS_PER_S * leg_length:
@@ -418,7 +492,17 @@ def generate_motion(
         # the path was played slower or faster than its neighbours: so is the carried speed
         played = len(path_for(modulated, round(duration / modulated.frame_time))) * modulated.frame_time
         carried[:, :2] *= played / max(duration, 1e-9)
-    motion = ground(motion, modulated.height, carried=carried if carried.shape[1] == CARRIED else None)
+    # a standing body pins whichever foot point is lowest, without the walks' hysteresis (as
+    # the HSMM method does): with both feet on the floor, the hysteresis kept the left toes
+    # pinned while the right ones, 0.04 cm lower, slid with the legs' state means (dataset 2
+    # feminine waves, fold 1: foot slip 1.0-1.5 cm/s, limit 0.9)
+    standing = carried.shape[1] == CARRIED and params.standing_pin and _stand([carried], encoding.skeleton)
+    motion = ground(
+        motion,
+        modulated.height,
+        carried=carried if carried.shape[1] == CARRIED else None,
+        hysteresis=0.0 if standing else STANCE_HYSTERESIS,
+    )
     timings = dict(modulated.timings) if not cached else {}
     timings["total"] = time.perf_counter() - started
     return Generated(

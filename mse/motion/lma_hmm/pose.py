@@ -75,6 +75,19 @@ class PhaseSpace:
         return centred
 
 
+def with_velocity(observed: FloatArray, weight: float = 1.0) -> FloatArray:
+    """``observed`` (frames, k) with its velocity (per frame) appended, z-scored by the clip's
+    own spread like the positions (plus the same floor, :data:`SPREAD_FLOOR`), times
+    ``weight``: a state then tells a hand swinging out from one swinging back, and a hand
+    that has stopped at the end of its swing from one passing through the middle."""
+    if len(observed) < 2:
+        return np.hstack([observed, np.zeros_like(observed)])
+    velocity = np.gradient(observed, axis=0)
+    velocity = (velocity - velocity.mean(axis=0)) / (velocity.std(axis=0) + SPREAD_FLOOR)
+    result: FloatArray = np.hstack([observed, weight * velocity])
+    return result
+
+
 def phase_space(sequences: Sequence[FloatArray]) -> PhaseSpace:
     """Components of the pooled frames of ``sequences`` (each frames x D)."""
     pooled = np.vstack(sequences)
