@@ -116,27 +116,70 @@ def uniform_bounds(length: int, states: int) -> tuple[int, ...]:
     return tuple(round(b) for b in np.linspace(0, length, states + 1))
 
 
+#: a state's run lasts at most this many times the unit instance's frames per state (HTS
+#: bounds state durations too). Walk steps and bows never reach it (their lattice is whole);
+#: it keeps the lattice of a long one-shot clip at O(S·L) instead of O(S·L²): a 63 s dance
+#: with 60 states needed 1.7 GB for its run scores, which capped the states per unit.
+RUN_SPAN = 16
+
+
+def max_run(length: int, states: int) -> int:
+    """The longest run a state may have in an instance of ``length`` frames."""
+    return int(min(length, max(1, np.ceil(RUN_SPAN * length / max(states, 1)))))
+
+
+def _run_parts(
+    cumulative: FloatArray, unit: UnitModel, state: int, longest: int
+) -> tuple[FloatArray, FloatArray, FloatArray]:
+    """Output log density (L+1, R) of the run of ``state`` over ``[b, b + r + 1)`` for every
+    start ``b`` and length ``r + 1`` up to ``longest``, the duration log densities (R,) and
+    where the run fits in the instance (L+1, R)."""
+    length = cumulative.shape[0] - 1
+    lengths = np.arange(1, longest + 1)
+    begin = np.arange(length + 1)[:, None]
+    end = begin + lengths[None, :]
+    column = cumulative[:, state]
+    output = column[np.minimum(end, length)] - column[begin]
+    duration = duration_logpdf(
+        lengths.astype(np.float64), float(unit.duration_means[state]), float(unit.duration_variances[state])
+    )
+    return output, duration, end <= length
+
+
+def run_scores(cumulative: FloatArray, unit: UnitModel, state: int, longest: int) -> FloatArray:
+    """(L+1, R) log density of the run of ``state`` over frames ``[b, b + r + 1)`` (output
+    and duration), for every start ``b`` and length ``r + 1`` up to ``longest``; -inf past
+    the instance's end. ``cumulative``: (L+1, S) cumulative frame log densities."""
+    output, duration, inside = _run_parts(cumulative, unit, state, longest)
+    result: FloatArray = np.where(inside, output + duration[None, :], -np.inf)
+    return result
+
+
 def align(loglik: FloatArray, unit: UnitModel) -> tuple[tuple[int, ...], float]:
-    """HSMM Viterbi: the best split of the frames into the unit's states, and its score."""
+    """HSMM Viterbi: the best split of the frames into the unit's states, and its score
+    (runs of at most :func:`max_run` frames)."""
     length, states = loglik.shape
     if length < states:
         return uniform_bounds(length, states), float("-inf")
     cumulative = np.vstack([np.zeros((1, states)), np.cumsum(loglik, axis=0)])
-    begin = np.arange(length + 1)[:, None]
-    end = np.arange(length + 1)[None, :]
-    span = (end - begin).astype(np.float64)
-    valid = span >= 1
+    longest = max_run(length, states)
+    # Runs ending at e start at e - r; scanning r from the longest keeps ties on the
+    # earliest start, as a search over starts in order would.
+    lengths = np.arange(longest, 0, -1)
+    ends = np.arange(length + 1)[:, None]
+    starts = ends - lengths[None, :]  # (L+1, R)
+    possible = starts >= 0
+    safe = np.maximum(starts, 0)
+    columns = (lengths - 1)[None, :]  # each length's column in _run_parts
     best = np.full(length + 1, -np.inf)
     best[0] = 0.0
     back = np.zeros((states, length + 1), dtype=np.int64)
     for s in range(states):
-        duration = duration_logpdf(
-            span, float(unit.duration_means[s]), float(unit.duration_variances[s])
-        )
-        output = cumulative[None, :, s] - cumulative[:, None, s]
-        score = np.where(valid, best[:, None] + output + duration, -np.inf)
-        back[s] = np.argmax(score, axis=0)
-        best = score[back[s], np.arange(length + 1)]
+        output, duration, _ = _run_parts(cumulative, unit, s, longest)  # by start and length
+        score = np.where(possible, best[safe] + output[safe, columns] + duration[columns], -np.inf)
+        pick = np.argmax(score, axis=1)
+        back[s] = safe[np.arange(length + 1), pick]
+        best = score[np.arange(length + 1), pick]
     bounds = [length]
     for s in range(states - 1, -1, -1):
         bounds.append(int(back[s, bounds[-1]]))

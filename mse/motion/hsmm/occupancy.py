@@ -6,7 +6,8 @@ from one Viterbi alignment.  A unit instance of ``L`` frames is a left-to-right 
 state.  The explicit-duration forward-backward recursion over that lattice gives the
 posterior probability of every run, hence of every frame being in every state (``gamma``)
 and the posterior moments of every state's duration.  Everything is in log space; the cost
-is O(S·L²) like the Viterbi search in :func:`mse.motion.hsmm.model.align`.
+is O(S·L·R), runs of at most R frames, like the Viterbi search in
+:func:`mse.motion.hsmm.model.align`.
 """
 
 from __future__ import annotations
@@ -16,7 +17,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from mse.motion.hsmm.features import FloatArray
-from mse.motion.hsmm.model import Instance, UnitModel, duration_logpdf, frame_loglik
+from mse.motion.hsmm.model import Instance, UnitModel, frame_loglik, max_run, run_scores
 
 
 @dataclass(frozen=True, eq=False)
@@ -40,44 +41,54 @@ def _logsumexp(values: FloatArray, axis: int) -> FloatArray:
 
 
 def occupancy(observations: FloatArray, unit: UnitModel) -> Occupancy | None:
-    """Forward-backward over the runs of the unit's states; None if ``L < S``."""
+    """Forward-backward over the runs of the unit's states (at most
+    :func:`mse.motion.hsmm.model.max_run` frames each); None if ``L < S``."""
     loglik = frame_loglik(observations, unit.means, unit.variances)
     length, states = loglik.shape
     if length < states:
         return None
     cumulative = np.vstack([np.zeros((1, states)), np.cumsum(loglik, axis=0)])
-    span = (np.arange(length + 1)[None, :] - np.arange(length + 1)[:, None]).astype(np.float64)
-    valid = span >= 1
-    # run[s][b, e]: log density of frames [b, e) in state s, with the duration e - b.
-    runs = []
-    for s in range(states):
-        duration = duration_logpdf(
-            np.maximum(span, 1.0), float(unit.duration_means[s]), float(unit.duration_variances[s])
-        )
-        output = cumulative[None, :, s] - cumulative[:, None, s]
-        runs.append(np.where(valid, output + duration, -np.inf))
+    longest = max_run(length, states)
+    lengths = np.arange(1, longest + 1)
+    starts = np.arange(length + 1)[:, None]
+    ends = np.minimum(starts + lengths[None, :], length)  # (L+1, R); clipped where -inf
+    # The run ending at e with length r + 1 starts at e - r - 1: gathering by end.
+    ending_start = starts - lengths[None, :]  # (L+1 ends, R)
+    ending_valid = ending_start >= 0
+    ending_start = np.maximum(ending_start, 0)
+    ending_column = np.broadcast_to(lengths[None, :] - 1, ending_start.shape)
+
+    def by_end(values: FloatArray, empty: float) -> FloatArray:
+        """(L+1 starts, R) → (L+1 ends, R)."""
+        result: FloatArray = np.where(ending_valid, values[ending_start, ending_column], empty)
+        return result
+
+    # The run scores of a state, (L+1 starts, R lengths), are recomputed in each pass rather
+    # than kept for every state: S of them would be the O(S·L²) memory this bound removes.
     forward = np.full((states + 1, length + 1), -np.inf)  # forward[s, e]: s states end at e
     forward[0, 0] = 0.0
     for s in range(states):
-        forward[s + 1] = _logsumexp(forward[s][:, None] + runs[s], axis=0)
+        scored = forward[s][:, None] + run_scores(cumulative, unit, s, longest)
+        forward[s + 1] = _logsumexp(by_end(scored, -np.inf), axis=1)
     backward = np.full((states + 1, length + 1), -np.inf)  # backward[s, b]: state s starts at b
     backward[states, length] = 0.0
     for s in range(states - 1, -1, -1):
-        backward[s] = _logsumexp(runs[s] + backward[s + 1][None, :], axis=1)
+        backward[s] = _logsumexp(run_scores(cumulative, unit, s, longest) + backward[s + 1][ends], axis=1)
     total = float(forward[states, length])
     if not np.isfinite(total):
         return None
     gamma = np.zeros((length, states))
     mean = np.zeros(states)
     square = np.zeros(states)
-    upper = np.triu(np.ones((length + 1, length + 1), dtype=bool), k=1)
     for s in range(states):
-        posterior = np.exp(forward[s][:, None] + runs[s] + backward[s + 1][None, :] - total)
-        mean[s] = float(np.sum(posterior * span))
-        square[s] = float(np.sum(posterior * span**2))
-        # Frame t is in the run [b, e) when b <= t < e: sum over b <= t, then over e > t.
-        by_start = np.cumsum(posterior, axis=0)
-        gamma[:, s] = np.sum(np.where(upper, by_start, 0.0), axis=1)[:length]
+        scored = forward[s][:, None] + run_scores(cumulative, unit, s, longest) + backward[s + 1][ends]
+        posterior = np.exp(scored - total)  # (L+1 starts, R)
+        mean[s] = float(np.sum(posterior * lengths[None, :]))
+        square[s] = float(np.sum(posterior * lengths[None, :] ** 2))
+        # Frame t is in the run [b, e) when b <= t < e: runs started by t minus runs ended by t.
+        started = np.cumsum(posterior.sum(axis=1))
+        ended = np.cumsum(by_end(posterior, 0.0).sum(axis=1))
+        gamma[:, s] = (started - ended)[:length]
     return Occupancy(gamma, mean, square, total)
 
 
