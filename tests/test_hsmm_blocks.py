@@ -72,13 +72,13 @@ def _enumerate(loglik: np.ndarray, unit: UnitModel, longest: int) -> tuple[list[
 
 def test_runs_are_bounded_only_for_long_instances_with_many_states() -> None:
     assert max_run(20, 5) == 20  # a walk step: the whole lattice
-    assert max_run(138, 34) == 65  # a bow: 16 times its frames per state
-    assert max_run(1901, 475) == 65  # the dataset 1 dance: O(S·L) memory
+    assert max_run(138, 34) == 138  # a bow: the whole lattice
+    assert max_run(1901, 475) == 257  # the dataset 1 dance: 64 times its frames per state
 
 
 @pytest.mark.parametrize("span", [1, 2])
 def test_bounded_alignment_and_occupancy_match_enumeration(monkeypatch: pytest.MonkeyPatch, span: int) -> None:
-    # 12 frames, 4 states: runs of at most 3 (span 1) or 6 frames (span 2).
+    # 12 frames, 4 states: runs of at most 3 (RUN_SPAN 1) or 6 frames (RUN_SPAN 2).
     monkeypatch.setattr(model_module, "RUN_SPAN", span)
     rng = np.random.default_rng(21 + span)
     states, length = 4, 12

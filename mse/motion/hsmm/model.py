@@ -117,10 +117,12 @@ def uniform_bounds(length: int, states: int) -> tuple[int, ...]:
 
 
 #: a state's run lasts at most this many times the unit instance's frames per state (HTS
-#: bounds state durations too). Walk steps and bows never reach it (their lattice is whole);
-#: it keeps the lattice of a long one-shot clip at O(S·L) instead of O(S·L²): a 63 s dance
-#: with 60 states needed 1.7 GB for its run scores, which capped the states per unit.
-RUN_SPAN = 16
+#: bounds state durations too). It keeps the lattice of a long one-shot clip with many states
+#: at O(S·L·R) instead of O(S·L²): the 63 s Bandai dance at 60 states needed 1.7 GB for its
+#: run scores, which capped the states per unit. At 64, every other Bandai action keeps its
+#: whole lattice (a 46-state bye: 258 frames allowed, the take has 185); at 16, runs of
+#: held poses were cut and the bye and byebye alignments changed (jerk up to 1.9x).
+RUN_SPAN = 64
 
 
 def max_run(length: int, states: int) -> int:
