@@ -77,9 +77,9 @@ class Options:
     # one take's 221 frames), the root of the adapted Bandai dataset 1 feminine walk-right
     # turned with the pose (first state -6.8° about the vertical where the take has +0.2°),
     # its first frame faced 6° off the take's and its side speed, measured in that frame,
-    # was -10.9 cm/s (the take -19.1; now -18.1). Standing actions keep it in the pose's
+    # was -10.9 cm/s (the take -19.1; now -16.8). Standing actions keep it in the pose's
     # blocks: their root's tilt is the bow or the lean, and on its own the adapted normal
-    # punch leant 31 cm forward (its take 13.6) and the musical bow 34 (spread to 32.9).
+    # punch leant 28 cm forward (its take 13.6) and the musical bow 34 (spread to 32.9).
     root_block: bool = True
 
 
@@ -231,8 +231,9 @@ FRAMES_PER_STATE = 4
 #: without GV it crouched 71 cm where the take crouches 85.5, and GV, restoring the take's
 #: variance to that coarse path, deepened the crouch to 100 (spread to 98.3). With the
 #: lattice bounded (:data:`mse.motion.hsmm.model.RUN_SPAN`) the dance gets its 475 states
-#: (87.0 with GV). What bounds it now is the adaptation statistics (a full scatter matrix
-#: per state, 0.3 MB on Bandai's 198-dimensional observations: 150 MB at the cap).
+#: (adapted, GV on: 87.3). What bounds the states now is the adaptation statistics (a full
+#: scatter matrix per state, 0.3 MB on Bandai's 198-dimensional observations: 150 MB at
+#: the cap).
 MAX_STATES = 500
 
 
