@@ -1,8 +1,8 @@
 """Model files: one ``.npz`` archive (no pickle) with a JSON header under the key ``meta``.
 
 Format ``mse-hsmm/5`` (the layout of ``/4``; its models have up to 500 states per unit, and
-adapted locomotion models had the root joint's static rotation in a CMLLR block of its own). ``/4``'s template scalars added the
-training clips' ``feet_lift`` (``/3``
+adapted locomotion models have the root joint's static rotation in a CMLLR block of its
+own). ``/4``'s template scalars added the training clips' ``feet_lift`` (``/3``
 files load with their standing legs stilled; ``/2`` files load, without flight profiles or
 swing-twist roots either; ``/1`` models were
 trained with the parity-linked Δ² window and are refused): ``meta`` holds the action,
