@@ -13,6 +13,8 @@ from mse.motion.hsmm.adapt import (
     GaussianStats,
     adapt_units,
     auto_blocks,
+    blocks_for,
+    class_blocks,
     estimate_cmllr,
     regression_class,
 )
@@ -150,3 +152,43 @@ def test_one_shot_actions_get_states_for_their_length() -> None:
     assert unit_states(False, [138], Options()) == round(138 / 4)  # a 4.6 s bow
     assert unit_states(False, [12], Options()) == 5
     assert unit_states(False, [2000], Options()) == MAX_STATES
+
+
+def test_wave_classes_are_contexts_and_small_ones_get_joint_static_blocks() -> None:
+    names = ("first-a", "inner-b", "last-a", "whole")
+    assert [regression_class(u, by_context=True) for u in names] == ["first", "inner", "last", "whole"]
+    stream = blocks_for(6, "stream")  # two joints: 6 statics, blocks of 6 → 14 frames
+    assert [len(b) for b in class_blocks(stream, 6, 14.0)[0]] == [6, 6, 6]
+    assert class_blocks(stream, 6, 14.0)[1] == 14.0
+    assert class_blocks(stream, 6, 10.0) == ([], 14.0)  # steps: no transform
+    small, weight = class_blocks(stream, 6, 10.0, small=True)
+    assert weight == 8.0 and [b.tolist() for b in small] == [[0, 1, 2], [3, 4, 5]]  # statics only
+    assert class_blocks(stream, 6, 7.0, small=True)[0] == []
+
+
+def test_a_short_rise_gets_its_own_transform_by_context() -> None:
+    # A wave's swings and fall fit the model; its 12-frame rise is 2 higher in the statics.
+    # By leg, the rise's class (a) is too small for stream blocks and keeps the global
+    # transform, which the swings dominate; by context it gets per-joint static blocks.
+    rng = np.random.default_rng(5)
+    units = {}
+    for name in ("first-a", "inner-a", "inner-b", "last-b"):
+        unit = _unit(rng, 3, 18)
+        units[name] = UnitModel(unit.means, unit.variances, np.full(3, 4.0), np.full(3, 1.0))
+    instances = []
+    for name, length, shift in (("first-a", 12, 2.0), ("inner-b", 60, 0.0), ("last-b", 12, 0.0)):
+        unit = units[name]
+        cut = length // 3
+        means = np.repeat(unit.means, cut, axis=0)
+        frames = means + rng.normal(size=means.shape) * np.sqrt(np.repeat(unit.variances, cut, axis=0))
+        frames[:, :6] += shift
+        instances.append(Instance(name, "x", frames, (0, cut, 2 * cut, 3 * cut)))
+    blocks = blocks_for(6, "stream")
+    floor = np.full(18, 1e-6)
+    rises = {}
+    for by_context in (False, True):
+        adapted, _, _ = adapt_units(units, instances, floor, blocks, use_map=False, by_context=by_context)
+        rises[by_context] = float(np.mean(adapted["first-a"].means[:, :6] - units["first-a"].means[:, :6]))
+        swing = adapted["inner-b"].means[:, :6] - units["inner-b"].means[:, :6]
+        assert abs(float(swing.mean())) < 0.5, (by_context, swing)
+    assert rises[True] > 1.5 and rises[False] < 1.2, rises  # measured: 1.71 and 1.02

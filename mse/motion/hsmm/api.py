@@ -69,6 +69,9 @@ class Options:
     soft: bool = True  # occupancy-weighted (forward-backward) adaptation statistics
     regression_classes: bool = True  # per-leg CMLLR transforms when the data allows
     unit_classes: bool = False  # and per-unit transforms below them (a third tree level)
+    # Hand cycles (waves): regression classes by context (rise / swings / fall), small
+    # ones with per-joint static blocks (adapt.adapt_units, adapt.class_blocks).
+    context_classes: bool = True
     soft_training: bool = False  # occupancy-weighted training (average and scratch models)
     style_gv_spread: bool = True  # adapted GV variance from the style's data, not the average's
     gv_tau: float = 0.05  # weight of the average model's global variance when adapting
@@ -379,6 +382,7 @@ def adapt_model(
         soft=options.soft,
         regression_classes=options.regression_classes,
         unit_classes=options.unit_classes,
+        by_context=options.context_classes and average.action in HAND_CYCLE_ACTIONS,
     )
     target = np.array([global_variance(s) for s in statics])
     gv_mean = (options.gv_tau * average.gv_mean + target.sum(axis=0)) / (
