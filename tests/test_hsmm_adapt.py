@@ -18,6 +18,7 @@ from mse.motion.hsmm.adapt import (
     estimate_cmllr,
     regression_class,
 )
+from mse.motion.hsmm.cmllr import estimate_refinement
 from mse.motion.hsmm.model import Instance, UnitModel, duration_logpdf, frame_loglik
 from mse.motion.hsmm.occupancy import occupancy
 from mse.motion.hsmm.stats import output_stats, soft_stats
@@ -162,7 +163,8 @@ def test_wave_classes_are_contexts_and_small_ones_get_joint_static_blocks() -> N
     assert class_blocks(stream, 6, 14.0)[1] == 14.0
     assert class_blocks(stream, 6, 10.0) == ([], 14.0)  # steps: no transform
     small, weight = class_blocks(stream, 6, 10.0, small=True)
-    assert weight == 8.0 and [b.tolist() for b in small] == [[0, 1, 2], [3, 4, 5]]  # statics only
+    assert weight == 8.0 and [b.tolist() for b in small[:3]] == [[0, 1, 2], [3, 4, 5], [6, 7, 8]]
+    assert len(small) == 6  # two joints × three streams
     assert class_blocks(stream, 6, 7.0, small=True)[0] == []
 
 
@@ -191,4 +193,38 @@ def test_a_short_rise_gets_its_own_transform_by_context() -> None:
         rises[by_context] = float(np.mean(adapted["first-a"].means[:, :6] - units["first-a"].means[:, :6]))
         swing = adapted["inner-b"].means[:, :6] - units["inner-b"].means[:, :6]
         assert abs(float(swing.mean())) < 0.5, (by_context, swing)
-    assert rises[True] > 1.5 and rises[False] < 1.2, rises  # measured: 1.71 and 1.02
+    assert rises[True] > 1.5 and rises[False] < 1.2, rises
+
+
+def test_a_refinement_on_data_its_parent_already_fits_is_the_parent() -> None:
+    rng = np.random.default_rng(3)
+    means, variances = rng.normal(size=(4, 9)), rng.uniform(0.5, 1.0, size=(4, 9))
+    parent = AffineTransform(np.eye(9) + 0.1 * rng.normal(size=(9, 9)), rng.normal(size=9))
+    stats = []
+    for mean, variance in zip(means, variances, strict=True):
+        model_frames = mean + rng.normal(size=(400, 9)) * np.sqrt(variance)
+        frames = np.linalg.solve(parent.matrix, (model_frames - parent.bias).T).T  # x with A x + b ~ model
+        stats.append(GaussianStats(400.0, frames.sum(axis=0), frames.T @ frames, mean, variance))
+    refined = estimate_refinement(stats, blocks_for(3, "joint"), 8.0, parent)  # one joint
+    assert np.allclose(refined.matrix, parent.matrix, atol=0.1)
+    assert np.allclose(refined.bias, parent.bias, atol=0.1)
+
+
+def test_wave_contexts_keep_their_own_tempo() -> None:
+    # The rise (first) takes as long as the model expects; the swings (inner) five times
+    # as long. By leg, the swings' tempo stretches the rise; by context it keeps its own.
+    units = {
+        name: UnitModel(np.zeros((3, 3)), np.ones((3, 3)), np.full(3, 4.0), np.full(3, 1.0))
+        for name in ("first-a", "inner-b", "inner-a", "last-a")
+    }
+    instances = [
+        Instance("first-a", "x", np.zeros((12, 3)), (0, 4, 8, 12)),
+        Instance("inner-b", "x", np.zeros((60, 3)), (0, 20, 40, 60)),
+        Instance("inner-a", "x", np.zeros((60, 3)), (0, 20, 40, 60)),
+    ]
+    blocks = [np.array([i]) for i in range(3)]
+    rise = {}
+    for by_context in (False, True):
+        adapted, _, _ = adapt_units(units, instances, np.full(3, 1e-4), blocks, use_map=False, by_context=by_context)
+        rise[by_context] = float(adapted["first-a"].duration_means.sum())
+    assert rise[True] < 16.0 < 30.0 < rise[False], rise

@@ -9,7 +9,9 @@ usual choice), ``joint`` (3×3 per joint and stream, the most robust to tiny dat
 ``full``; adaptation picks stream or joint blocks by the amount of data (:func:`auto_blocks`).
 A Gaussian prior centred on the identity (weight ``prior``) keeps rows with little data near
 identity; per-leg regression classes then get their own transforms with the global one as
-prior centre (the structural-MAP idea of CSMAPLR).  Durations get a transform that cannot
+prior centre (the structural-MAP idea of CSMAPLR); waves' classes are their contexts, the
+rise and the fall with per-joint refinements and tempos of their own (:func:`adapt_units`).
+The transforms and their estimation are in :mod:`mse.motion.hsmm.cmllr`.  Durations get a transform that cannot
 collapse (:func:`estimate_duration_scale`): a diagonal one, each state's scale shrunk towards
 the global tempo of the data and kept within a factor :data:`DURATION_SCALE_RANGE` of it (a
 full 5×5 CMLLR estimated from one bow take had turned the state durations into
@@ -28,11 +30,18 @@ the average model on the transformed data.
 from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass
 
 import numpy as np
 
 from mse import progress
+from mse.motion.hsmm.cmllr import (
+    FRAMES_PER_PARAMETER,
+    AffineTransform,
+    auto_blocks,
+    blocks_for,
+    estimate_cmllr,
+    estimate_refinement,
+)
 from mse.motion.hsmm.features import FloatArray
 from mse.motion.hsmm.model import (
     DURATION_VARIANCE_FLOOR,
@@ -44,30 +53,20 @@ from mse.motion.hsmm.model import (
 )
 from mse.motion.hsmm.stats import GaussianStats, collect_stats, duration_stats, output_stats
 
-
-@dataclass(frozen=True, eq=False)
-class AffineTransform:
-    """Feature-space transform ``x̂ = A x + b``."""
-
-    matrix: FloatArray  # (n, n)
-    bias: FloatArray  # (n,)
-
-    @staticmethod
-    def identity(size: int) -> AffineTransform:
-        return AffineTransform(np.eye(size), np.zeros(size))
-
-    def apply(self, values: FloatArray) -> FloatArray:
-        result: FloatArray = values @ self.matrix.T + self.bias
-        return result
-
-    def model_space(
-        self, means: FloatArray, variances: FloatArray
-    ) -> tuple[FloatArray, FloatArray]:
-        """Means and diagonal variances (rows of (K, n)) seen through the inverse transform."""
-        inverse = np.linalg.inv(self.matrix)
-        adapted_means = (means - self.bias) @ inverse.T
-        adapted_variances = variances @ (inverse**2).T
-        return adapted_means, adapted_variances
+__all__ = [
+    "AffineTransform",
+    "GaussianStats",
+    "adapt_units",
+    "adaptive_training",
+    "auto_blocks",
+    "blocks_for",
+    "class_blocks",
+    "estimate_cmllr",
+    "estimate_duration_scale",
+    "map_update",
+    "regression_class",
+    "transform_units",
+]
 
 
 #: a state's duration scale stays within this factor of the global tempo
@@ -97,144 +96,6 @@ def estimate_duration_scale(stats: Sequence[GaussianStats], prior: float = 1.0) 
     return AffineTransform(np.diag(1.0 / scales), np.zeros(states))
 
 
-def auto_blocks(static_dims: int, frames: int) -> str:
-    """The largest regression blocks the adaptation data supports (a documented rule).
-
-    A block of size ``k`` has ``k + 1`` parameters per row, each row estimated from every
-    frame: use ``stream`` blocks (``k`` = D) when there are at least two frames per row
-    parameter, else per-joint 3×3 blocks, which need only 8 frames.
-    """
-    return "stream" if frames >= FRAMES_PER_PARAMETER * (static_dims + 1) else "joint"
-
-
-def blocks_for(static_dims: int, kind: str, root: int | None = None) -> list[np.ndarray]:
-    """Index blocks of the (3D,) observation for a block-diagonal transform.
-
-    ``root``: the static column of the root joint's first rotation component; with it, the
-    static ``stream`` block leaves the root joint's three columns out, in a 3×3 block of
-    their own (locomotion's adaptation, ``api.Options.root_block``). Its Δ and Δ² stay in
-    their streams' blocks: the root's velocity moves with the legs' (on its own in those
-    streams too, the adapted dataset 1 musical walk-back's jerk rose from 13,620 to 15,934
-    cm/s³, over its 2×-real limit of 15,430; static only: 13,041).
-    """
-    width = 3 * static_dims
-    if kind == "full":
-        return [np.arange(width)]
-    if kind == "stream" and root is not None:
-        own = np.arange(root, root + 3)
-        rest = np.setdiff1d(np.arange(static_dims), own)
-        return [rest, own] + [np.arange(s * static_dims, (s + 1) * static_dims) for s in (1, 2)]
-    if kind == "stream":
-        return [np.arange(s * static_dims, (s + 1) * static_dims) for s in range(3)]
-    if kind == "joint":
-        return [
-            np.arange(s * static_dims + j, s * static_dims + j + 3)
-            for s in range(3)
-            for j in range(0, static_dims, 3)
-        ]
-    raise ValueError(f"unknown regression blocks {kind!r} (full, stream, joint)")
-
-
-def estimate_cmllr(
-    stats: Sequence[GaussianStats],
-    blocks: Sequence[np.ndarray],
-    prior: float = 1.0,
-    iterations: int = 4,
-    centre: AffineTransform | None = None,
-) -> AffineTransform:
-    """Row-by-row CMLLR with a Gaussian prior of weight ``prior`` on every row, centred on
-    the identity or on ``centre`` (a parent regression class's transform, as in CSMAPLR).
-
-    Blocks of the same size have their row updates run at once.
-    """
-    size = stats[0].mean.shape[0]
-    centre = centre if centre is not None else AffineTransform.identity(size)
-    matrix = centre.matrix.copy()
-    bias = centre.bias.copy()
-    beta = float(sum(s.count for s in stats))
-    if beta <= 0:
-        return AffineTransform(matrix, bias)
-    for width in sorted({len(b) for b in blocks}):
-        same = np.asarray([b for b in blocks if len(b) == width])
-        _estimate_blocks(stats, same, prior, iterations, centre, beta, matrix, bias)
-    return AffineTransform(matrix, bias)
-
-
-def _estimate_blocks(
-    stats: Sequence[GaussianStats],
-    index: np.ndarray,
-    prior: float,
-    iterations: int,
-    centre: AffineTransform,
-    beta: float,
-    matrix: FloatArray,
-    bias: FloatArray,
-) -> None:
-    """The rows of the blocks ``index`` (B, k), all of one size, written into ``matrix``
-    and ``bias``."""
-    count, k = index.shape
-    counts = np.array([s.count for s in stats])
-    totals = np.array([s.total for s in stats])  # (M, n)
-    # Extended statistics of [1, x_block] per Gaussian and block: (M, B, k+1, k+1).
-    ext = np.empty((len(stats), count, k + 1, k + 1))
-    ext[:, :, 0, 0] = counts[:, None]
-    ext[:, :, 0, 1:] = ext[:, :, 1:, 0] = totals[:, index]
-    for m, s in enumerate(stats):
-        ext[m, :, 1:, 1:] = s.scatter[index[:, :, None], index[:, None, :]]
-    first = ext[:, :, 0, :]  # (M, B, k+1): [count, total]
-    precision = np.array([1.0 / s.variance for s in stats])[:, index]  # (M, B, k)
-    scaled = np.array([s.mean / s.variance for s in stats])[:, index]
-    # Σ_m precision[m, b, i] · ext[m, b] as one batched matrix product per block.
-    flat = ext.transpose(1, 0, 2, 3).reshape(count, len(stats), (k + 1) ** 2)
-    g = np.matmul(precision.transpose(1, 2, 0), flat).reshape(count, k, k + 1, k + 1)
-    g += prior * np.eye(k + 1)
-    kvec = np.einsum("mbi,mbx->bix", scaled, first)
-    # Rows [b, A] of the prior's centre, block by block; the iterations start from them.
-    rows = np.concatenate(
-        [centre.bias[index][:, :, None], centre.matrix[index[:, :, None], index[:, None, :]]],
-        axis=2,
-    )
-    kvec += prior * rows
-    g_inv = np.linalg.inv(g)  # (B, k, k+1, k+1)
-    gk = np.matmul(g_inv, kvec[:, :, :, None])[:, :, :, 0]  # (B, k, k+1): G⁻¹k per row
-    inverse = np.linalg.inv(rows[:, :, 1:])  # (B, k, k), kept current by rank-one updates
-    for _ in range(iterations):
-        for r in range(k):
-            cofactor = np.zeros((count, k + 1))
-            cofactor[:, 1:] = inverse[:, :, r]
-            kr = kvec[:, r]
-            # G is symmetric: G⁻¹c and G⁻¹k give every term without further products, and
-            # w G wᵀ = w · (αc + k) because w = (αc + k) G⁻¹.
-            gc = np.matmul(g_inv[:, r], cofactor[:, :, None])[:, :, 0]
-            a = np.sum(cofactor * gc, axis=1)
-            b = np.sum(kr * gc, axis=1)
-            root = np.sqrt(b * b + 4.0 * a * beta)
-            best = rows[:, r].copy()
-            best_score = np.full(count, -np.inf)
-            for alpha in ((-b + root) / (2.0 * a), (-b - root) / (2.0 * a)):
-                w = alpha[:, None] * gc + gk[:, r]
-                det_term = np.abs(np.sum(cofactor * w, axis=1))
-                score = (
-                    beta * np.log(np.maximum(det_term, 1e-300))
-                    - 0.5 * np.sum(w * (alpha[:, None] * cofactor + kr), axis=1)
-                    + np.sum(w * kr, axis=1)
-                )
-                better = (score > best_score) & (det_term > 0)
-                best[better] = w[better]
-                best_score = np.where(better, score, best_score)
-            # Sherman-Morrison for A' = A + e_r δᵀ:
-            # A'⁻¹ = A⁻¹ - (A⁻¹ e_r)(δᵀ A⁻¹) / (1 + δᵀ A⁻¹ e_r).
-            delta = best[:, 1:] - rows[:, r, 1:]
-            column = inverse[:, :, r].copy()
-            row = np.matmul(delta[:, None, :], inverse)[:, 0]
-            denominator = 1.0 + np.sum(delta * column, axis=1)
-            inverse -= column[:, :, None] * row[:, None, :] / denominator[:, None, None]
-            rows[:, r] = best
-    for block, block_rows in zip(index, rows, strict=True):
-        matrix[np.ix_(block, block)] = block_rows[:, 1:]
-        bias[block] = block_rows[:, 0]
-
-
 def regression_class(unit: str, by_context: bool = False) -> str:
     """The regression class of a unit: its swing leg (``a``/``b``) for steps, else itself.
 
@@ -248,30 +109,23 @@ def regression_class(unit: str, by_context: bool = False) -> str:
     return context if by_context or not leg else leg
 
 
-#: frames per row parameter that a regression block needs (:func:`auto_blocks`)
-FRAMES_PER_PARAMETER = 2
-
-
 def class_blocks(
     blocks: Sequence[np.ndarray], static_dims: int, frames: float, small: bool = False
-) -> tuple[list[np.ndarray], float]:
+) -> tuple[Sequence[np.ndarray], float]:
     """The blocks of a regression class's transform and its prior weight (frames).
 
     The adaptation's blocks when the class holds :data:`FRAMES_PER_PARAMETER` frames per row
     parameter of them; the prior weight is that threshold, so a class at it lands half-way
     between its parent and its data. Else, with ``small`` (a wave's rise and fall, see
-    :func:`adapt_units`), per-joint 3×3 blocks of the **static** stream when the class holds
-    that many frames for those (8), the Δ and Δ² rows staying the parent's: with per-joint
-    blocks in every stream, the adapted Bandai dataset 2 exhausted and youthful waves' jerk
-    reached 27,500 and 37,600 cm/s³ (limits 12,700 and 33,800; static only: 6,100, 9,300).
-    Else no transform (empty).
+    :func:`adapt_units`), per-joint 3×3 blocks when the class holds that many frames for
+    those (8), as :func:`auto_blocks` falls back to them; else no transform (empty).
     """
     needed = FRAMES_PER_PARAMETER * (max(len(b) for b in blocks) + 1.0)
     if frames >= needed:
-        return list(blocks), needed
+        return blocks, needed
     joint_needed = FRAMES_PER_PARAMETER * (3 + 1.0)
     if small and frames >= joint_needed and needed > joint_needed:
-        return blocks_for(static_dims, "joint")[: static_dims // 3], joint_needed
+        return blocks_for(static_dims, "joint"), joint_needed
     return [], needed
 
 
@@ -281,6 +135,7 @@ def transform_units(
     duration: AffineTransform,
     classes: Mapping[str, AffineTransform] | None = None,
     by_context: bool = False,
+    duration_classes: Mapping[str, AffineTransform] | None = None,
 ) -> dict[str, UnitModel]:
     """The model seen through feature-space transforms (eq. 5–6, diagonal variances);
     ``classes`` overrides ``output`` for the units of a regression class
@@ -291,7 +146,8 @@ def transform_units(
         found = classes or {}
         transform = found.get(f"unit:{name}", found.get(regression_class(name, by_context), output))
         means, variances = transform.model_space(unit.means, unit.variances)
-        d_means, d_vars = duration.model_space(
+        timing = (duration_classes or {}).get(regression_class(name, by_context), duration)
+        d_means, d_vars = timing.model_space(
             unit.duration_means[None, :], unit.duration_variances[None, :]
         )
         out[name] = UnitModel(
@@ -367,12 +223,13 @@ def adapt_units(
     parameter, estimated with the global transform as its prior centre (weight: that
     same number of frames, so a class at the threshold lands half-way).
 
-    ``by_context`` (hand cycles): the classes are the contexts, and a class too small for
-    the adaptation's blocks gets per-joint static blocks (:func:`class_blocks`). A wave's
-    rise and fall are one unit each (10-25 frames of a take): under the global transform,
-    which the swings' frames dominate, and MAP's prior of one (stretched) visit, the adapted
-    Bandai dataset 2 feminine wave raised its hands from half-way up, 6 cm outward where
-    the take's go 18 cm, and its wave amplitude was 3.4 cm (its take 7.7, spread from 5.5).
+    ``by_context`` (hand cycles): the classes are the contexts; a class too small for the
+    adaptation's blocks gets per-joint blocks (:func:`class_blocks`) on top of the global
+    transform (:func:`estimate_refinement`), and each class gets its own duration transform
+    (its own tempo). A wave's rise and fall are one unit each (10-25 frames of a take): the
+    swings' frames dominated the global transforms, and the Bandai dataset 2 feminine wave,
+    whose swings are 1-2 cm ripples held for 83 and 94 frames, was adapted to raise its hands
+    in 37 frames (its take: 13) from half-way up, 6 cm outward where the take's go 18 cm.
     """
     states = next(iter(units.values())).states
     output = AffineTransform.identity(floor.shape[0])
@@ -393,7 +250,10 @@ def adapt_units(
             frames = sum(m.count for m in members)
             own, weight = class_blocks(blocks, floor.shape[0] // 3, frames, small=by_context)
             if own and frames >= weight:
-                classes[label] = estimate_cmllr(members, own, weight, centre=output)
+                if own is blocks:
+                    classes[label] = estimate_cmllr(members, own, weight, centre=output)
+                else:
+                    classes[label] = estimate_refinement(members, own, weight, output)
         if unit_classes:
             # Third level of the tree: a unit with enough frames gets its own transform,
             # centred on its leg's (or the global) transform.
@@ -404,7 +264,14 @@ def adapt_units(
                 parent = classes.get(regression_class(name, by_context), output)
                 if sum(m.count for m in members) >= needed and len(by_unit) > 1:
                     classes[f"unit:{name}"] = estimate_cmllr(members, blocks, needed, centre=parent)
-        adapted = transform_units(units, output, duration, classes, by_context)
+        timing: dict[str, AffineTransform] = {}
+        if by_context:
+            # Each context its own tempo (see the docstring).
+            by_class: dict[str, list[GaussianStats]] = {}
+            for name, st in dstats.items():
+                by_class.setdefault(regression_class(name, by_context), []).append(st)
+            timing = {label: estimate_duration_scale(members, prior) for label, members in by_class.items()}
+        adapted = transform_units(units, output, duration, classes, by_context, timing)
     if use_map:
         adapted = map_update(adapted, instances, floor, tau, tau_duration, soft)
     return adapted, output, duration
