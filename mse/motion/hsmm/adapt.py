@@ -11,8 +11,8 @@ A Gaussian prior centred on the identity (weight ``prior``) keeps rows with litt
 identity; per-leg regression classes then get their own transforms with the global one as
 prior centre (the structural-MAP idea of CSMAPLR); waves' classes are their contexts, the
 rise and the fall with per-joint refinements and tempos of their own (:func:`adapt_units`).
-The transforms and their estimation are in :mod:`mse.motion.hsmm.cmllr`.  Durations get a transform that cannot
-collapse (:func:`estimate_duration_scale`): a diagonal one, each state's scale shrunk towards
+The transforms and their estimation are in :mod:`mse.motion.hsmm.cmllr`.  Durations get a
+transform that cannot collapse (:func:`estimate_duration_scale`): a diagonal one, each state's scale shrunk towards
 the global tempo of the data and kept within a factor :data:`DURATION_SCALE_RANGE` of it (a
 full 5×5 CMLLR estimated from one bow take had turned the state durations into
 [63, 1, 1, 1, 24] frames, and the adapted bows barely bowed); MAP then keeps every state at
