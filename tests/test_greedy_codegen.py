@@ -78,6 +78,26 @@ def test_generated_checks_give_the_closures_masks(data: st.DataObject, model: ir
         assert bool(_generated(expr, triggers, DURATION)(env)) == expected
 
 
+def test_long_chains_and_deep_nesting_compile_to_the_closures_masks() -> None:
+    """Python refuses more than 200 nested brackets: a 300-operand ``and`` (a SyntaxError
+    traceback from `mse sample` before) and 190 nested ``not``/``or`` levels must compile."""
+    ids = [f"s{i}" for i in range(30)]
+    pairs = list(itertools.combinations(ids, 2))[:300]
+    wide: ir.Expr = ir.And(tuple(ir.Or((ir.Exists(a), ir.Relation("precedes", a, b))) for a, b in pairs))
+    deep: ir.Expr = ir.Exists("s0")
+    for level in range(190):
+        deep = ir.Not(deep) if level % 2 else ir.Or((deep, ir.Relation("includes", "s1", "s2")))
+    envs = [{}, {"s0": [(0, 0, 50, 50)], "s1": [(10, 10, 20, 20)], "s2": [(12, 12, 15, 15)]},
+            {name: [(3 * i, 3 * i, 3 * i + 2, 3 * i + 2)] for i, name in enumerate(ids)}]
+    for expr in (wide, deep):
+        closure = compile_expr(expr, DURATION)
+        triggers = tuple(sorted(ir.trigger_signals(expr)))
+        for env in envs:
+            assert _generated(expr, None, DURATION)(env) == closure(env)
+            expected = bool(_acceptance(triggers, closure)(env))
+            assert bool(_generated(expr, triggers, DURATION)(env)) == expected
+
+
 def test_a_check_switches_to_its_generated_function_after_hot_calls() -> None:
     expr = ir.Or((ir.Relation("precedes", "a", "b"), ir.Exists("c")))
     compiled = CompiledConstraint(ir.Constraint(id="c", expr=expr), DURATION)

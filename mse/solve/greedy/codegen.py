@@ -30,6 +30,10 @@ _RELATION_SOURCE = {
 }
 
 
+#: nesting of generated brackets after which a value goes through a local (Python allows 200)
+SPILL_DEPTH = 32
+
+
 class _Writer:
     """The body of one generated function: statements computing the atoms' masks into
     locals, then one expression combining them."""
@@ -54,8 +58,25 @@ class _Writer:
         self.statements.append(f"{local} = {name}(env)")
         return local
 
-    def expression(self, expr: ir.Expr) -> str:
-        """Source of an expression for the mask of ``expr`` (statements added as needed)."""
+    def spill(self, source: str) -> str:
+        """A local holding the value of ``source``: keeps the generated expressions shallow."""
+        local = f"v{len(self.statements)}"
+        self.statements.append(f"{local} = {source}")
+        return local
+
+    def expression(self, expr: ir.Expr, depth: int = 0) -> str:
+        """Source of an expression for the mask of ``expr`` (statements added as needed).
+
+        Python's parser refuses more than 200 nested brackets ("too many nested
+        parentheses"), and constraints may nest up to ``limits`` allow with ``and`` chains of
+        any length: every ``SPILL_DEPTH`` levels, and every fold over many operands, goes
+        through a local instead of nesting further."""
+        source = self._expression(expr, depth)
+        if depth % SPILL_DEPTH == SPILL_DEPTH - 1:
+            return self.spill(source)
+        return source
+
+    def _expression(self, expr: ir.Expr, depth: int) -> str:
         if isinstance(expr, ir.Exists):
             return f"(1 if {self.boxes(expr.signal)} else 2)"
         if isinstance(expr, ir.Relation):
@@ -78,18 +99,21 @@ class _Writer:
         if isinstance(expr, ir.Compare):
             return self.fallback(expr)
         if isinstance(expr, ir.Not):
-            return f"NOT[{self.expression(expr.operand)}]"
+            return f"NOT[{self.expression(expr.operand, depth + 1)}]"
         if isinstance(expr, ir.Implies):
-            return f"IMPLIES[{self.expression(expr.left)} << 3 | {self.expression(expr.right)}]"
+            left_mask = self.expression(expr.left, depth + 1)
+            return f"IMPLIES[{left_mask} << 3 | {self.expression(expr.right, depth + 1)}]"
         table = "AND" if isinstance(expr, ir.And) else "OR"
-        parts = [self.expression(e) for e in ir.children(expr)]
+        parts = [self.expression(e, depth + 1) for e in ir.children(expr)]
         if len(parts) == 1:
             return f"({table}_MANY(({parts[0]},)))"
         # Folded over the binary table: the same mask as partial.mask_and / mask_or of all the
         # operands (tests/test_greedy_codegen.py checks every combination up to five).
         folded = parts[0]
-        for part in parts[1:]:
+        for index, part in enumerate(parts[1:], start=1):
             folded = f"{table}[{folded} << 3 | {part}]"
+            if index % SPILL_DEPTH == 0:
+                folded = self.spill(folded)
         return folded
 
 
