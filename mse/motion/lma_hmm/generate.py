@@ -83,6 +83,7 @@ from mse.motion.lma_hmm.search import (
     nearest_neighbours,
     saliency_for,
 )
+from mse.motion.lma_hmm.stride import STRIDE_CHOICES, restore_stride
 
 __all__ = ["Generated", "GenerationParams", "MotionUnavailable", "generate_motion", "time_warp"]
 
@@ -128,6 +129,12 @@ class GenerationParams:
     #: a standing body (the neighbours' carried root speed under 0.1 leg lengths per second)
     #: pins whichever foot point is lowest, without the walks' stance hysteresis
     standing_pin: bool = True
+    #: travelling neighbours (not standing): the state means' swing widened, joint by joint,
+    #: to the neighbours' own (:mod:`mse.motion.lma_hmm.stride`): "legs", "all", "off"
+    stride: str = "legs"
+    #: travelling neighbours that cycle: a change of state they never make in the desired
+    #: path's decoding goes through the states by which they do (:func:`~mse.motion.lma_hmm.hmm.retimed`)
+    travel_bridge: bool = True
 
     def __post_init__(self) -> None:
         if self.regenerate not in ("means", "frames"):
@@ -136,6 +143,8 @@ class GenerationParams:
             raise ValueError(f"timing must be 'neighbours' or 'desired', not {self.timing!r}")
         if self.velocity not in VELOCITY_CHOICES:
             raise ValueError(f"velocity must be one of {', '.join(VELOCITY_CHOICES)}, not {self.velocity!r}")
+        if self.stride not in STRIDE_CHOICES:
+            raise ValueError(f"stride must be one of {', '.join(STRIDE_CHOICES)}, not {self.stride!r}")
         if self.topology not in TOPOLOGIES:
             raise ValueError(f"topology must be one of {', '.join(TOPOLOGIES)}, not {self.topology!r}")
 
@@ -300,8 +309,16 @@ def _modulate(
     retime = params.timing == "neighbours"
     needs_labels = trained.cyclic or params.regenerate == "frames" or retime
     labels = [trained.viterbi(p) for p in phases] if needs_labels else []
+    if params.stride != "off" and not _stand(carried, encoding.skeleton):
+        # the state means under-shoot the swing of the legs: the stride (stride.py)
+        own = labels or [trained.viterbi(p) for p in phases]
+        means = restore_stride(means, rotations, own, desired.frame_time, params.cutoff_hz, encoding, params.stride)
     if retime:
-        states = retimed(states, labels, refill_stuck=dynamic and trained.cyclic)
+        # travelling neighbours (walks, runs): a change of state they never make is bridged
+        # too (stride.py: the desired path's start turned the legs back, a jolt of the root)
+        travel = params.travel_bridge and not _stand(carried, encoding.skeleton)
+        bridge = trained.cyclic and (dynamic or travel)
+        states = retimed(states, labels, refill_stuck=dynamic and trained.cyclic, bridge=bridge)
     if params.regenerate == "frames":
         frames = state_aligned_frames(states, means, rotations, labels)
     timings["viterbi"] = time.perf_counter() - clock
