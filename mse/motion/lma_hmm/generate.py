@@ -74,7 +74,17 @@ from mse.motion.lma_hmm.hmm import (
     state_path,
     train_hmm,
 )
-from mse.motion.lma_hmm.modulated import CARRIED, DISK_FORMAT, Modulated, cutoff, load, path_for, save, time_warp
+from mse.motion.lma_hmm.modulated import (
+    CARRIED,
+    DISK_FORMAT,
+    LOOP_RATIO,
+    Modulated,
+    cutoff,
+    load,
+    path_for,
+    save,
+    time_warp,
+)
 from mse.motion.lma_hmm.pose import PhaseSpace, phase_space, pose_features, with_velocity
 from mse.motion.lma_hmm.search import (
     EPSILON_FRACTION,
@@ -133,8 +143,9 @@ class GenerationParams:
     #: to the neighbours' own (:mod:`mse.motion.lma_hmm.stride`): "legs", "all", "off"
     stride: str = "legs"
     #: travelling neighbours that cycle: a change of state they never make in the desired
-    #: path's decoding goes through the states by which they do (:func:`~mse.motion.lma_hmm.hmm.retimed`)
-    travel_bridge: bool = True
+    #: path's decoding goes through the states by which they do (``hmm.retimed(bridge=True)``),
+    #: and a path shorter than the clip is continued, not stretched (``modulated.path_for``)
+    travel_cycles: bool = True
 
     def __post_init__(self) -> None:
         if self.regenerate not in ("means", "frames"):
@@ -316,7 +327,7 @@ def _modulate(
     if retime:
         # travelling neighbours (walks, runs): a change of state they never make is bridged
         # too (stride.py: the desired path's start turned the legs back, a jolt of the root)
-        travel = params.travel_bridge and not _stand(carried, encoding.skeleton)
+        travel = params.travel_cycles and not _stand(carried, encoding.skeleton)
         bridge = trained.cyclic and (dynamic or travel)
         states = retimed(states, labels, refill_stuck=dynamic and trained.cyclic, bridge=bridge)
     if params.regenerate == "frames":
@@ -392,6 +403,15 @@ def _stand(carried: Sequence[FloatArray], skeleton: Skeleton) -> bool:
         return False
     speed = float(np.median(np.concatenate([np.linalg.norm(c[:, :2], axis=1) for c in carried])))
     return speed < STANDING_LEG_LENGTHS_PER_S * leg_length
+
+
+def _travels(modulated: Modulated) -> bool:
+    """Whether the modulated path travels: its carried root speed (the neighbours', through
+    the states) is not a standing body's (:func:`_stand`)."""
+    path, encoding = modulated.path, modulated.encoding
+    if path.shape[1] != encoding.dimension + CARRIED:
+        return False
+    return not _stand([path[:, encoding.dimension :]], encoding.skeleton)
 
 
 def _steady_legs(path: FloatArray, encoding: Encoding, frame_time: float, hz: float) -> FloatArray:
@@ -496,8 +516,10 @@ def generate_motion(
                 save(disk, modulated)
     _CACHE[key] = modulated
     path, frame_time = modulated.path, modulated.frame_time
+    # a travelling cycle shorter than the clip takes more steps rather than slower ones
+    loop = 1.0 if params.travel_cycles and modulated.cyclic and _travels(modulated) else LOOP_RATIO
     if duration is not None:
-        path = path_for(modulated, round(duration / frame_time))
+        path = path_for(modulated, round(duration / frame_time), loop)
         path, frame_time = time_warp(path, frame_time, duration)
     encoding = modulated.encoding
     own_style = modulated.neighbours == (desired_clip.id,) and not modulated.components
@@ -507,7 +529,7 @@ def generate_motion(
     carried = path[:, encoding.dimension :].copy()
     if carried.shape[1] == CARRIED and duration is not None:
         # the path was played slower or faster than its neighbours: so is the carried speed
-        played = len(path_for(modulated, round(duration / modulated.frame_time))) * modulated.frame_time
+        played = len(path_for(modulated, round(duration / modulated.frame_time), loop)) * modulated.frame_time
         carried[:, :2] *= played / max(duration, 1e-9)
     # a standing body pins whichever foot point is lowest, without the walks' hysteresis (as
     # the HSMM method does): with both feet on the floor, the hysteresis kept the left toes
