@@ -14,7 +14,7 @@ from mse.motion.base.library import load_library
 from mse.motion.base.starter import starter_library
 from mse.motion.lma_hmm.generate import GenerationParams, generate_motion
 from mse.motion.lma_hmm.hmm import retimed, smooth, state_path
-from mse.motion.lma_hmm.stride import MAX_GAIN, restored_means, stride_gains, swing_joints
+from mse.motion.lma_hmm.stride import MAX_GAIN, restored_flight, restored_means, stride_gains, swing_joints
 
 FRAME_TIME = 1.0 / 30.0
 
@@ -68,6 +68,23 @@ def test_gains_of_mismatched_or_empty_input_are_one() -> None:
     assert stride_gains(means, [rotations], [labels, labels], FRAME_TIME, [3.0], 2).tolist() == [1.0, 1.0]
 
 
+def test_flight_is_widened_only_for_running_neighbours() -> None:
+    rotations, labels = _swing(joints=1)
+    t = np.arange(len(rotations)) * FRAME_TIME
+    flight = (np.sin(2 * np.pi * 2 * t) > 0.3).astype(float)  # unsupported 40 % of the time
+    carried = np.column_stack([np.zeros_like(t), np.full_like(t, 200.0), 3.0 * flight, 1.0 - flight])
+    running = np.hstack([rotations, carried])
+    means = _means(running, labels)
+    widened = restored_flight(means, means, [running], [labels], FRAME_TIME, [3.0], 3)
+    assert np.ptp(widened[:, 6]) > np.ptp(means[:, 6])  # the support, further from its mean
+    assert widened[:, 6].min() >= 0.0 and widened[:, 6].max() <= 1.0 and widened[:, 5].min() >= 0.0
+    np.testing.assert_allclose(widened[:, :5], means[:, :5])  # rotations and velocity kept
+    walking = np.hstack([rotations, carried * [1, 1, 0.1, 0] + [0, 0, 0, 1]])  # always supported
+    walk_means = _means(walking, labels)
+    same = restored_flight(walk_means, walk_means, [walking], [labels], FRAME_TIME, [3.0], 3)
+    np.testing.assert_allclose(same, walk_means)
+
+
 def test_swing_joints_are_the_thighs_and_shins() -> None:
     skeleton = starter_library().motion(starter_library().clips[0]).skeleton
     names = sorted(skeleton.names[j] for j in swing_joints(skeleton))
@@ -104,7 +121,23 @@ def test_a_tired_run_keeps_the_neighbours_stride(bandai_dir: Path, tmp_path: Pat
     duration = library.motion(library.clips[1]).duration  # as bench/motion_fidelity.py
     slow = measure(generate_motion(library, "run", "tired", duration=duration, params=before).motion)
     now = measure(generate_motion(library, "run", "tired", duration=duration).motion)
-    print(duration, slow, now)
     assert now["forward_speed"] > slow["forward_speed"] + 10.0
     assert now["forward_speed"] > 137.0
     assert now["foot_slip"] < 15.0  # cm/s; the bench's limit for tired runs 13.5 (measured 12.6)
+
+
+@pytest.mark.slow
+def test_an_own_style_copy_is_stretched_not_continued(bandai_dir: Path, tmp_path: Path) -> None:
+    # a normal punch played as itself for longer than its take: continued through its state
+    # means, it lost its reach (head forward 9.0 cm, real 11.6-19.4)
+    data = bandai_dir / "data"
+    entries = [
+        {"file": str(data / f"dataset-1_punch_normal_{take:03d}.bvh"), "action": "punch", "style": "normal"}
+        for take in (1, 2)
+    ]
+    (tmp_path / "library.json").write_text(json.dumps({"clips": entries}))
+    library = load_library(tmp_path)
+    duration = 1.2 * library.motion(library.clips[0]).duration
+    now = generate_motion(library, "punch", "normal", duration=duration).motion
+    before = generate_motion(library, "punch", "normal", duration=duration, params=GenerationParams(travel_cycles=False))
+    np.testing.assert_allclose(now.values, before.motion.values)

@@ -516,13 +516,15 @@ def generate_motion(
                 save(disk, modulated)
     _CACHE[key] = modulated
     path, frame_time = modulated.path, modulated.frame_time
-    # a travelling cycle shorter than the clip takes more steps rather than slower ones
-    loop = 1.0 if params.travel_cycles and modulated.cyclic and _travels(modulated) else LOOP_RATIO
+    own_style = modulated.neighbours == (desired_clip.id,) and not modulated.components
+    # a travelling cycle shorter than the clip takes more steps rather than slower ones (not
+    # an own-style copy: continued through its state means, a normal punch lost its reach)
+    travels = params.travel_cycles and modulated.cyclic and not own_style and _travels(modulated)
+    loop = 1.0 if travels else LOOP_RATIO
     if duration is not None:
         path = path_for(modulated, round(duration / frame_time), loop)
         path, frame_time = time_warp(path, frame_time, duration)
     encoding = modulated.encoding
-    own_style = modulated.neighbours == (desired_clip.id,) and not modulated.components
     if params.standing_legs_hz > 0 and not own_style and path.shape[1] == encoding.dimension + CARRIED:
         path = _steady_legs(path, encoding, frame_time, params.standing_legs_hz)
     motion = Motion(encoding.skeleton, frame_time, decode(encoding, path))
