@@ -93,7 +93,7 @@ from mse.motion.lma_hmm.search import (
     nearest_neighbours,
     saliency_for,
 )
-from mse.motion.lma_hmm.stride import STRIDE_CHOICES, restore_stride
+from mse.motion.lma_hmm.stride import STRIDE_CHOICES, restore_stride, travels
 
 __all__ = ["Generated", "GenerationParams", "MotionUnavailable", "generate_motion", "time_warp"]
 
@@ -139,7 +139,7 @@ class GenerationParams:
     #: a standing body (the neighbours' carried root speed under 0.1 leg lengths per second)
     #: pins whichever foot point is lowest, without the walks' stance hysteresis
     standing_pin: bool = True
-    #: travelling neighbours (not standing): the state means' swing widened, joint by joint,
+    #: travelling neighbours (``stride.travels``): the state means' swing widened, joint by joint,
     #: to the neighbours' own (:mod:`mse.motion.lma_hmm.stride`): "legs", "all", "off"
     stride: str = "legs"
     #: travelling neighbours that cycle: a change of state they never make in the desired
@@ -320,15 +320,15 @@ def _modulate(
     retime = params.timing == "neighbours"
     needs_labels = trained.cyclic or params.regenerate == "frames" or retime
     labels = [trained.viterbi(p) for p in phases] if needs_labels else []
-    if params.stride != "off" and not _stand(carried, encoding.skeleton):
+    travelling = travels(carried, _leg_length(encoding.skeleton))
+    if params.stride != "off" and travelling:
         # the state means under-shoot the swing of the legs: the stride (stride.py)
         own = labels or [trained.viterbi(p) for p in phases]
         means = restore_stride(means, rotations, own, desired.frame_time, params.cutoff_hz, encoding, params.stride)
     if retime:
         # travelling neighbours (walks, runs): a change of state they never make is bridged
         # too (stride.py: the desired path's start turned the legs back, a jolt of the root)
-        travel = params.travel_cycles and not _stand(carried, encoding.skeleton)
-        bridge = trained.cyclic and (dynamic or travel)
+        bridge = trained.cyclic and (dynamic or (params.travel_cycles and travelling))
         states = retimed(states, labels, refill_stuck=dynamic and trained.cyclic, bridge=bridge)
     if params.regenerate == "frames":
         frames = state_aligned_frames(states, means, rotations, labels)
@@ -406,12 +406,12 @@ def _stand(carried: Sequence[FloatArray], skeleton: Skeleton) -> bool:
 
 
 def _travels(modulated: Modulated) -> bool:
-    """Whether the modulated path travels: its carried root speed (the neighbours', through
-    the states) is not a standing body's (:func:`_stand`)."""
+    """Whether the modulated path travels: its carried root velocity (the neighbours',
+    through the states; :func:`~mse.motion.lma_hmm.stride.travels`)."""
     path, encoding = modulated.path, modulated.encoding
     if path.shape[1] != encoding.dimension + CARRIED:
         return False
-    return not _stand([path[:, encoding.dimension :]], encoding.skeleton)
+    return travels([path[:, encoding.dimension :]], _leg_length(encoding.skeleton))
 
 
 def _steady_legs(path: FloatArray, encoding: Encoding, frame_time: float, hz: float) -> FloatArray:
@@ -519,8 +519,8 @@ def generate_motion(
     own_style = modulated.neighbours == (desired_clip.id,) and not modulated.components
     # a travelling cycle shorter than the clip takes more steps rather than slower ones (not
     # an own-style copy: continued through its state means, a normal punch lost its reach)
-    travels = params.travel_cycles and modulated.cyclic and not own_style and _travels(modulated)
-    loop = 1.0 if travels else LOOP_RATIO
+    continued = params.travel_cycles and modulated.cyclic and not own_style and _travels(modulated)
+    loop = 1.0 if continued else LOOP_RATIO
     if duration is not None:
         path = path_for(modulated, round(duration / frame_time), loop)
         path, frame_time = time_warp(path, frame_time, duration)
