@@ -14,7 +14,14 @@ from mse.motion.base.library import load_library
 from mse.motion.base.starter import starter_library
 from mse.motion.lma_hmm.generate import GenerationParams, generate_motion
 from mse.motion.lma_hmm.hmm import retimed, smooth, state_path
-from mse.motion.lma_hmm.stride import MAX_GAIN, restored_flight, restored_means, stride_gains, swing_joints
+from mse.motion.lma_hmm.stride import (
+    MAX_GAIN,
+    restored_flight,
+    restored_means,
+    stride_gains,
+    swing_joints,
+    travels,
+)
 
 FRAME_TIME = 1.0 / 30.0
 
@@ -83,6 +90,17 @@ def test_flight_is_widened_only_for_running_neighbours() -> None:
     walk_means = _means(walking, labels)
     same = restored_flight(walk_means, walk_means, [walking], [labels], FRAME_TIME, [3.0], 3)
     np.testing.assert_allclose(same, walk_means)
+
+
+def test_a_swaying_body_does_not_travel_a_walking_one_does() -> None:
+    t = np.arange(300) * FRAME_TIME
+    sway = np.zeros((300, 4))
+    sway[:, 0] = 15.0 * np.sin(2 * np.pi * t)  # 15 cm/s to and fro: a median speed of ~10
+    walk = sway.copy()
+    walk[:, 1] = 40.0  # a slow walk-back of dataset 1 goes 43 cm/s
+    assert not travels([sway], 80.0)
+    assert travels([walk], 80.0)
+    assert not travels([walk], 0.0) and not travels([], 80.0)
 
 
 def test_swing_joints_are_the_thighs_and_shins() -> None:
