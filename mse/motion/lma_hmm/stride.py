@@ -108,6 +108,15 @@ def travels(carried: Sequence[FloatArray], leg_length: float) -> bool:
     return bool(np.linalg.norm(velocity) >= TRAVEL_LEG_LENGTHS_PER_S * leg_length)
 
 
+#: the swing is restored for at most this many neighbours. With one, the means average
+#: that clip's own frames (Bandai dataset 1: every style has one clip). With several, they
+#: also average between takes, the gains (1.1-2) mix in the takes' differences, and the
+#: faster stride jolted the pinned root: Samadani, dataset 2 walks, ten folds, 8 neighbours
+#: each: new jerk failures over 2x real, e.g. elderly -> normal 18,400 -> 24,400 cm/s^3,
+#: limit 20,900 (docs/motion.md, "Generation", step 12)
+MAX_NEIGHBOURS = 1
+
+
 #: which joints :func:`restore_stride` widens: "legs" (thighs and shins), "all" (every
 #: rotated joint), "off"
 STRIDE_CHOICES = ("off", "legs", "all")
@@ -133,11 +142,12 @@ def restore_stride(
     encoding: Encoding,
     which: str,
 ) -> FloatArray:
-    """``means`` widened by :func:`stride_gains` measured on the neighbours (``rotations``
+    """``means`` widened by :func:`stride_gains` measured on the neighbours (at most
+    :data:`MAX_NEIGHBOURS`; ``rotations``
     and their own Viterbi ``labels``, drawn with the low-pass of
     :func:`~mse.motion.lma_hmm.modulated.cutoff` from ``base_hz``); ``which``: "legs"
     (:func:`swing_joints`) or "all" of the encoding's rotated joints."""
-    if which == "off" or not labels:
+    if which == "off" or not labels or len(labels) > MAX_NEIGHBOURS:
         return means
     hz = [cutoff(base_hz, len(lab), 1 + int(np.count_nonzero(np.diff(lab))), frame_time) for lab in labels]
     rotated = encoding.rotated
