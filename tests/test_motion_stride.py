@@ -16,6 +16,7 @@ from mse.motion.lma_hmm.generate import GenerationParams, generate_motion
 from mse.motion.lma_hmm.hmm import retimed, smooth, state_path
 from mse.motion.lma_hmm.stride import (
     MAX_GAIN,
+    restore_stride,
     restored_flight,
     restored_means,
     stride_gains,
@@ -101,6 +102,22 @@ def test_a_swaying_body_does_not_travel_a_walking_one_does() -> None:
     assert not travels([sway], 80.0)
     assert travels([walk], 80.0)
     assert not travels([walk], 0.0) and not travels([], 80.0)
+
+
+def test_the_swing_is_restored_for_one_neighbour_only() -> None:
+    from mse.motion.lma_hmm.hmm import encode, encoding_for
+
+    library = starter_library()
+    motion = library.motion(library.clips[0])
+    encoding = encoding_for(motion)
+    rotations = encode(encoding, motion)
+    frames = len(rotations)
+    labels = (np.arange(frames) * 8 // frames).astype(np.int_)
+    means = np.array([rotations[labels == s].mean(axis=0) for s in range(8)])
+    one = restore_stride(means, [rotations], [labels], FRAME_TIME, 3.0, encoding, "all")
+    two = restore_stride(means, [rotations] * 2, [labels] * 2, FRAME_TIME, 3.0, encoding, "all")
+    assert not np.allclose(one, means)  # one neighbour: widened
+    np.testing.assert_allclose(two, means)  # several: the takes' differences are not a swing
 
 
 def test_swing_joints_are_the_thighs_and_shins() -> None:
