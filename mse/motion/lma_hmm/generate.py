@@ -74,7 +74,17 @@ from mse.motion.lma_hmm.hmm import (
     state_path,
     train_hmm,
 )
-from mse.motion.lma_hmm.modulated import CARRIED, DISK_FORMAT, Modulated, cutoff, load, path_for, save, time_warp
+from mse.motion.lma_hmm.modulated import (
+    CARRIED,
+    DISK_FORMAT,
+    LOOP_RATIO,
+    Modulated,
+    cutoff,
+    load,
+    path_for,
+    save,
+    time_warp,
+)
 from mse.motion.lma_hmm.pose import PhaseSpace, phase_space, pose_features, with_velocity
 from mse.motion.lma_hmm.search import (
     EPSILON_FRACTION,
@@ -83,6 +93,7 @@ from mse.motion.lma_hmm.search import (
     nearest_neighbours,
     saliency_for,
 )
+from mse.motion.lma_hmm.stride import STRIDE_CHOICES, restore_stride, travels
 
 __all__ = ["Generated", "GenerationParams", "MotionUnavailable", "generate_motion", "time_warp"]
 
@@ -128,6 +139,13 @@ class GenerationParams:
     #: a standing body (the neighbours' carried root speed under 0.1 leg lengths per second)
     #: pins whichever foot point is lowest, without the walks' stance hysteresis
     standing_pin: bool = True
+    #: travelling neighbours (``stride.travels``): the state means' swing widened, joint by joint,
+    #: to the neighbours' own (:mod:`mse.motion.lma_hmm.stride`): "legs", "all", "off"
+    stride: str = "legs"
+    #: travelling neighbours that cycle: a change of state they never make in the desired
+    #: path's decoding goes through the states by which they do (``hmm.retimed(bridge=True)``),
+    #: and a path shorter than the clip is continued, not stretched (``modulated.path_for``)
+    travel_cycles: bool = True
 
     def __post_init__(self) -> None:
         if self.regenerate not in ("means", "frames"):
@@ -136,6 +154,8 @@ class GenerationParams:
             raise ValueError(f"timing must be 'neighbours' or 'desired', not {self.timing!r}")
         if self.velocity not in VELOCITY_CHOICES:
             raise ValueError(f"velocity must be one of {', '.join(VELOCITY_CHOICES)}, not {self.velocity!r}")
+        if self.stride not in STRIDE_CHOICES:
+            raise ValueError(f"stride must be one of {', '.join(STRIDE_CHOICES)}, not {self.stride!r}")
         if self.topology not in TOPOLOGIES:
             raise ValueError(f"topology must be one of {', '.join(TOPOLOGIES)}, not {self.topology!r}")
 
@@ -300,8 +320,16 @@ def _modulate(
     retime = params.timing == "neighbours"
     needs_labels = trained.cyclic or params.regenerate == "frames" or retime
     labels = [trained.viterbi(p) for p in phases] if needs_labels else []
+    travelling = travels(carried, _leg_length(encoding.skeleton))
+    if params.stride != "off" and travelling:
+        # the state means under-shoot the swing of the legs: the stride (stride.py)
+        own = labels or [trained.viterbi(p) for p in phases]
+        means = restore_stride(means, rotations, own, desired.frame_time, params.cutoff_hz, encoding, params.stride)
     if retime:
-        states = retimed(states, labels, refill_stuck=dynamic and trained.cyclic)
+        # travelling neighbours (walks, runs): a change of state they never make is bridged
+        # too (stride.py: the desired path's start turned the legs back, a jolt of the root)
+        bridge = trained.cyclic and (dynamic or (params.travel_cycles and travelling))
+        states = retimed(states, labels, refill_stuck=dynamic and trained.cyclic, bridge=bridge)
     if params.regenerate == "frames":
         frames = state_aligned_frames(states, means, rotations, labels)
     timings["viterbi"] = time.perf_counter() - clock
@@ -375,6 +403,15 @@ def _stand(carried: Sequence[FloatArray], skeleton: Skeleton) -> bool:
         return False
     speed = float(np.median(np.concatenate([np.linalg.norm(c[:, :2], axis=1) for c in carried])))
     return speed < STANDING_LEG_LENGTHS_PER_S * leg_length
+
+
+def _travels(modulated: Modulated) -> bool:
+    """Whether the modulated path travels: its carried root velocity (the neighbours',
+    through the states; :func:`~mse.motion.lma_hmm.stride.travels`)."""
+    path, encoding = modulated.path, modulated.encoding
+    if path.shape[1] != encoding.dimension + CARRIED:
+        return False
+    return travels([path[:, encoding.dimension :]], _leg_length(encoding.skeleton))
 
 
 def _steady_legs(path: FloatArray, encoding: Encoding, frame_time: float, hz: float) -> FloatArray:
@@ -479,18 +516,22 @@ def generate_motion(
                 save(disk, modulated)
     _CACHE[key] = modulated
     path, frame_time = modulated.path, modulated.frame_time
+    own_style = modulated.neighbours == (desired_clip.id,) and not modulated.components
+    # a travelling cycle shorter than the clip takes more steps rather than slower ones (not
+    # an own-style copy: continued through its state means, a normal punch lost its reach)
+    continued = params.travel_cycles and modulated.cyclic and not own_style and _travels(modulated)
+    loop = 1.0 if continued else LOOP_RATIO
     if duration is not None:
-        path = path_for(modulated, round(duration / frame_time))
+        path = path_for(modulated, round(duration / frame_time), loop)
         path, frame_time = time_warp(path, frame_time, duration)
     encoding = modulated.encoding
-    own_style = modulated.neighbours == (desired_clip.id,) and not modulated.components
     if params.standing_legs_hz > 0 and not own_style and path.shape[1] == encoding.dimension + CARRIED:
         path = _steady_legs(path, encoding, frame_time, params.standing_legs_hz)
     motion = Motion(encoding.skeleton, frame_time, decode(encoding, path))
     carried = path[:, encoding.dimension :].copy()
     if carried.shape[1] == CARRIED and duration is not None:
         # the path was played slower or faster than its neighbours: so is the carried speed
-        played = len(path_for(modulated, round(duration / modulated.frame_time))) * modulated.frame_time
+        played = len(path_for(modulated, round(duration / modulated.frame_time), loop)) * modulated.frame_time
         carried[:, :2] *= played / max(duration, 1e-9)
     # a standing body pins whichever foot point is lowest, without the walks' hysteresis (as
     # the HSMM method does): with both feet on the floor, the hysteresis kept the left toes

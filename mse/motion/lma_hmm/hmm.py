@@ -399,7 +399,11 @@ def _continued(state: int, sequence_states: Sequence[npt.NDArray[np.int_]], fram
 
 
 def retimed(
-    states: npt.NDArray[np.int_], sequence_states: Sequence[npt.NDArray[np.int_]], *, refill_stuck: bool = False
+    states: npt.NDArray[np.int_],
+    sequence_states: Sequence[npt.NDArray[np.int_]],
+    *,
+    refill_stuck: bool = False,
+    bridge: bool | None = None,
 ) -> npt.NDArray[np.int_]:
     """The desired path's state order with the neighbours' timing: each run of state s
     lasts the mean length of the runs of s in the neighbours' own Viterbi sequences (a
@@ -413,7 +417,8 @@ def retimed(
     in a broad one: a youthful wave decoded against elderly waves sat 23 frames in one
     state, and retimed, the wave was gone) keeps its length and is played by the
     neighbours' own state sequence from that state; and a change of state the neighbours
-    never make goes through the states by which they do (:func:`_bridged`)."""
+    never make goes through the states by which they do (:func:`_bridged`; ``bridge``
+    alone, without ``refill_stuck``, when given)."""
     lengths: dict[int, list[int]] = {}
     for labels in sequence_states:
         for start, stop, state in _runs(labels):
@@ -432,7 +437,7 @@ def retimed(
     if not out:
         return states.copy()
     path = np.concatenate(out)
-    return _bridged(path, sequence_states, lengths) if refill_stuck else path
+    return _bridged(path, sequence_states, lengths) if (refill_stuck if bridge is None else bridge) else path
 
 
 def _bridged(

@@ -28,7 +28,7 @@ from mse.motion.lma_hmm.hmm import Encoding, resample, smooth, state_path
 CARRIED = 4
 #: a cyclic path is continued rather than slowed when the clip is this much longer than it
 LOOP_RATIO = 1.3
-DISK_FORMAT = "mse-lma-hmm-path/7"
+DISK_FORMAT = "mse-lma-hmm-path/8"
 
 
 @dataclass(frozen=True, eq=False)
@@ -81,14 +81,14 @@ def continue_cycle(
     return np.asarray(path, dtype=np.int_)
 
 
-def path_for(modulated: Modulated, frames: int) -> FloatArray:
+def path_for(modulated: Modulated, frames: int, loop_ratio: float = LOOP_RATIO) -> FloatArray:
     """The modulated path for a clip of ``frames`` frames at the desired frame rate: cyclic
-    paths much shorter than that are continued by :func:`continue_cycle`, longer ones cut (a
-    cycle keeps its tempo)."""
+    paths shorter than that by ``loop_ratio`` are continued by :func:`continue_cycle`,
+    longer ones cut (a cycle keeps its tempo)."""
     path = modulated.path
     if modulated.cyclic and frames < len(path):
         return path[: max(frames, 2)]  # a cycle in its own tempo, cut rather than sped up
-    if not modulated.cyclic or frames < LOOP_RATIO * len(path) or len(modulated.states) != len(path):
+    if not modulated.cyclic or frames < loop_ratio * len(path) or len(modulated.states) != len(path):
         return path
     states = continue_cycle(modulated.states, modulated.labels, frames)
     if len(states) == len(modulated.states):
