@@ -51,11 +51,9 @@ from dataclasses import asdict, dataclass, field
 from pathlib import Path
 
 import numpy as np
-import numpy.typing as npt
 
 from mse.diagnostics import Diagnostic, MseError, Span
-from mse.motion.base.bodyparts import limb_groups
-from mse.motion.base.bvh import Motion, Skeleton
+from mse.motion.base.bvh import Motion
 from mse.motion.base.contacts import STANCE_HYSTERESIS, contact_height, ground, support
 from mse.motion.base.heading import heading, turned
 from mse.motion.base.kinematics import FloatArray
@@ -63,7 +61,6 @@ from mse.motion.base.library import Clip, MotionLibrary, MotionUnavailable
 from mse.motion.base.lma import FEATURE_NAMES
 from mse.motion.lma_hmm.hmm import (
     TOPOLOGIES,
-    Encoding,
     decode,
     encode,
     encoding_for,
@@ -83,6 +80,7 @@ from mse.motion.lma_hmm.search import (
     nearest_neighbours,
     saliency_for,
 )
+from mse.motion.lma_hmm.standing import cycle_rate, landed_support, stands, steady_legs
 
 __all__ = ["Generated", "GenerationParams", "MotionUnavailable", "generate_motion", "time_warp"]
 
@@ -280,7 +278,7 @@ def _modulate(
     )
     # a cycling movement of a standing body (waves): the phase space also holds the velocity,
     # and the HMM is fitted again, fully connected (see GenerationParams.velocity)
-    dynamic = params.velocity == "always" or (params.velocity == "standing" and _stand(carried, encoding.skeleton))
+    dynamic = params.velocity == "always" or (params.velocity == "standing" and stands(carried, encoding.skeleton))
     if dynamic and trained.cyclic:
         phases = [with_velocity(p, params.velocity_weight) for p in phases]
         desired_phase = with_velocity(desired_phase, params.velocity_weight)
@@ -314,7 +312,7 @@ def _modulate(
         # a wave's short runs raised the cut-off to 4-5 Hz, and the ramps between state means
         # came through as jerk (a youthful wave, Samadani fold 1: 44,300 cm/s^3, limit 33,400;
         # at 3 Hz 24,100, amplitude 31.2 -> 30.9 cm): up to twice the neighbours' cycle rate
-        hz = min(hz, max(params.cutoff_hz, 2.0 * _cycle_rate(labels, desired.frame_time)))
+        hz = min(hz, max(params.cutoff_hz, 2.0 * cycle_rate(labels, desired.frame_time)))
     path = smooth(raw, desired.frame_time, hz)
     timings["filter"] = time.perf_counter() - clock
     return Modulated(
@@ -331,75 +329,6 @@ def _modulate(
         tuple(labels),
         params.cutoff_hz,
     )
-
-
-#: neighbours whose root moves less than this many leg lengths per second (median) stand
-STANDING_LEG_LENGTHS_PER_S = 0.1
-#: ... and their legs barely move when 90 % of the legs' rotation channels stay within this
-#: range (radians): generated bows of dataset 1 move them 0.20-0.45 (the legs keep upright
-#: while the hips fold), waves and byes 0.02-0.12
-STILL_LEGS_RADIANS = 0.15
-
-
-def _cycle_rate(labels: Sequence[npt.NDArray[np.int_]], frame_time: float) -> float:
-    """Cycles per second of the neighbours' state sequences (median): the runs of each
-    sequence's most often re-entered state per second."""
-    rates = []
-    for sequence in labels:
-        if len(sequence) < 2:
-            continue
-        starts = sequence[np.r_[True, sequence[1:] != sequence[:-1]]]
-        rates.append(float(np.bincount(starts).max()) / (len(sequence) * frame_time))
-    return float(np.median(rates)) if rates else 0.0
-
-
-def _leg_length(skeleton: Skeleton) -> float:
-    """Hip to ankle (down the first child) of the skeleton's legs, file units."""
-    legs = set(limb_groups(skeleton)["legs"])
-    length = 0.0
-    joint = next((j for j in legs if skeleton.parents[j] not in legs), None)
-    while joint is not None:  # hip -> knee -> ankle ... down the first child
-        children = [c for c in legs if skeleton.parents[c] == joint]
-        if not children:
-            break
-        joint = children[0]
-        length += float(np.linalg.norm(skeleton.offsets[joint]))
-    return length
-
-
-def _stand(carried: Sequence[FloatArray], skeleton: Skeleton) -> bool:
-    """Whether the neighbours stand: their root moves (median over their frames) under
-    :data:`STANDING_LEG_LENGTHS_PER_S` leg lengths per second."""
-    leg_length = _leg_length(skeleton)
-    if leg_length <= 0 or not carried:
-        return False
-    speed = float(np.median(np.concatenate([np.linalg.norm(c[:, :2], axis=1) for c in carried])))
-    return speed < STANDING_LEG_LENGTHS_PER_S * leg_length
-
-
-def _steady_legs(path: FloatArray, encoding: Encoding, frame_time: float, hz: float) -> FloatArray:
-    """``path`` with the legs' rotations low-passed at ``hz`` when the neighbours stand
-    (their carried root speed, median, under :data:`STANDING_LEG_LENGTHS_PER_S` leg lengths
-    per second) and the legs barely move (:data:`STILL_LEGS_RADIANS`). Both feet of a
-    standing body stay put, but only one is pinned (:func:`~mse.motion.base.contacts.ground`):
-    the other follows the legs' state means, which change from state to state with the
-    neighbours' stances: a feminine wave of dataset 2 slid its free foot at 1.07 cm/s
-    (real: 0.23); at 0.5 Hz, 0.23. Off by default (``GenerationParams.standing_legs_hz``)."""
-    skeleton = encoding.skeleton
-    legs = set(limb_groups(skeleton)["legs"])
-    columns = [3 * i + k for i, joint in enumerate(encoding.rotated) if joint in legs for k in range(3)]
-    if not columns or len(path) < 4:
-        return path
-    leg_length = _leg_length(skeleton)
-    carried = path[:, encoding.dimension :]
-    speed = float(np.median(np.linalg.norm(carried[:, :2], axis=1)))
-    if leg_length <= 0 or speed >= STANDING_LEG_LENGTHS_PER_S * leg_length:
-        return path
-    if float(np.percentile(np.ptp(path[:, columns], axis=0), 90)) >= STILL_LEGS_RADIANS:
-        return path  # legs that move with the body (a bow's hips fold over upright legs)
-    steady = path.copy()
-    steady[:, columns] = smooth(path[:, columns], frame_time, hz)
-    return steady
 
 
 def _own_style(
@@ -485,7 +414,7 @@ def generate_motion(
     encoding = modulated.encoding
     own_style = modulated.neighbours == (desired_clip.id,) and not modulated.components
     if params.standing_legs_hz > 0 and not own_style and path.shape[1] == encoding.dimension + CARRIED:
-        path = _steady_legs(path, encoding, frame_time, params.standing_legs_hz)
+        path = steady_legs(path, encoding, frame_time, params.standing_legs_hz)
     motion = Motion(encoding.skeleton, frame_time, decode(encoding, path))
     carried = path[:, encoding.dimension :].copy()
     if carried.shape[1] == CARRIED and duration is not None:
@@ -496,7 +425,9 @@ def generate_motion(
     # the HSMM method does): with both feet on the floor, the hysteresis kept the left toes
     # pinned while the right ones, 0.04 cm lower, slid with the legs' state means (dataset 2
     # feminine waves, fold 1: foot slip 1.0-1.5 cm/s, limit 0.9)
-    standing = carried.shape[1] == CARRIED and params.standing_pin and _stand([carried], encoding.skeleton)
+    standing = carried.shape[1] == CARRIED and params.standing_pin and stands([carried], encoding.skeleton)
+    if standing:
+        carried = landed_support(carried)
     motion = ground(
         motion,
         modulated.height,

@@ -1,0 +1,116 @@
+"""A standing body in the LMA + HMM method: whether the neighbours stand, and what follows.
+
+Waves, byes, bows and raised hands are performed in place. :func:`stands` tells them from
+walks and runs by the neighbours' carried root speed; for them
+
+- the lowest foot point is pinned without the walks' stance hysteresis (``generate_motion``,
+  ``GenerationParams.standing_pin``);
+- the carried support is made consistent with the lift it gives the body
+  (:func:`landed_support`): a hop's flight frames, averaged by the state means with stance
+  ones, must not let a foot that is still on the floor glide;
+- the legs may be steadied (:func:`steady_legs`, off by default);
+- a cycling movement (a wave) has its cut-off bounded by the neighbours' cycle rate
+  (:func:`cycle_rate`).
+
+docs/motion.md, "Generation", steps 10 and 11.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+import numpy as np
+import numpy.typing as npt
+
+from mse.motion.base.bodyparts import limb_groups
+from mse.motion.base.bvh import Skeleton
+from mse.motion.base.contacts import FLOOR_BAND
+from mse.motion.base.kinematics import FloatArray
+from mse.motion.lma_hmm.hmm import Encoding, smooth
+
+#: neighbours whose root moves less than this many leg lengths per second (median) stand
+STANDING_LEG_LENGTHS_PER_S = 0.1
+#: ... and their legs barely move when 90 % of the legs' rotation channels stay within this
+#: range (radians): generated bows of dataset 1 move them 0.20-0.45 (the legs keep upright
+#: while the hips fold), waves and byes 0.02-0.12
+STILL_LEGS_RADIANS = 0.15
+
+
+def cycle_rate(labels: Sequence[npt.NDArray[np.int_]], frame_time: float) -> float:
+    """Cycles per second of the neighbours' state sequences (median): the runs of each
+    sequence's most often re-entered state per second."""
+    rates = []
+    for sequence in labels:
+        if len(sequence) < 2:
+            continue
+        starts = sequence[np.r_[True, sequence[1:] != sequence[:-1]]]
+        rates.append(float(np.bincount(starts).max()) / (len(sequence) * frame_time))
+    return float(np.median(rates)) if rates else 0.0
+
+
+def leg_length(skeleton: Skeleton) -> float:
+    """Hip to ankle (down the first child) of the skeleton's legs, file units."""
+    legs = set(limb_groups(skeleton)["legs"])
+    length = 0.0
+    joint = next((j for j in legs if skeleton.parents[j] not in legs), None)
+    while joint is not None:  # hip -> knee -> ankle ... down the first child
+        children = [c for c in legs if skeleton.parents[c] == joint]
+        if not children:
+            break
+        joint = children[0]
+        length += float(np.linalg.norm(skeleton.offsets[joint]))
+    return length
+
+
+def stands(carried: Sequence[FloatArray], skeleton: Skeleton) -> bool:
+    """Whether the neighbours stand: their root moves (median over their frames) under
+    :data:`STANDING_LEG_LENGTHS_PER_S` leg lengths per second."""
+    legs = leg_length(skeleton)
+    if legs <= 0 or not carried:
+        return False
+    speed = float(np.median(np.concatenate([np.linalg.norm(c[:, :2], axis=1) for c in carried])))
+    return speed < STANDING_LEG_LENGTHS_PER_S * legs
+
+
+def steady_legs(path: FloatArray, encoding: Encoding, frame_time: float, hz: float) -> FloatArray:
+    """``path`` with the legs' rotations low-passed at ``hz`` when the neighbours stand
+    (their carried root speed, median, under :data:`STANDING_LEG_LENGTHS_PER_S` leg lengths
+    per second) and the legs barely move (:data:`STILL_LEGS_RADIANS`). Both feet of a
+    standing body stay put, but only one is pinned (:func:`~mse.motion.base.contacts.ground`):
+    the other follows the legs' state means, which change from state to state with the
+    neighbours' stances: a feminine wave of dataset 2 slid its free foot at 1.07 cm/s
+    (real: 0.23); at 0.5 Hz, 0.23. Off by default (``GenerationParams.standing_legs_hz``)."""
+    skeleton = encoding.skeleton
+    legs = set(limb_groups(skeleton)["legs"])
+    columns = [3 * i + k for i, joint in enumerate(encoding.rotated) if joint in legs for k in range(3)]
+    if not columns or len(path) < 4:
+        return path
+    if not stands([path[:, encoding.dimension :]], skeleton):
+        return path
+    if float(np.percentile(np.ptp(path[:, columns], axis=0), 90)) >= STILL_LEGS_RADIANS:
+        return path  # legs that move with the body (a bow's hips fold over upright legs)
+    steady = path.copy()
+    steady[:, columns] = smooth(path[:, columns], frame_time, hz)
+    return steady
+
+
+def landed_support(carried: FloatArray) -> FloatArray:
+    """``carried`` (frames, 4: root velocity X and Z, lift, support; as
+    :func:`~mse.motion.base.contacts.support` gives it) of a standing body, with each frame's
+    support raised to what the rise it gives the body says: the root rises by
+    ``(1 - support) x lift`` (:func:`~mse.motion.base.contacts.root_track`), and a body
+    whose lowest point is within :data:`~mse.motion.base.contacts.FLOOR_BAND` of the floor
+    is supported (the rule by which real clips are measured), from twice that not at all.
+
+    The state means average a hop's flight frames with stance ones: dataset 1's active
+    byebye hops (13 % of its frames off the floor, up to 17 cm) and its generated support
+    never fell below 0.64, so every frame was partly "in flight", rose by under 2 cm and
+    moved partly with the carried velocity instead of the pinned foot: the foot on the
+    floor slid at 1.20 cm/s (real 0.58, limit 1.2)."""
+    out = carried.copy()
+    if len(out) == 0:
+        return out
+    support, lift = out[:, 3], np.maximum(out[:, 2], 0.0)
+    rise = (1.0 - support) * lift
+    out[:, 3] = np.maximum(support, np.clip(2.0 - rise / FLOOR_BAND, 0.0, 1.0))
+    return out
