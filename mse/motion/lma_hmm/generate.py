@@ -80,7 +80,7 @@ from mse.motion.lma_hmm.search import (
     nearest_neighbours,
     saliency_for,
 )
-from mse.motion.lma_hmm.standing import cycle_rate, landed_support, stands, steady_legs
+from mse.motion.lma_hmm.standing import arm_variance, cycle_rate, landed_support, stands, steady_legs
 
 __all__ = ["Generated", "GenerationParams", "MotionUnavailable", "generate_motion", "time_warp"]
 
@@ -126,6 +126,9 @@ class GenerationParams:
     #: a standing body (the neighbours' carried root speed under 0.1 leg lengths per second)
     #: pins whichever foot point is lowest, without the walks' stance hysteresis
     standing_pin: bool = True
+    #: a standing body's arm rotations widened towards the neighbours' spread, by at most this
+    #: factor (:func:`~mse.motion.lma_hmm.standing.arm_variance`; 1: off, the method before)
+    arm_spread_cap: float = 1.5
 
     def __post_init__(self) -> None:
         if self.regenerate not in ("means", "frames"):
@@ -134,6 +137,8 @@ class GenerationParams:
             raise ValueError(f"timing must be 'neighbours' or 'desired', not {self.timing!r}")
         if self.velocity not in VELOCITY_CHOICES:
             raise ValueError(f"velocity must be one of {', '.join(VELOCITY_CHOICES)}, not {self.velocity!r}")
+        if not self.arm_spread_cap >= 1.0:
+            raise ValueError(f"arm_spread_cap must be at least 1 (1: off), not {self.arm_spread_cap!r}")
         if self.topology not in TOPOLOGIES:
             raise ValueError(f"topology must be one of {', '.join(TOPOLOGIES)}, not {self.topology!r}")
 
@@ -314,6 +319,8 @@ def _modulate(
         # at 3 Hz 24,100, amplitude 31.2 -> 30.9 cm): up to twice the neighbours' cycle rate
         hz = min(hz, max(params.cutoff_hz, 2.0 * cycle_rate(labels, desired.frame_time)))
     path = smooth(raw, desired.frame_time, hz)
+    if params.arm_spread_cap > 1.0 and stands(carried, encoding.skeleton):
+        path, means = arm_variance(path, means, encoding, rotations, params.arm_spread_cap)
     timings["filter"] = time.perf_counter() - clock
     return Modulated(
         encoding,
