@@ -16,7 +16,7 @@ from mse.motion.base.library import load_library
 from mse.motion.base.starter import starter_library
 from mse.motion.lma_hmm.generate import GenerationParams, generate_motion
 from mse.motion.lma_hmm.hmm import encode, encoding_for, state_path
-from mse.motion.lma_hmm.standing import arm_variance, landed_support
+from mse.motion.lma_hmm.standing import arm_variance, landed_support, shared_stance
 
 
 def test_a_body_that_does_not_rise_off_the_floor_is_supported() -> None:
@@ -73,6 +73,34 @@ def test_the_arms_spread_is_widened_towards_the_neighbours_never_narrowed() -> N
     wide = centre + 1.3 * (neighbour - centre)
     assert np.array_equal(arm_variance(wide, means, encoding, [neighbour])[0], wide)  # never narrowed
     assert np.array_equal(arm_variance(wide, means, encoding, [neighbour], cap=1.0)[0], wide)
+
+
+def _leg_columns(encoding: object) -> list[int]:
+    from mse.motion.base.bodyparts import limb_groups
+
+    legs = set(limb_groups(encoding.skeleton)["legs"])  # type: ignore[attr-defined]
+    rotated = encoding.rotated  # type: ignore[attr-defined]
+    return [3 * i + k for i, joint in enumerate(rotated) if joint in legs for k in range(3)]
+
+
+def test_neighbours_share_one_stance_and_keep_their_leg_movement() -> None:
+    library = starter_library()
+    motion = library.motion(library.select("bow")[0])
+    encoding = encoding_for(motion)
+    base = encode(encoding, motion)
+    legs = _leg_columns(encoding)
+    others = [c for c in range(base.shape[1]) if c not in legs]
+    wide, narrow = base.copy(), base.copy()
+    wide[:, legs] += 0.2  # one performer stands wider than the other
+    narrow[:, legs] -= 0.1
+    shared = shared_stance([wide, narrow], encoding)
+    posture = 0.5 * (wide[:, legs].mean(axis=0) + narrow[:, legs].mean(axis=0))
+    for moved, original in zip(shared, (wide, narrow), strict=True):
+        assert np.allclose(moved[:, legs].mean(axis=0), posture)
+        movement = original[:, legs] - original[:, legs].mean(axis=0)
+        assert np.allclose(moved[:, legs] - moved[:, legs].mean(axis=0), movement)
+        assert np.array_equal(moved[:, others], original[:, others])
+    assert shared_stance([], encoding) == []
 
 
 def test_arm_spread_cap_below_one_is_refused() -> None:

@@ -80,7 +80,14 @@ from mse.motion.lma_hmm.search import (
     nearest_neighbours,
     saliency_for,
 )
-from mse.motion.lma_hmm.standing import arm_variance, cycle_rate, landed_support, stands, steady_legs
+from mse.motion.lma_hmm.standing import (
+    arm_variance,
+    cycle_rate,
+    landed_support,
+    shared_stance,
+    stands,
+    steady_legs,
+)
 
 __all__ = ["Generated", "GenerationParams", "MotionUnavailable", "generate_motion", "time_warp"]
 
@@ -129,6 +136,9 @@ class GenerationParams:
     #: a standing body's arm rotations widened towards the neighbours' spread, by at most this
     #: factor (:func:`~mse.motion.lma_hmm.standing.arm_variance`; 1: off, the method before)
     arm_spread_cap: float = 1.5
+    #: a standing body's neighbours share one leg posture before the state means are taken
+    #: (:func:`~mse.motion.lma_hmm.standing.shared_stance`)
+    shared_stance: bool = False
 
     def __post_init__(self) -> None:
         if self.regenerate not in ("means", "frames"):
@@ -294,6 +304,8 @@ def _modulate(
             n_iter=params.n_iter,
             decide_on=len(phases),
         )
+    if params.shared_stance and stands(carried, encoding.skeleton):
+        rotations = shared_stance(rotations, encoding)
     timings["hmm_fit"] = time.perf_counter() - clock
 
     clock = time.perf_counter()
