@@ -32,6 +32,9 @@ where the decoding sat in one state are played, and changes of state the neighbo
 make bridged, by the neighbours' own sequences, the cut-off is at most twice their cycle rate,
 and a standing body pins its lowest foot point without the stance hysteresis
 (``GenerationParams.velocity`` and ``standing_pin``; docs/motion.md, "Generation", step 11).
+Any standing body (:mod:`mse.motion.lma_hmm.standing`) has its arms' spread widened towards
+the neighbours' (``arm_spread_cap``) and lands its hops on the floor; ``shared_stance`` (off)
+gives its neighbours one leg posture.
 
 Steps 1-5 are cached per (library fingerprint, action, style, desired clip, parameters) in
 memory and, when ``cache_dir`` is given, on disk (:mod:`mse.motion.lma_hmm.modulated`), so a leaf
