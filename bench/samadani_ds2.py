@@ -272,10 +272,13 @@ def main() -> int:
                             "cyclic": result.cyclic,
                         }
                     )
-        done = sum(1 for r in rows if r["fold"] == f)
+        mine = [r for r in rows if r["fold"] == f]
+        by_target = {t: sum(bool(r["generated"]) for r in mine if r["target"] == t) for t in sorted(
+            {str(r["target"]) for r in mine})}
         print(
-            f"fold {f}: {len(test)} real clips, {done} conversions, "
-            f"{time.perf_counter() - started:.0f} s so far",
+            f"fold {f}: {len(test)} real clips, {len(mine)} conversions, "
+            f"generated {sum(bool(r['generated']) for r in mine)}, fidelity {sum(bool(r['fidelity']) for r in mine)}, "
+            f"per target {by_target}, {time.perf_counter() - started:.0f} s so far",
             file=sys.stderr,
             flush=True,
         )

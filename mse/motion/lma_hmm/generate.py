@@ -86,6 +86,7 @@ from mse.motion.lma_hmm.search import (
 from mse.motion.lma_hmm.standing import (
     arm_variance,
     cycle_rate,
+    expected_variance,
     landed_support,
     shared_stance,
     stands,
@@ -335,7 +336,8 @@ def _modulate(
         hz = min(hz, max(params.cutoff_hz, 2.0 * cycle_rate(labels, desired.frame_time)))
     path = smooth(raw, desired.frame_time, hz)
     if params.arm_spread_cap > 1.0 and stands(carried, encoding.skeleton):
-        path, means = arm_variance(path, means, encoding, rotations, params.arm_spread_cap)
+        target = expected_variance(trained, phases + [desired_phase] * copies, training_rotations, states)
+        path, means = arm_variance(path, means, encoding, target, params.arm_spread_cap)
     timings["filter"] = time.perf_counter() - clock
     return Modulated(
         encoding,
