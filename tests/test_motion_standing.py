@@ -16,7 +16,7 @@ from mse.motion.base.library import load_library
 from mse.motion.base.starter import starter_library
 from mse.motion.lma_hmm.generate import GenerationParams, generate_motion
 from mse.motion.lma_hmm.hmm import encode, encoding_for, state_path
-from mse.motion.lma_hmm.standing import arm_variance, landed_support, shared_stance
+from mse.motion.lma_hmm.standing import arm_variance, expected_variance, landed_support, shared_stance
 
 
 def test_a_body_that_does_not_rise_off_the_floor_is_supported() -> None:
@@ -48,7 +48,7 @@ def _arm_columns(encoding: object) -> list[int]:
     return [3 * i + k for i, joint in enumerate(rotated) if joint in arms for k in range(3)]
 
 
-def test_the_arms_spread_is_widened_towards_the_neighbours_never_narrowed() -> None:
+def test_the_arms_spread_is_widened_towards_the_target_never_narrowed() -> None:
     library = starter_library()
     motion = library.motion(library.select("bow")[0])
     encoding = encoding_for(motion)
@@ -56,12 +56,13 @@ def test_the_arms_spread_is_widened_towards_the_neighbours_never_narrowed() -> N
     columns = _arm_columns(encoding)
     others = [c for c in range(neighbour.shape[1]) if c not in columns]
     assert columns and others
+    target = np.var(neighbour, axis=0)
     centre = neighbour.mean(axis=0)
     states = np.repeat(np.arange(4), (len(neighbour) + 3) // 4)[: len(neighbour)]
     means = np.array([neighbour[states == s].mean(axis=0) for s in range(4)])
     for shrink, expected in ((0.8, 1 / 0.8), (0.5, 1.5)):  # widened back, or by the cap
         path = centre + shrink * (neighbour - centre)
-        widened, scaled = arm_variance(path, means, encoding, [neighbour], cap=1.5)
+        widened, scaled = arm_variance(path, means, encoding, target, cap=1.5)
         ratio = widened[:, columns].std(axis=0) / np.maximum(path[:, columns].std(axis=0), 1e-12)
         moving = path[:, columns].std(axis=0) > 1e-6
         assert np.allclose(ratio[moving], expected, rtol=1e-6)
@@ -71,8 +72,26 @@ def test_the_arms_spread_is_widened_towards_the_neighbours_never_narrowed() -> N
         mid = path[:, columns].mean(axis=0)
         assert np.allclose(drawn_scaled[:, columns] - mid, (drawn[:, columns] - mid) * np.where(moving, expected, 1.0))
     wide = centre + 1.3 * (neighbour - centre)
-    assert np.array_equal(arm_variance(wide, means, encoding, [neighbour])[0], wide)  # never narrowed
-    assert np.array_equal(arm_variance(wide, means, encoding, [neighbour], cap=1.0)[0], wide)
+    assert np.array_equal(arm_variance(wide, means, encoding, target)[0], wide)  # never narrowed
+    assert np.array_equal(arm_variance(wide, means, encoding, target, cap=1.0)[0], wide)
+
+
+class _TwoStates:
+    """Posteriors of a two-state model: frames below zero in state 0, the others in state 1."""
+
+    def posteriors(self, observations: np.ndarray) -> np.ndarray:
+        upper = (observations[:, 0] >= 0).astype(float)
+        return np.stack([1.0 - upper, upper], axis=1)
+
+
+def test_the_expected_variance_is_that_of_the_states_the_path_visits() -> None:
+    # state 0 holds values -1 and -3 (mean -2), state 1 values 1 and 3 (mean 2)
+    phases = [np.array([[-1.0], [-1.0], [1.0], [1.0]])]
+    values = [np.array([[-1.0], [-3.0], [1.0], [3.0]])]
+    both = expected_variance(_TwoStates(), phases, values, np.array([0, 0, 1, 1]))  # type: ignore[arg-type]
+    assert both == pytest.approx([5.0])  # the four values' own variance: (1 + 9 + 1 + 9) / 4
+    one = expected_variance(_TwoStates(), phases, values, np.array([1, 1, 1]))  # type: ignore[arg-type]
+    assert one == pytest.approx([1.0])  # only state 1 visited: its own spread, not the clip's
 
 
 def _leg_columns(encoding: object) -> list[int]:
