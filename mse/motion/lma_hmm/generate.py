@@ -84,6 +84,7 @@ from mse.motion.lma_hmm.search import (
     saliency_for,
 )
 from mse.motion.lma_hmm.standing import (
+    ARM_SPREAD_CAP,
     arm_variance,
     cycle_rate,
     expected_variance,
@@ -139,7 +140,7 @@ class GenerationParams:
     standing_pin: bool = True
     #: a standing body's arm rotations widened towards the neighbours' spread, by at most this
     #: factor (:func:`~mse.motion.lma_hmm.standing.arm_variance`; 1: off, the method before)
-    arm_spread_cap: float = 1.5
+    arm_spread_cap: float = ARM_SPREAD_CAP
     #: a standing body's neighbours share one leg posture before the state means are taken
     #: (:func:`~mse.motion.lma_hmm.standing.shared_stance`)
     shared_stance: bool = False
