@@ -35,7 +35,9 @@ covers half of it, and the recognizer, trained on whole takes, rated it normal (
 
 ``--show-failures`` prints every conversion that fails a fidelity check (clip, target,
 values and admitted ranges) on stderr; ``--no-standing-pin`` pins standing bodies with the
-walks' stance hysteresis, as before the fifth pass (docs/motion.md, "Generation", step 11).
+walks' stance hysteresis, as before the fifth pass (docs/motion.md, "Generation", step 11);
+``--arm-spread-cap 1`` leaves a standing body's arms as the state means draw them (before the
+sixth pass), ``--shared-stance`` gives a standing body's neighbours one leg posture.
 Note that ``--actions`` changes the folds (they are drawn over the clips kept).
 """
 
@@ -159,6 +161,11 @@ def main() -> int:
     parser.add_argument("--only-folds", help="comma-separated fold numbers (development)")
     parser.add_argument("--no-standing-pin", action="store_true",
                         help="standing bodies pinned with the walks' stance hysteresis (before the fifth pass)")
+    parser.add_argument("--arm-spread-cap", type=float, default=GenerationParams().arm_spread_cap,
+                        help="a standing body's arms widened towards the neighbours' spread by at most this "
+                        "factor (1: off, before the sixth pass)")
+    parser.add_argument("--shared-stance", action="store_true",
+                        help="a standing body's neighbours share one leg posture (docs/motion.md, step 11)")
     parser.add_argument("--show-failures", action="store_true",
                         help="print every conversion that fails a fidelity check, with the values")
     args = parser.parse_args()
@@ -171,14 +178,19 @@ def main() -> int:
     fold = folds_of(clips, args.folds, args.seed)
     factors = [float(x) for x in args.warp_augment.split(",") if x.strip()]
     descriptors = Descriptors(library, cache / "bench")
-    params = GenerationParams(
-        regenerate=args.regenerate,
-        timing=args.timing,
-        states=args.states,
-        min_neighbours=args.min_neighbours,
-        max_neighbours=args.max_neighbours,
-        standing_pin=not args.no_standing_pin,
-    )
+    try:
+        params = GenerationParams(
+            regenerate=args.regenerate,
+            timing=args.timing,
+            states=args.states,
+            min_neighbours=args.min_neighbours,
+            max_neighbours=args.max_neighbours,
+            standing_pin=not args.no_standing_pin,
+            arm_spread_cap=args.arm_spread_cap,
+            shared_stance=args.shared_stance,
+        )
+    except ValueError as error:
+        parser.error(str(error))
     rng = np.random.default_rng(args.seed)
     speeds: dict[str, float] = {}
     folds = [int(x) for x in args.only_folds.split(",")] if args.only_folds else list(range(args.folds))
@@ -260,10 +272,13 @@ def main() -> int:
                             "cyclic": result.cyclic,
                         }
                     )
-        done = sum(1 for r in rows if r["fold"] == f)
+        mine = [r for r in rows if r["fold"] == f]
+        by_target = {t: sum(bool(r["generated"]) for r in mine if r["target"] == t) for t in sorted(
+            {str(r["target"]) for r in mine})}
         print(
-            f"fold {f}: {len(test)} real clips, {done} conversions, "
-            f"{time.perf_counter() - started:.0f} s so far",
+            f"fold {f}: {len(test)} real clips, {len(mine)} conversions, "
+            f"generated {sum(bool(r['generated']) for r in mine)}, fidelity {sum(bool(r['fidelity']) for r in mine)}, "
+            f"per target {by_target}, {time.perf_counter() - started:.0f} s so far",
             file=sys.stderr,
             flush=True,
         )

@@ -171,8 +171,8 @@ def test_a_leaf_in_the_desired_paths_own_style_plays_that_path() -> None:
 
 
 def test_standing_legs_are_steadied_only_when_they_barely_move() -> None:
-    from mse.motion.lma_hmm.generate import _steady_legs
     from mse.motion.lma_hmm.hmm import encode, encoding_for
+    from mse.motion.lma_hmm.standing import steady_legs as _steady_legs
 
     motion = starter_library().motion(starter_library().select("bow")[0])
     encoding = encoding_for(motion)

@@ -32,6 +32,9 @@ where the decoding sat in one state are played, and changes of state the neighbo
 make bridged, by the neighbours' own sequences, the cut-off is at most twice their cycle rate,
 and a standing body pins its lowest foot point without the stance hysteresis
 (``GenerationParams.velocity`` and ``standing_pin``; docs/motion.md, "Generation", step 11).
+Any standing body (:mod:`mse.motion.lma_hmm.standing`) has its arms' spread widened towards
+the neighbours' (``arm_spread_cap``) and lands its hops on the floor; ``shared_stance`` (off)
+gives its neighbours one leg posture.
 
 Steps 1-5 are cached per (library fingerprint, action, style, desired clip, parameters) in
 memory and, when ``cache_dir`` is given, on disk (:mod:`mse.motion.lma_hmm.modulated`), so a leaf
@@ -51,11 +54,9 @@ from dataclasses import asdict, dataclass, field
 from pathlib import Path
 
 import numpy as np
-import numpy.typing as npt
 
 from mse.diagnostics import Diagnostic, MseError, Span
-from mse.motion.base.bodyparts import limb_groups
-from mse.motion.base.bvh import Motion, Skeleton
+from mse.motion.base.bvh import Motion
 from mse.motion.base.contacts import STANCE_HYSTERESIS, contact_height, ground, support
 from mse.motion.base.heading import heading, turned
 from mse.motion.base.kinematics import FloatArray
@@ -63,7 +64,6 @@ from mse.motion.base.library import Clip, MotionLibrary, MotionUnavailable
 from mse.motion.base.lma import FEATURE_NAMES
 from mse.motion.lma_hmm.hmm import (
     TOPOLOGIES,
-    Encoding,
     decode,
     encode,
     encoding_for,
@@ -92,6 +92,17 @@ from mse.motion.lma_hmm.search import (
     feature_table,
     nearest_neighbours,
     saliency_for,
+)
+from mse.motion.lma_hmm.standing import (
+    ARM_SPREAD_CAP,
+    arm_variance,
+    cycle_rate,
+    expected_variance,
+    landed_support,
+    leg_length,
+    shared_stance,
+    stands,
+    steady_legs,
 )
 from mse.motion.lma_hmm.stride import STRIDE_CHOICES, restore_stride, travels
 
@@ -146,6 +157,12 @@ class GenerationParams:
     #: path's decoding goes through the states by which they do (``hmm.retimed(bridge=True)``),
     #: and a path shorter than the clip is continued, not stretched (``modulated.path_for``)
     travel_cycles: bool = True
+    #: a standing body's arm rotations widened towards the neighbours' spread, by at most this
+    #: factor (:func:`~mse.motion.lma_hmm.standing.arm_variance`; 1: off, the method before)
+    arm_spread_cap: float = ARM_SPREAD_CAP
+    #: a standing body's neighbours share one leg posture before the state means are taken
+    #: (:func:`~mse.motion.lma_hmm.standing.shared_stance`)
+    shared_stance: bool = False
 
     def __post_init__(self) -> None:
         if self.regenerate not in ("means", "frames"):
@@ -156,6 +173,8 @@ class GenerationParams:
             raise ValueError(f"velocity must be one of {', '.join(VELOCITY_CHOICES)}, not {self.velocity!r}")
         if self.stride not in STRIDE_CHOICES:
             raise ValueError(f"stride must be one of {', '.join(STRIDE_CHOICES)}, not {self.stride!r}")
+        if not self.arm_spread_cap >= 1.0:
+            raise ValueError(f"arm_spread_cap must be at least 1 (1: off), not {self.arm_spread_cap!r}")
         if self.topology not in TOPOLOGIES:
             raise ValueError(f"topology must be one of {', '.join(TOPOLOGIES)}, not {self.topology!r}")
 
@@ -300,7 +319,7 @@ def _modulate(
     )
     # a cycling movement of a standing body (waves): the phase space also holds the velocity,
     # and the HMM is fitted again, fully connected (see GenerationParams.velocity)
-    dynamic = params.velocity == "always" or (params.velocity == "standing" and _stand(carried, encoding.skeleton))
+    dynamic = params.velocity == "always" or (params.velocity == "standing" and stands(carried, encoding.skeleton))
     if dynamic and trained.cyclic:
         phases = [with_velocity(p, params.velocity_weight) for p in phases]
         desired_phase = with_velocity(desired_phase, params.velocity_weight)
@@ -311,6 +330,8 @@ def _modulate(
             n_iter=params.n_iter,
             decide_on=len(phases),
         )
+    if params.shared_stance and stands(carried, encoding.skeleton):
+        rotations = shared_stance(rotations, encoding)
     timings["hmm_fit"] = time.perf_counter() - clock
 
     clock = time.perf_counter()
@@ -320,7 +341,7 @@ def _modulate(
     retime = params.timing == "neighbours"
     needs_labels = trained.cyclic or params.regenerate == "frames" or retime
     labels = [trained.viterbi(p) for p in phases] if needs_labels else []
-    travelling = travels(carried, _leg_length(encoding.skeleton))
+    travelling = travels(carried, leg_length(encoding.skeleton))
     if params.stride != "off" and travelling:
         # the state means under-shoot the swing of the legs: the stride (stride.py)
         own = labels or [trained.viterbi(p) for p in phases]
@@ -342,8 +363,11 @@ def _modulate(
         # a wave's short runs raised the cut-off to 4-5 Hz, and the ramps between state means
         # came through as jerk (a youthful wave, Samadani fold 1: 44,300 cm/s^3, limit 33,400;
         # at 3 Hz 24,100, amplitude 31.2 -> 30.9 cm): up to twice the neighbours' cycle rate
-        hz = min(hz, max(params.cutoff_hz, 2.0 * _cycle_rate(labels, desired.frame_time)))
+        hz = min(hz, max(params.cutoff_hz, 2.0 * cycle_rate(labels, desired.frame_time)))
     path = smooth(raw, desired.frame_time, hz)
+    if params.arm_spread_cap > 1.0 and stands(carried, encoding.skeleton):
+        target = expected_variance(trained, phases + [desired_phase] * copies, training_rotations, states)
+        path, means = arm_variance(path, means, encoding, target, params.arm_spread_cap)
     timings["filter"] = time.perf_counter() - clock
     return Modulated(
         encoding,
@@ -361,82 +385,13 @@ def _modulate(
     )
 
 
-#: neighbours whose root moves less than this many leg lengths per second (median) stand
-STANDING_LEG_LENGTHS_PER_S = 0.1
-#: ... and their legs barely move when 90 % of the legs' rotation channels stay within this
-#: range (radians): generated bows of dataset 1 move them 0.20-0.45 (the legs keep upright
-#: while the hips fold), waves and byes 0.02-0.12
-STILL_LEGS_RADIANS = 0.15
-
-
-def _cycle_rate(labels: Sequence[npt.NDArray[np.int_]], frame_time: float) -> float:
-    """Cycles per second of the neighbours' state sequences (median): the runs of each
-    sequence's most often re-entered state per second."""
-    rates = []
-    for sequence in labels:
-        if len(sequence) < 2:
-            continue
-        starts = sequence[np.r_[True, sequence[1:] != sequence[:-1]]]
-        rates.append(float(np.bincount(starts).max()) / (len(sequence) * frame_time))
-    return float(np.median(rates)) if rates else 0.0
-
-
-def _leg_length(skeleton: Skeleton) -> float:
-    """Hip to ankle (down the first child) of the skeleton's legs, file units."""
-    legs = set(limb_groups(skeleton)["legs"])
-    length = 0.0
-    joint = next((j for j in legs if skeleton.parents[j] not in legs), None)
-    while joint is not None:  # hip -> knee -> ankle ... down the first child
-        children = [c for c in legs if skeleton.parents[c] == joint]
-        if not children:
-            break
-        joint = children[0]
-        length += float(np.linalg.norm(skeleton.offsets[joint]))
-    return length
-
-
-def _stand(carried: Sequence[FloatArray], skeleton: Skeleton) -> bool:
-    """Whether the neighbours stand: their root moves (median over their frames) under
-    :data:`STANDING_LEG_LENGTHS_PER_S` leg lengths per second."""
-    leg_length = _leg_length(skeleton)
-    if leg_length <= 0 or not carried:
-        return False
-    speed = float(np.median(np.concatenate([np.linalg.norm(c[:, :2], axis=1) for c in carried])))
-    return speed < STANDING_LEG_LENGTHS_PER_S * leg_length
-
-
 def _travels(modulated: Modulated) -> bool:
     """Whether the modulated path travels: its carried root velocity (the neighbours',
     through the states; :func:`~mse.motion.lma_hmm.stride.travels`)."""
     path, encoding = modulated.path, modulated.encoding
     if path.shape[1] != encoding.dimension + CARRIED:
         return False
-    return travels([path[:, encoding.dimension :]], _leg_length(encoding.skeleton))
-
-
-def _steady_legs(path: FloatArray, encoding: Encoding, frame_time: float, hz: float) -> FloatArray:
-    """``path`` with the legs' rotations low-passed at ``hz`` when the neighbours stand
-    (their carried root speed, median, under :data:`STANDING_LEG_LENGTHS_PER_S` leg lengths
-    per second) and the legs barely move (:data:`STILL_LEGS_RADIANS`). Both feet of a
-    standing body stay put, but only one is pinned (:func:`~mse.motion.base.contacts.ground`):
-    the other follows the legs' state means, which change from state to state with the
-    neighbours' stances: a feminine wave of dataset 2 slid its free foot at 1.07 cm/s
-    (real: 0.23); at 0.5 Hz, 0.23. Off by default (``GenerationParams.standing_legs_hz``)."""
-    skeleton = encoding.skeleton
-    legs = set(limb_groups(skeleton)["legs"])
-    columns = [3 * i + k for i, joint in enumerate(encoding.rotated) if joint in legs for k in range(3)]
-    if not columns or len(path) < 4:
-        return path
-    leg_length = _leg_length(skeleton)
-    carried = path[:, encoding.dimension :]
-    speed = float(np.median(np.linalg.norm(carried[:, :2], axis=1)))
-    if leg_length <= 0 or speed >= STANDING_LEG_LENGTHS_PER_S * leg_length:
-        return path
-    if float(np.percentile(np.ptp(path[:, columns], axis=0), 90)) >= STILL_LEGS_RADIANS:
-        return path  # legs that move with the body (a bow's hips fold over upright legs)
-    steady = path.copy()
-    steady[:, columns] = smooth(path[:, columns], frame_time, hz)
-    return steady
+    return travels([path[:, encoding.dimension :]], leg_length(encoding.skeleton))
 
 
 def _own_style(
@@ -526,7 +481,7 @@ def generate_motion(
         path, frame_time = time_warp(path, frame_time, duration)
     encoding = modulated.encoding
     if params.standing_legs_hz > 0 and not own_style and path.shape[1] == encoding.dimension + CARRIED:
-        path = _steady_legs(path, encoding, frame_time, params.standing_legs_hz)
+        path = steady_legs(path, encoding, frame_time, params.standing_legs_hz)
     motion = Motion(encoding.skeleton, frame_time, decode(encoding, path))
     carried = path[:, encoding.dimension :].copy()
     if carried.shape[1] == CARRIED and duration is not None:
@@ -537,7 +492,9 @@ def generate_motion(
     # the HSMM method does): with both feet on the floor, the hysteresis kept the left toes
     # pinned while the right ones, 0.04 cm lower, slid with the legs' state means (dataset 2
     # feminine waves, fold 1: foot slip 1.0-1.5 cm/s, limit 0.9)
-    standing = carried.shape[1] == CARRIED and params.standing_pin and _stand([carried], encoding.skeleton)
+    standing = carried.shape[1] == CARRIED and params.standing_pin and stands([carried], encoding.skeleton)
+    if standing:
+        carried = landed_support(carried)
     motion = ground(
         motion,
         modulated.height,

@@ -28,7 +28,7 @@ from mse.motion.lma_hmm.hmm import Encoding, resample, smooth, state_path
 CARRIED = 4
 #: a cyclic path is continued rather than slowed when the clip is this much longer than it
 LOOP_RATIO = 1.3
-DISK_FORMAT = "mse-lma-hmm-path/8"
+DISK_FORMAT = "mse-lma-hmm-path/9"
 
 
 @dataclass(frozen=True, eq=False)

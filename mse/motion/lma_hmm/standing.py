@@ -1,0 +1,203 @@
+"""A standing body in the LMA + HMM method: whether the neighbours stand, and what follows.
+
+Waves, byes, bows and raised hands are performed in place. :func:`stands` tells them from
+walks and runs by the neighbours' carried root speed; for them
+
+- the lowest foot point is pinned without the walks' stance hysteresis (``generate_motion``,
+  ``GenerationParams.standing_pin``);
+- the carried support is made consistent with the lift it gives the body
+  (:func:`landed_support`): a hop's flight frames, averaged by the state means with stance
+  ones, must not let a foot that is still on the floor glide;
+- the legs may be steadied (:func:`steady_legs`, off by default);
+- a cycling movement (a wave) has its cut-off bounded by the neighbours' cycle rate
+  (:func:`cycle_rate`).
+
+docs/motion.md, "Generation", steps 10 and 11.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+import numpy as np
+import numpy.typing as npt
+
+from mse.motion.base.bodyparts import limb_groups
+from mse.motion.base.bvh import Skeleton
+from mse.motion.base.contacts import FLOOR_BAND
+from mse.motion.base.kinematics import FloatArray
+from mse.motion.lma_hmm.hmm import Encoding, TrainedHmm, smooth
+
+#: neighbours whose root moves less than this many leg lengths per second (median) stand
+STANDING_LEG_LENGTHS_PER_S = 0.1
+#: ... and their legs barely move when 90 % of the legs' rotation channels stay within this
+#: range (radians): generated bows of dataset 1 move them 0.20-0.45 (the legs keep upright
+#: while the hips fold), waves and byes 0.02-0.12
+STILL_LEGS_RADIANS = 0.15
+
+
+def cycle_rate(labels: Sequence[npt.NDArray[np.int_]], frame_time: float) -> float:
+    """Cycles per second of the neighbours' state sequences (median): the runs of each
+    sequence's most often re-entered state per second."""
+    rates = []
+    for sequence in labels:
+        if len(sequence) < 2:
+            continue
+        starts = sequence[np.r_[True, sequence[1:] != sequence[:-1]]]
+        rates.append(float(np.bincount(starts).max()) / (len(sequence) * frame_time))
+    return float(np.median(rates)) if rates else 0.0
+
+
+def leg_length(skeleton: Skeleton) -> float:
+    """Hip to ankle (down the first child) of the skeleton's legs, file units."""
+    legs = set(limb_groups(skeleton)["legs"])
+    length = 0.0
+    joint = next((j for j in legs if skeleton.parents[j] not in legs), None)
+    while joint is not None:  # hip -> knee -> ankle ... down the first child
+        children = [c for c in legs if skeleton.parents[c] == joint]
+        if not children:
+            break
+        joint = children[0]
+        length += float(np.linalg.norm(skeleton.offsets[joint]))
+    return length
+
+
+def stands(carried: Sequence[FloatArray], skeleton: Skeleton) -> bool:
+    """Whether the neighbours stand: their root moves (median over their frames) under
+    :data:`STANDING_LEG_LENGTHS_PER_S` leg lengths per second."""
+    legs = leg_length(skeleton)
+    if legs <= 0 or not carried:
+        return False
+    speed = float(np.median(np.concatenate([np.linalg.norm(c[:, :2], axis=1) for c in carried])))
+    return speed < STANDING_LEG_LENGTHS_PER_S * legs
+
+
+def steady_legs(path: FloatArray, encoding: Encoding, frame_time: float, hz: float) -> FloatArray:
+    """``path`` with the legs' rotations low-passed at ``hz`` when the neighbours stand
+    (their carried root speed, median, under :data:`STANDING_LEG_LENGTHS_PER_S` leg lengths
+    per second) and the legs barely move (:data:`STILL_LEGS_RADIANS`). Both feet of a
+    standing body stay put, but only one is pinned (:func:`~mse.motion.base.contacts.ground`):
+    the other follows the legs' state means, which change from state to state with the
+    neighbours' stances: a feminine wave of dataset 2 slid its free foot at 1.07 cm/s
+    (real: 0.23); at 0.5 Hz, 0.23. Off by default (``GenerationParams.standing_legs_hz``)."""
+    skeleton = encoding.skeleton
+    legs = set(limb_groups(skeleton)["legs"])
+    columns = [3 * i + k for i, joint in enumerate(encoding.rotated) if joint in legs for k in range(3)]
+    if not columns or len(path) < 4:
+        return path
+    if not stands([path[:, encoding.dimension :]], skeleton):
+        return path
+    if float(np.percentile(np.ptp(path[:, columns], axis=0), 90)) >= STILL_LEGS_RADIANS:
+        return path  # legs that move with the body (a bow's hips fold over upright legs)
+    steady = path.copy()
+    steady[:, columns] = smooth(path[:, columns], frame_time, hz)
+    return steady
+
+
+def landed_support(carried: FloatArray) -> FloatArray:
+    """``carried`` (frames, 4: root velocity X and Z, lift, support; as
+    :func:`~mse.motion.base.contacts.support` gives it) of a standing body, with each frame's
+    support raised to what the rise it gives the body says: the root rises by
+    ``(1 - support) x lift`` (:func:`~mse.motion.base.contacts.root_track`), and a body
+    whose lowest point is within :data:`~mse.motion.base.contacts.FLOOR_BAND` of the floor
+    is supported (the rule by which real clips are measured), from twice that not at all.
+
+    The state means average a hop's flight frames with stance ones: dataset 1's active
+    byebye hops (13 % of its frames off the floor, up to 17 cm) and its generated support
+    never fell below 0.64, so every frame was partly "in flight", rose by under 2 cm and
+    moved partly with the carried velocity instead of the pinned foot: the foot on the
+    floor slid at 1.20 cm/s (real 0.58, limit 1.2)."""
+    out = carried.copy()
+    if len(out) == 0:
+        return out
+    support, lift = out[:, 3], np.maximum(out[:, 2], 0.0)
+    rise = (1.0 - support) * lift
+    out[:, 3] = np.maximum(support, np.clip(2.0 - rise / FLOOR_BAND, 0.0, 1.0))
+    return out
+
+
+#: the arms' rotations of a standing body are widened by at most this factor (per channel,
+#: standard deviation over time) towards what its states hold (:func:`arm_variance`): the
+#: hands' jerk grows with it (Samadani waves: at 1.5 two conversions went over 2x real, 1.34x
+#: and 1.08x the limit; at 1.1 both pass), and 1.1 is enough for dataset 1's bye and byebye
+ARM_SPREAD_CAP = 1.1
+
+
+def expected_variance(
+    trained: TrainedHmm,
+    phases: Sequence[FloatArray],
+    values: Sequence[FloatArray],
+    states: npt.NDArray[np.int_],
+) -> FloatArray:
+    """(dims,) the variance over time of a path that draws, for each frame of ``states``,
+    the neighbours' own frames of that state (``values`` weighted by the state posteriors of
+    the matching ``phases``, as the state means are): the spread the state sequence would
+    have if each state kept its frames' spread instead of their mean."""
+    weights = np.vstack([trained.posteriors(p) for p in phases])
+    stacked = np.vstack(values)
+    mass = np.maximum(weights.sum(axis=0), 1e-12)[:, None]
+    first = (weights.T @ stacked) / mass
+    second = (weights.T @ stacked**2) / mass
+    share = np.bincount(states, minlength=weights.shape[1])[: weights.shape[1]] / max(len(states), 1)
+    mean = share @ first
+    result: FloatArray = np.maximum(share @ second - mean**2, 0.0)
+    return result
+
+
+def arm_variance(
+    path: FloatArray,
+    means: FloatArray,
+    encoding: Encoding,
+    target: FloatArray,
+    cap: float = ARM_SPREAD_CAP,
+) -> tuple[FloatArray, FloatArray]:
+    """``path`` and the state ``means`` with each arm rotation channel's spread over time
+    widened to ``target`` (per channel: :func:`expected_variance`, what the path's states
+    hold), by at most ``cap``, never narrowed: the *global variance* remedy of HMM synthesis
+    (Toda and Tokuda 2007, as a variance-scaling post-filter; the HSMM method uses the full
+    form), with the variance the states visited give rather than the neighbours' whole
+    clips (whose raising and lowering of the arms made a masculine wave drawn from a normal
+    one swing 49 cm, over the real masculine waves' 42).
+
+    Every state mean averages the frames the state holds and the low-pass smooths the joins,
+    so the hands swing less far than the neighbours': dataset 1's chimpira bye, one
+    neighbour, 32 left-to-right states over its 130 frames, hand range 14.2 -> 12.0 cm
+    (the spread starts at 12.1). Only the arms: the legs carry the body (the foot pin), the
+    trunk's posture is the style's. The means are scaled with the path so that a cycle
+    continued by its states (:func:`~mse.motion.lma_hmm.modulated.path_for`) keeps it."""
+    groups = limb_groups(encoding.skeleton)
+    arms = set(groups["left_arm"]) | set(groups["right_arm"])
+    columns = [3 * i + k for i, joint in enumerate(encoding.rotated) if joint in arms for k in range(3)]
+    if not columns or len(path) < 2:
+        return path, means
+    centre = path[:, columns].mean(axis=0)
+    own = np.var(path[:, columns], axis=0)
+    ratio = np.clip(np.sqrt(target[columns] / np.maximum(own, 1e-12)), 1.0, cap)
+    widened, scaled = path.copy(), means.copy()
+    widened[:, columns] = centre + ratio * (path[:, columns] - centre)
+    scaled[:, columns] = centre + ratio * (means[:, columns] - centre)
+    return widened, scaled
+
+
+def shared_stance(rotations: Sequence[FloatArray], encoding: Encoding) -> list[FloatArray]:
+    """The neighbours' rotations with each clip's legs moved to one stance: every clip's leg
+    rotation channels keep their movement about the clip's own mean and take the mean of
+    all the clips' means as their posture.
+
+    Performers stand with their feet at different widths and angles. A state's mean weighs
+    the neighbours that occupy it, so when the state changes the mean stance changes, and
+    with one foot pinned the other slides: the feminine waves of dataset 2 generated from
+    active ones (Samadani folds 0 and 3), free foot at 1.7 cm/s (real feminine 0.4), which
+    the style recognizer took for a youthful wave (real youthful feet: 1.0 cm/s)."""
+    legs = set(limb_groups(encoding.skeleton)["legs"])
+    columns = [3 * i + k for i, joint in enumerate(encoding.rotated) if joint in legs for k in range(3)]
+    if not columns or not rotations:
+        return list(rotations)
+    means = [r[:, columns].mean(axis=0) for r in rotations]
+    posture = np.mean(means, axis=0)
+    out = []
+    for r, own in zip(rotations, means, strict=True):
+        moved = r.copy()
+        moved[:, columns] += posture - own
+        out.append(moved)
+    return out
