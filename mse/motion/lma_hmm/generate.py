@@ -55,15 +55,12 @@ from pathlib import Path
 
 import numpy as np
 
-from mse.diagnostics import Diagnostic, MseError, Span
 from mse.motion.base.bvh import Motion
 from mse.motion.base.contacts import STANCE_HYSTERESIS, contact_height, ground, support
-from mse.motion.base.heading import heading, turned
+from mse.motion.base.heading import heading
 from mse.motion.base.kinematics import FloatArray
 from mse.motion.base.library import Clip, MotionLibrary, MotionUnavailable
-from mse.motion.base.lma import FEATURE_NAMES
 from mse.motion.lma_hmm.hmm import (
-    TOPOLOGIES,
     decode,
     encode,
     encoding_for,
@@ -85,16 +82,10 @@ from mse.motion.lma_hmm.modulated import (
     save,
     time_warp,
 )
-from mse.motion.lma_hmm.pose import PhaseSpace, phase_space, pose_features, with_velocity
-from mse.motion.lma_hmm.search import (
-    EPSILON_FRACTION,
-    clip_features,
-    feature_table,
-    nearest_neighbours,
-    saliency_for,
-)
+from mse.motion.lma_hmm.neighbours import POSES, facing_motion, find_neighbours, pick_desired, pose_of
+from mse.motion.lma_hmm.params import GenerationParams
+from mse.motion.lma_hmm.pose import PhaseSpace, phase_space, with_velocity
 from mse.motion.lma_hmm.standing import (
-    ARM_SPREAD_CAP,
     arm_variance,
     cycle_rate,
     expected_variance,
@@ -104,79 +95,9 @@ from mse.motion.lma_hmm.standing import (
     stands,
     steady_legs,
 )
-from mse.motion.lma_hmm.stride import STRIDE_CHOICES, restore_stride, travels
+from mse.motion.lma_hmm.stride import restore_stride, travels
 
 __all__ = ["Generated", "GenerationParams", "MotionUnavailable", "generate_motion", "time_warp"]
-
-
-VELOCITY_CHOICES = ("standing", "always", "never")
-
-
-@dataclass(frozen=True, slots=True)
-class GenerationParams:
-    states: int = 12
-    nd: int = 0
-    epsilon_fraction: float = EPSILON_FRACTION
-    cutoff_hz: float = 3.0
-    n_iter: int = 10
-    #: "means": the paper's sequence of state means; "frames": the neighbours' own frames of
-    #: each state in the desired path's state order and timing (keeps within-state motion)
-    regenerate: str = "means"
-    #: HMM topology: "auto" (fully connected when the neighbours cycle, else left-to-right),
-    #: "full" (the paper's), "left-to-right"
-    topology: str = "auto"
-    #: the ε-neighbourhood is widened to the nearest ``min_neighbours`` and cut to the nearest
-    #: ``max_neighbours`` (the HMM's cost grows with them)
-    min_neighbours: int = 8
-    max_neighbours: int = 8
-    #: "neighbours": each state run of the desired path lasts as the neighbours' runs of that
-    #: state (:func:`~mse.motion.lma_hmm.hmm.retimed`: the target style's tempo); "desired":
-    #: the desired path's own Viterbi timing (the paper's)
-    timing: str = "neighbours"
-    #: legs of a clip whose neighbours stand still low-passed at this cut-off (0: off, the
-    #: default: at 0.5 Hz the feminine wave's free foot stopped sliding, 1.07 -> 0.23 cm/s,
-    #: but active waves lost their legs' rhythm and were all rated youthful, fold 1)
-    standing_legs_hz: float = 0.0
-    #: when the HMM is fully connected (the neighbours cycle), the phase space also holds the
-    #: movement's velocity (:func:`~mse.motion.lma_hmm.pose.with_velocity`) and the HMM is
-    #: fitted again, and a run where the desired path's decoding sat in one state is played
-    #: by the neighbours' own sequence (``retimed(refill_stuck=True)``): "standing" (default)
-    #: when the neighbours stand (waves), "always", "never" (the paper's positions only).
-    #: With positions only, waves decoded against slower styles turned back in the middle of
-    #: the swing: Samadani fold 1 wave jerk over 2x real in 8 of 42 conversions, 0 with it
-    velocity: str = "standing"
-    #: weight of the velocity against the positions in the phase space
-    velocity_weight: float = 0.3
-    #: a standing body (the neighbours' carried root speed under 0.1 leg lengths per second)
-    #: pins whichever foot point is lowest, without the walks' stance hysteresis
-    standing_pin: bool = True
-    #: travelling neighbours (``stride.travels``): the state means' swing widened, joint by joint,
-    #: to the neighbours' own (:mod:`mse.motion.lma_hmm.stride`): "legs", "all", "off"
-    stride: str = "legs"
-    #: travelling neighbours that cycle: a change of state they never make in the desired
-    #: path's decoding goes through the states by which they do (``hmm.retimed(bridge=True)``),
-    #: and a path shorter than the clip is continued, not stretched (``modulated.path_for``)
-    travel_cycles: bool = True
-    #: a standing body's arm rotations widened towards the neighbours' spread, by at most this
-    #: factor (:func:`~mse.motion.lma_hmm.standing.arm_variance`; 1: off, the method before)
-    arm_spread_cap: float = ARM_SPREAD_CAP
-    #: a standing body's neighbours share one leg posture before the state means are taken
-    #: (:func:`~mse.motion.lma_hmm.standing.shared_stance`)
-    shared_stance: bool = False
-
-    def __post_init__(self) -> None:
-        if self.regenerate not in ("means", "frames"):
-            raise ValueError(f"regenerate must be 'means' or 'frames', not {self.regenerate!r}")
-        if self.timing not in ("neighbours", "desired"):
-            raise ValueError(f"timing must be 'neighbours' or 'desired', not {self.timing!r}")
-        if self.velocity not in VELOCITY_CHOICES:
-            raise ValueError(f"velocity must be one of {', '.join(VELOCITY_CHOICES)}, not {self.velocity!r}")
-        if self.stride not in STRIDE_CHOICES:
-            raise ValueError(f"stride must be one of {', '.join(STRIDE_CHOICES)}, not {self.stride!r}")
-        if not self.arm_spread_cap >= 1.0:
-            raise ValueError(f"arm_spread_cap must be at least 1 (1: off), not {self.arm_spread_cap!r}")
-        if self.topology not in TOPOLOGIES:
-            raise ValueError(f"topology must be one of {', '.join(TOPOLOGIES)}, not {self.topology!r}")
 
 
 @dataclass(frozen=True, eq=False)
@@ -193,92 +114,11 @@ class Generated:
 
 
 _CACHE: dict[str, Modulated] = {}
-_POSES: dict[tuple[str, str], FloatArray] = {}
 
 
 def clear_cache() -> None:
     _CACHE.clear()
-    _POSES.clear()
-
-
-def _pick_desired(library: MotionLibrary, action: str, clip_id: str | None) -> Clip:
-    if clip_id is not None:
-        clip = library.clip(clip_id)
-        if clip is None:
-            raise MseError([Diagnostic("E213", f"clip {clip_id!r} is not in the library", Span("<motion>"))])
-        return clip
-    clips = library.select(action)
-    normal = [c for c in clips if c.style == "normal"]
-    return (normal or clips)[0]
-
-
-def _rmlr_clips(library: MotionLibrary, action: str, exclude: set[str]) -> list[Clip]:
-    """The action's clips when every style there has two or more, else the whole library."""
-    own = [c for c in library.select(action) if c.id not in exclude]
-    styles = [c.style for c in own]
-    if len(set(styles)) >= 2 and min(styles.count(s) for s in set(styles)) >= 2:
-        return own
-    return [c for c in library.clips if c.id not in exclude]
-
-
-def _facing(library: MotionLibrary, clip: Clip, facing: float) -> Motion:
-    motion = library.motion(clip)
-    return turned(motion, facing - heading(motion))
-
-
-def _pose(library: MotionLibrary, clip: Clip) -> FloatArray:
-    key = (library.content_hash, clip.id)
-    features = _POSES.get(key)
-    if features is None:
-        features = pose_features(library.motion(clip))
-        _POSES[key] = features
-    return features
-
-
-def _neighbours(
-    library: MotionLibrary,
-    action: str,
-    style: str,
-    desired_clip: Clip,
-    original: str | None,
-    params: GenerationParams,
-    exclude: set[str],
-    timings: dict[str, float],
-) -> tuple[list[Clip], tuple[str, ...]]:
-    clock = time.perf_counter()
-    desired = library.motion(desired_clip)
-    candidates = [
-        c
-        for c in library.select(action, style)
-        if c.id not in exclude and c.id != desired_clip.id and library.motion(c).skeleton.same_layout(desired.skeleton)
-    ]
-    if not candidates:
-        if desired_clip.style != style:
-            raise MotionUnavailable(f"no {style!r} clip of action {action!r}")
-        return [desired_clip], ()
-    desired_features = clip_features(library, desired_clip)
-    candidate_features = feature_table(library, candidates)
-    training = _rmlr_clips(library, action, exclude)
-    feature_table(library, training)
-    timings["lma"] = time.perf_counter() - clock
-
-    clock = time.perf_counter()
-    saliency = saliency_for(library, training)
-    components = saliency.search_components(style, original)
-    timings["rmlr"] = time.perf_counter() - clock
-
-    clock = time.perf_counter()
-    chosen = nearest_neighbours(
-        desired_features,
-        candidate_features,
-        components,
-        saliency,
-        params.epsilon_fraction,
-        minimum=params.min_neighbours,
-        maximum=params.max_neighbours,
-    )
-    timings["nn_search"] = time.perf_counter() - clock
-    return [candidates[i] for i in chosen], tuple(FEATURE_NAMES[i] for i in components)
+    POSES.clear()
 
 
 def _modulate(
@@ -293,18 +133,18 @@ def _modulate(
     timings: dict[str, float] = {"lma": 0.0, "rmlr": 0.0, "nn_search": 0.0}
     desired = library.motion(desired_clip)
     if style == desired_clip.style and original == style:
-        return _own_style(desired_clip.id, desired, _pose(library, desired_clip), params, timings)
-    neighbours, components = _neighbours(library, action, style, desired_clip, original, params, exclude, timings)
+        return _own_style(desired_clip.id, desired, pose_of(library, desired_clip), params, timings)
+    neighbours, components = find_neighbours(library, action, style, desired_clip, original, params, exclude, timings)
     # the neighbours turned to face the desired path's way (their room directions differ)
     facing = heading(desired)
-    motions = [_facing(library, c, facing) for c in neighbours]
+    motions = [facing_motion(library, c, facing) for c in neighbours]
 
     clock = time.perf_counter()
     encoding = encoding_for(desired)
-    poses = [_pose(library, c) for c in neighbours]
+    poses = [pose_of(library, c) for c in neighbours]
     space: PhaseSpace = phase_space(poses)
     phases = [space.observe(p) for p in poses]
-    desired_phase = space.observe(_pose(library, desired_clip))
+    desired_phase = space.observe(pose_of(library, desired_clip))
     # rotations (faced as the desired path) and, in the last 4 columns, how the neighbours are
     # carried: root velocity, foot lift, support (flight phases of runs, base.contacts.support)
     carried = [support(m) for m in motions]
@@ -454,7 +294,7 @@ def generate_motion(
     if not library.select(action):
         raise MotionUnavailable(f"no clip of action {action!r}")
     started = time.perf_counter()
-    desired_clip = _pick_desired(library, action, clip)
+    desired_clip = pick_desired(library, action, clip)
     original = original_style or desired_clip.style
     excluded = set(exclude)
     key = _key(library, action, style, desired_clip.id, original, params, excluded)
