@@ -120,7 +120,7 @@ def test_frames_regeneration_keeps_length_bones_and_movement() -> None:
 
 
 def test_state_aligned_frames_follow_the_desired_state_order() -> None:
-    from mse.motion.lma_hmm.hmm import state_aligned_frames
+    from mse.motion.lma_hmm.timing import state_aligned_frames
 
     means = np.array([[0.0], [10.0]])
     neighbour = np.arange(6, dtype=np.float64)[:, None]  # state 0 on 0..2, state 1 on 3..5
@@ -133,7 +133,7 @@ def test_state_aligned_frames_follow_the_desired_state_order() -> None:
 
 
 def test_retimed_runs_last_as_the_neighbours_runs() -> None:
-    from mse.motion.lma_hmm.hmm import retimed
+    from mse.motion.lma_hmm.timing import retimed
 
     # the desired path races through states 0-2 in 1-frame runs and idles in state 3; the
     # neighbours hold 0-2 for 4 and 6 frames (mean 5) and never visit 3
@@ -191,7 +191,7 @@ def test_standing_legs_are_steadied_only_when_they_barely_move() -> None:
 
 
 def test_a_stuck_run_is_played_by_the_neighbours_sequence() -> None:
-    from mse.motion.lma_hmm.hmm import retimed
+    from mse.motion.lma_hmm.timing import retimed
 
     # neighbours cycle 1 -> 2 -> 3 between a rest pose 0 at both ends; the desired path's
     # decoding sits 30 frames in the rest state (no state fits its movement)
@@ -219,7 +219,7 @@ def test_phase_velocity_tells_the_swing_directions_apart() -> None:
 
 
 def test_changes_the_neighbours_never_make_are_bridged() -> None:
-    from mse.motion.lma_hmm.hmm import retimed
+    from mse.motion.lma_hmm.timing import retimed
 
     # neighbours: rest 0 -> raise 1 -> swing 2 <-> 3 -> lower 4; the desired path jumps from
     # the rest pose straight into the swing

@@ -13,7 +13,7 @@ from mse.motion.base.fidelity import measure
 from mse.motion.base.library import load_library
 from mse.motion.base.starter import starter_library
 from mse.motion.lma_hmm.generate import GenerationParams, generate_motion
-from mse.motion.lma_hmm.hmm import retimed, smooth, state_path
+from mse.motion.lma_hmm.hmm import smooth, state_path
 from mse.motion.lma_hmm.stride import (
     MAX_GAIN,
     restore_stride,
@@ -23,6 +23,7 @@ from mse.motion.lma_hmm.stride import (
     swing_joints,
     travels,
 )
+from mse.motion.lma_hmm.timing import retimed
 
 FRAME_TIME = 1.0 / 30.0
 

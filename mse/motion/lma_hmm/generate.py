@@ -64,9 +64,7 @@ from mse.motion.lma_hmm.hmm import (
     decode,
     encode,
     encoding_for,
-    retimed,
     smooth,
-    state_aligned_frames,
     state_means,
     state_path,
     train_hmm,
@@ -96,6 +94,7 @@ from mse.motion.lma_hmm.standing import (
     steady_legs,
 )
 from mse.motion.lma_hmm.stride import restore_stride, travels
+from mse.motion.lma_hmm.timing import retimed, state_aligned_frames
 
 __all__ = ["Generated", "GenerationParams", "MotionUnavailable", "generate_motion", "time_warp"]
 

@@ -22,7 +22,8 @@ import numpy.typing as npt
 from mse.fileio import write_atomic
 from mse.motion.base.bvh import Skeleton
 from mse.motion.base.kinematics import FloatArray
-from mse.motion.lma_hmm.hmm import Encoding, resample, smooth, state_path
+from mse.motion.lma_hmm.hmm import Encoding, smooth, state_path
+from mse.motion.lma_hmm.timing import resample
 
 #: columns after the rotations in a modulated path: how the body is carried (contacts.support)
 CARRIED = 4

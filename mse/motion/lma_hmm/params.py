@@ -34,7 +34,7 @@ class GenerationParams:
     min_neighbours: int = 8
     max_neighbours: int = 8
     #: "neighbours": each state run of the desired path lasts as the neighbours' runs of that
-    #: state (:func:`~mse.motion.lma_hmm.hmm.retimed`: the target style's tempo); "desired":
+    #: state (:func:`~mse.motion.lma_hmm.timing.retimed`: the target style's tempo); "desired":
     #: the desired path's own Viterbi timing (the paper's)
     timing: str = "neighbours"
     #: legs of a clip whose neighbours stand still low-passed at this cut-off (0: off, the
@@ -58,7 +58,7 @@ class GenerationParams:
     #: to the neighbours' own (:mod:`mse.motion.lma_hmm.stride`): "legs", "all", "off"
     stride: str = "legs"
     #: travelling neighbours that cycle: a change of state they never make in the desired
-    #: path's decoding goes through the states by which they do (``hmm.retimed(bridge=True)``),
+    #: path's decoding goes through the states by which they do (``timing.retimed(bridge=True)``),
     #: and a path shorter than the clip is continued, not stretched (``modulated.path_for``)
     travel_cycles: bool = True
     #: a standing body's arm rotations widened towards the neighbours' spread, by at most this
