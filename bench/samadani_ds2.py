@@ -166,6 +166,10 @@ def main() -> int:
                         "factor (1: off, before the sixth pass)")
     parser.add_argument("--shared-stance", action="store_true",
                         help="a standing body's neighbours share one leg posture (docs/motion.md, step 11)")
+    parser.add_argument("--stride", default=GenerationParams().stride,
+                        help="travelling bodies' swing widened: legs, all, off (docs/motion.md, step 12)")
+    parser.add_argument("--no-travel-cycles", action="store_true",
+                        help="travelling cycles neither bridged nor continued (before the sixth pass, step 12)")
     parser.add_argument("--show-failures", action="store_true",
                         help="print every conversion that fails a fidelity check, with the values")
     args = parser.parse_args()
@@ -188,6 +192,8 @@ def main() -> int:
             standing_pin=not args.no_standing_pin,
             arm_spread_cap=args.arm_spread_cap,
             shared_stance=args.shared_stance,
+            stride=args.stride,
+            travel_cycles=not args.no_travel_cycles,
         )
     except ValueError as error:
         parser.error(str(error))
