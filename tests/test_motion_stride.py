@@ -9,6 +9,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from mse.motion.base.contacts import MIN_SUPPORT_SPREAD, sharpened_support
 from mse.motion.base.fidelity import measure
 from mse.motion.base.library import load_library
 from mse.motion.base.starter import starter_library
@@ -143,6 +144,19 @@ def test_unknown_stride_choice_is_refused() -> None:
         GenerationParams(stride="feet")
 
 
+def test_only_a_blurred_runs_support_is_sharpened() -> None:
+    t = np.arange(90) * FRAME_TIME
+    blurred = (0.5 + 0.2 * np.sin(2 * np.pi * 3 * t))[:, None]  # half in flight, spread 0.14
+    sharp = sharpened_support(blurred)
+    assert float(np.std(sharp)) == pytest.approx(MIN_SUPPORT_SPREAD, rel=1e-6)
+    np.testing.assert_array_equal(sharp >= 0.5, blurred >= 0.5)  # the same frames in flight
+    walk = np.clip(blurred + 0.25, 0.0, 1.0)  # a tenth of its frames under 0.5: not a run
+    np.testing.assert_array_equal(sharpened_support(walk), walk)
+    clear = (0.5 + 0.45 * np.sin(2 * np.pi * 3 * t))[:, None]  # a run already this sharp
+    np.testing.assert_array_equal(sharpened_support(clear), clear)
+    np.testing.assert_array_equal(sharpened_support(np.full((5, 1), 0.2)), np.full((5, 1), 0.2))
+
+
 @pytest.mark.slow
 def test_a_tired_run_keeps_the_neighbours_stride(bandai_dir: Path, tmp_path: Path) -> None:
     # dataset 1: the tired run generated from the normal one ran 120 cm/s, real runs 137-377
@@ -178,3 +192,14 @@ def test_an_own_style_copy_is_stretched_not_continued(bandai_dir: Path, tmp_path
     stretched = GenerationParams(travel_cycles=False)
     before = generate_motion(library, "punch", "normal", duration=duration, params=stretched).motion
     np.testing.assert_allclose(now.values, before.values)
+
+
+@pytest.mark.slow
+def test_a_musical_dash_does_not_slide_in_its_stance(bandai_dir: Path) -> None:
+    # dataset 1: its carried support, blurred to a spread of 0.165, moved the root with a
+    # third of the flight velocity while a foot was on the floor: foot slip 30.3, limit 24.4
+    library = load_library(bandai_dir)
+    own = [library.motion(c) for c in library.select("dash") if c.style == "musical"]
+    duration = float(np.median([m.duration for m in own]))  # as bench/motion_fidelity.py
+    motion = generate_motion(library, "dash", "musical", duration=duration).motion
+    assert measure(motion)["foot_slip"] < 24.4
