@@ -64,9 +64,24 @@ FLOOR_BAND = 1.0
 #: 30.3 cm/s (limit 24.4). Sharpening every run instead (x2 about 0.5) jolted the others'
 #: roots between foot and flight velocity (dash old, run musical: jerk over 2x real)
 MIN_SUPPORT_SPREAD = 0.3
-#: the share of unsupported frames (support under 0.5) from which the carried support is a
-#: run's (as ``lma_hmm.stride.FLIGHT_SHARE``: Bandai runs 0.26-0.56, dashes 0.34-0.65)
+#: the share of unsupported frames (support under 0.5) from which a support is a run's (has
+#: flight phases). Bandai dataset 1: runs 0.26-0.56, dashes 0.34-0.65, walks 0-0.10 but for
+#: the happy walk (0.30), 0.16 and 0.19 sideways; dataset 2 walks 0-0.30, any 8 of one style
+#: at most 0.22 pooled (active), so its walks never count
 RUN_FLIGHT_SHARE = 0.25
+
+
+def supported_at(lift: FloatArray) -> FloatArray:
+    """Support in [0, 1] of a body whose lowest point is ``lift`` above the floor: 1 within
+    :data:`FLOOR_BAND`, 0 from twice that (the rule real clips are measured by)."""
+    result: FloatArray = np.clip(2.0 - lift / FLOOR_BAND, 0.0, 1.0)
+    return result
+
+
+def runs(support_values: FloatArray) -> bool:
+    """Whether a support (:func:`support`'s last column) is a run's: at least
+    :data:`RUN_FLIGHT_SHARE` of its frames unsupported."""
+    return bool(support_values.size) and float(np.mean(support_values < 0.5)) >= RUN_FLIGHT_SHARE
 
 
 def find_root_joint(motion: Motion) -> int:
@@ -122,7 +137,7 @@ def support(motion: Motion) -> FloatArray:
     positions = motion.positions()
     lowest = positions[:, list(contact_joints(skeleton)), 1].min(axis=1)
     lift = lowest - float(np.percentile(lowest, 5))
-    supported = np.clip(2.0 - lift / FLOOR_BAND, 0.0, 1.0)
+    supported = supported_at(lift)
     root = positions[:, find_root_joint(motion), :][:, [0, 2]]
     velocity = np.gradient(root, motion.frame_time, axis=0) if motion.frame_count > 1 else np.zeros_like(root)
     return np.column_stack([velocity, lift, supported])
@@ -132,7 +147,7 @@ def sharpened_support(weight: FloatArray) -> FloatArray:
     """``weight`` (support in [0, 1]) sharpened about 0.5 to a standard deviation of at least
     :data:`MIN_SUPPORT_SPREAD` when it is a run's (:data:`RUN_FLIGHT_SHARE`); else unchanged."""
     spread = float(np.std(weight)) if weight.size else 0.0
-    if spread <= 1e-9 or spread >= MIN_SUPPORT_SPREAD or float(np.mean(weight < 0.5)) < RUN_FLIGHT_SHARE:
+    if spread <= 1e-9 or spread >= MIN_SUPPORT_SPREAD or not runs(weight):
         return weight
     return np.clip(0.5 + (MIN_SUPPORT_SPREAD / spread) * (weight - 0.5), 0.0, 1.0)
 

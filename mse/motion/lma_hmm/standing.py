@@ -24,7 +24,7 @@ import numpy.typing as npt
 
 from mse.motion.base.bodyparts import limb_groups
 from mse.motion.base.bvh import Skeleton
-from mse.motion.base.contacts import FLOOR_BAND
+from mse.motion.base.contacts import supported_at
 from mse.motion.base.kinematics import FloatArray
 from mse.motion.lma_hmm.hmm import Encoding, TrainedHmm, smooth
 
@@ -112,7 +112,7 @@ def landed_support(carried: FloatArray) -> FloatArray:
         return out
     support, lift = out[:, 3], np.maximum(out[:, 2], 0.0)
     rise = (1.0 - support) * lift
-    out[:, 3] = np.maximum(support, np.clip(2.0 - rise / FLOOR_BAND, 0.0, 1.0))
+    out[:, 3] = np.maximum(support, supported_at(rise))
     return out
 
 

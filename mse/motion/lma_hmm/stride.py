@@ -27,6 +27,7 @@ import numpy.typing as npt
 
 from mse.motion.base.bodyparts import limb_groups
 from mse.motion.base.bvh import Skeleton
+from mse.motion.base.contacts import runs
 from mse.motion.base.kinematics import FloatArray
 from mse.motion.lma_hmm.hmm import Encoding, smooth, state_path
 from mse.motion.lma_hmm.modulated import cutoff
@@ -158,11 +159,6 @@ def restore_stride(
     return restored_flight(widened, means, rotations, labels, frame_time, hz, 3 * len(rotated))
 
 
-#: the neighbours run (have flight phases) when at least this share of their frames is
-#: unsupported (``contacts.support`` under 0.5). Bandai dataset 1: runs 0.26-0.56, dashes
-#: 0.34-0.65, walks 0-0.10 but for the happy walk (0.30), 0.16 and 0.19 sideways; dataset 2
-#: walks 0-0.30, any 8 of one style at most 0.22 pooled (active), so its walks never count
-FLIGHT_SHARE = 0.25
 
 
 def restored_flight(
@@ -176,7 +172,7 @@ def restored_flight(
 ) -> FloatArray:
     """``widened`` with the lift and the support (the carried columns ``columns + 2`` and
     ``+ 3``, :func:`~mse.motion.base.contacts.support`) of running neighbours
-    (:data:`FLIGHT_SHARE`) widened like the rotations, each by its own gain measured on the
+    (:func:`~mse.motion.base.contacts.runs`) widened like the rotations, each by its own gain measured on the
     neighbours (:func:`stride_gains` on one column), the support kept within [0, 1] and the
     lift above the floor. Averaged over a state, a flight phase was partly supported and
     hardly lifted: the root kept the neighbours' velocity while a foot still touched the
@@ -184,7 +180,7 @@ def restored_flight(
     if widened.shape[1] < columns + 4 or len(rotations) != len(labels) or not rotations:
         return widened
     support = np.concatenate([r[:, columns + 3] for r in rotations])
-    if float(np.mean(support < 0.5)) < FLIGHT_SHARE:
+    if not runs(support):
         return widened
     out = widened.copy()
     for column in (columns + 2, columns + 3):
