@@ -34,7 +34,10 @@ covers half of it, and the recognizer, trained on whole takes, rated it normal (
 1 of 6 elderly walks recognised). ``--length desired`` is the paper's.
 
 ``--show-failures`` prints every conversion that fails a fidelity check (clip, target,
-values and admitted ranges) on stderr; ``--no-standing-pin`` pins standing bodies with the
+values and admitted ranges) on stderr, and ``--only-conversions FOLD:CLIP:TARGET,...`` redoes
+exactly those (folds and desired paths are drawn over every clip whatever the filters, so
+``--actions``, ``--only-folds`` and ``--only-conversions`` redo a full run's conversions);
+``--no-standing-pin`` pins standing bodies with the
 walks' stance hysteresis, as before the fifth pass (docs/motion.md, "Generation", step 11);
 ``--arm-spread-cap 1`` leaves a standing body's arms as the state means draw them (before the
 sixth pass), ``--shared-stance`` gives a standing body's neighbours one leg posture.
@@ -159,6 +162,8 @@ def main() -> int:
                         help="generated length of travelling actions: the neighbours' time to cover the desired "
                         "path's travel (default) or the desired path's own (the paper's)")
     parser.add_argument("--only-folds", help="comma-separated fold numbers (development)")
+    parser.add_argument("--only-conversions",
+                        help="FOLD:DESIRED_CLIP:TARGET_STYLE[,...] as --show-failures prints them (development)")
     parser.add_argument("--no-standing-pin", action="store_true",
                         help="standing bodies pinned with the walks' stance hysteresis (before the fifth pass)")
     parser.add_argument("--arm-spread-cap", type=float, default=GenerationParams().arm_spread_cap,
@@ -177,9 +182,15 @@ def main() -> int:
     cache = Path(os.environ.get("MSE_CACHE_DIR", ".cache-mse"))
     library = load_library(args.data)
     clips = sorted(library.clips, key=lambda c: c.id)
-    if args.actions:
-        clips = [c for c in clips if c.action in args.actions.split(",")]
+    # Folds and desired paths are drawn over every clip, whatever the filters below, so that
+    # --actions, --only-folds and --only-conversions redo exactly the conversions of a full run.
     fold = folds_of(clips, args.folds, args.seed)
+    wanted_actions = set(args.actions.split(",")) if args.actions else None
+    wanted_conversions = (
+        {tuple(item.split(":")) for item in args.only_conversions.split(",")} if args.only_conversions else None
+    )
+    if wanted_conversions is not None and any(len(item) != 3 for item in wanted_conversions):
+        parser.error("--only-conversions takes FOLD:DESIRED_CLIP:TARGET_STYLE[,...]")
     factors = [float(x) for x in args.warp_augment.split(",") if x.strip()]
     descriptors = Descriptors(library, cache / "bench")
     try:
@@ -199,15 +210,27 @@ def main() -> int:
         parser.error(str(error))
     rng = np.random.default_rng(args.seed)
     speeds: dict[str, float] = {}
-    folds = [int(x) for x in args.only_folds.split(",")] if args.only_folds else list(range(args.folds))
+    folds = {int(x) for x in args.only_folds.split(",")} if args.only_folds else set(range(args.folds))
+    if wanted_conversions is not None:
+        folds &= {int(item[0]) for item in wanted_conversions}
     real_hits: list[bool] = []
     rows: list[dict[str, object]] = []  # one per conversion
     started = time.perf_counter()
     timings: list[float] = []
-    for f in folds:
-        test = [c for c in clips if fold[c.id] == f]
-        train = [c for c in clips if fold[c.id] != f]
-        excluded = [c.id for c in test]
+    for f in range(args.folds):
+        everything = [c for c in clips if fold[c.id] == f]
+        excluded = [c.id for c in everything]
+        groups: dict[tuple[str, str], list[Clip]] = defaultdict(list)
+        for clip in everything:
+            groups[clip.action, clip.style].append(clip)
+        picks = {
+            key: rng.choice(len(members), size=min(args.per_group, len(members)), replace=False)
+            for key, members in sorted(groups.items())
+        }
+        if f not in folds:
+            continue
+        test = [c for c in everything if wanted_actions is None or c.action in wanted_actions]
+        train = [c for c in clips if fold[c.id] != f and (wanted_actions is None or c.action in wanted_actions)]
         recognizers = {}
         for action in sorted({c.action for c in train}):
             mine = [c for c in train if c.action == action]
@@ -222,18 +245,18 @@ def main() -> int:
             own = [c for c in train if c.action == action]
             step = max(1, len(own) // 80)
             references[action] = reference(action, [library.motion(c) for c in own[::step]])
-        groups: dict[tuple[str, str], list[Clip]] = defaultdict(list)
-        for clip in test:
-            groups[clip.action, clip.style].append(clip)
         for (action, original), members in sorted(groups.items()):
-            picks = rng.choice(len(members), size=min(args.per_group, len(members)), replace=False)
+            if wanted_actions is not None and action not in wanted_actions:
+                continue
             targets = sorted({c.style for c in train if c.action == action} - {original})
-            for index in picks:
+            for index in picks[action, original]:
                 desired = members[int(index)]
                 desired_motion = library.motion(desired)
                 recognizer = recognizers[action]
                 identity = recognizer.predict(descriptors.get(desired), action)
                 for target in targets:
+                    if wanted_conversions is not None and (str(f), desired.id, target) not in wanted_conversions:
+                        continue
                     clock = time.perf_counter()
                     result = generate_motion(
                         library, action, target, clip=desired.id, exclude=excluded, params=params
