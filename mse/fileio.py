@@ -2,8 +2,9 @@
 
 Reading (:func:`read_input`; the code is :mod:`mse.input_files`'s): regular files only (or
 ``-`` for standard input), never more than a size limit, so ``/dev/zero``, a FIFO without a
-writer or a 300 MB stdin cannot grow memory or hang.  :func:`decode_utf8` and :func:`parse_json` turn bad bytes, deep nesting,
-huge integers and NaN/Infinity into located diagnostics.
+writer or a 300 MB stdin cannot grow memory or hang.  :func:`decode_utf8` and
+:func:`parse_json` turn bad bytes, deep nesting, huge integers and NaN/Infinity into located
+diagnostics.
 
 Writing (:func:`write_atomic`, :func:`staged_folder`), by kind of target (docs/security.md):
 
