@@ -19,6 +19,7 @@ Box = tuple[int, int, int, int]
 Env = Mapping[str, Sequence[Box]]
 Node = Callable[[Env], int]
 
+
 def mask_not(mask: int) -> int:
     return ((mask & T) << 1) | ((mask & F) >> 1) | (mask & N)
 
