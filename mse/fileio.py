@@ -1,9 +1,10 @@
 """The one place where mse reads input files and writes output files.
 
-Reading (:func:`read_input`): regular files only (or ``-`` for standard input), never more
-than a size limit, so ``/dev/zero``, a FIFO without a writer or a 300 MB stdin cannot grow
-memory or hang.  :func:`decode_utf8` and :func:`parse_json` turn bad bytes, deep nesting,
-huge integers and NaN/Infinity into located diagnostics.
+Reading (:func:`read_input`; the code is :mod:`mse.input_files`'s): regular files only (or
+``-`` for standard input), never more than a size limit, so ``/dev/zero``, a FIFO without a
+writer or a 300 MB stdin cannot grow memory or hang.  :func:`decode_utf8` and
+:func:`parse_json` turn bad bytes, deep nesting, huge integers and NaN/Infinity into located
+diagnostics.
 
 Writing (:func:`write_atomic`, :func:`staged_folder`), by kind of target (docs/security.md):
 
@@ -26,20 +27,32 @@ temporary file is removed on any error, on Ctrl-C and on SIGTERM (see
 from __future__ import annotations
 
 import contextlib
-import json
 import os
-import re
 import signal
 import stat
-import sys
 from collections.abc import Iterable, Iterator, Sequence
 from pathlib import Path
-from typing import Any, BinaryIO
 
-from mse.diagnostics import Diagnostic, MseError, Span
-from mse.limits import MAX_INPUT_BYTES, MAX_JSON_DEPTH, MAX_JSON_INT_DIGITS
+from mse.diagnostics import MseError
+from mse.input_files import (
+    PathLike,
+    decode_utf8,
+    file_kind,
+    json_depth,
+    located_error,
+    parse_json,
+    read_capped,
+    read_input,
+    read_json,
+)
 
-PathLike = str | os.PathLike[str]
+# Reading lives in mse/input_files.py; this module writes and re-exports it, so that
+# ``mse.fileio`` stays the one name for mse's file access.
+__all__ = [
+    "PathLike", "Terminated", "atomic_path", "decode_utf8", "install_termination_handler", "json_depth",
+    "parse_json", "private_folder", "read_capped", "read_input", "read_json", "refuse_inputs", "staged_folder",
+    "user_cache_dir", "write_atomic",
+]
 _SIGNALS = tuple(s for s in (signal.SIGTERM, signal.SIGINT, getattr(signal, "SIGHUP", None)) if s is not None)
 
 
@@ -77,198 +90,9 @@ def _signals_blocked() -> Iterator[None]:
         signal.pthread_sigmask(signal.SIG_SETMASK, previous)
 
 
-# -- reading --------------------------------------------------------------------------------
-def _fail(code: str, message: str, path: str, line: int = 0, col: int = 0) -> MseError:
-    return MseError([Diagnostic(code, message, Span(path, line, col))])
-
-
-def _kind(mode: int) -> str:
-    if stat.S_ISDIR(mode):
-        return "a directory"
-    if stat.S_ISCHR(mode):
-        return "a character device"
-    if stat.S_ISBLK(mode):
-        return "a block device"
-    if stat.S_ISFIFO(mode):
-        return "a FIFO"
-    if stat.S_ISSOCK(mode):
-        return "a socket"
-    return "not a regular file"
-
-
-def read_capped(stream: BinaryIO, limit: int, name: str) -> bytes:
-    """At most ``limit`` bytes from ``stream``; E104 when it holds more."""
-    data = stream.read(limit + 1)
-    if len(data) > limit:
-        raise _fail("E104", f"input is larger than the limit of {limit} bytes", name)
-    return data
-
-
-def read_input(path: PathLike, *, limit: int = MAX_INPUT_BYTES, what: str = "file") -> bytes:
-    """The bytes of the regular file ``path`` (``-``: standard input), at most ``limit``.
-
-    Missing, unreadable, non-regular (devices, FIFOs, directories) -> E100; larger than the
-    limit -> E104.  Never blocks on a FIFO and never reads more than ``limit + 1`` bytes."""
-    name = os.fspath(path)
-    if name == "-":
-        return read_capped(sys.stdin.buffer, limit, "<stdin>")
-    try:
-        # O_NONBLOCK: opening a FIFO without a writer must not hang (it is refused below).
-        fd = os.open(name, os.O_RDONLY | os.O_NONBLOCK | getattr(os, "O_CLOEXEC", 0))
-    except OSError as error:
-        raise _fail("E100", f"cannot read {what}: {error.strerror or error}", name) from None
-    except ValueError:  # a NUL character in the name
-        raise _fail("E100", f"cannot read {what}: the name holds a NUL character", repr(name)) from None
-    try:
-        info = os.fstat(fd)
-        if not stat.S_ISREG(info.st_mode):
-            hint = "" if stat.S_ISDIR(info.st_mode) else "; give a regular file, or '-' for standard input"
-            raise _fail("E100", f"cannot read {what}: is {_kind(info.st_mode)}{hint}", name)
-        if info.st_size > limit:
-            raise _fail("E104", f"{what} is {info.st_size} bytes; the limit is {limit}", name)
-        chunks: list[bytes] = []
-        total = 0
-        while total <= limit:
-            chunk = os.read(fd, min(1 << 20, limit + 1 - total))
-            if not chunk:
-                break
-            chunks.append(chunk)
-            total += len(chunk)
-        if total > limit:  # the file grew while it was read
-            raise _fail("E104", f"{what} is larger than the limit of {limit} bytes", name)
-        return b"".join(chunks)
-    except OSError as error:
-        raise _fail("E100", f"cannot read {what}: {error.strerror or error}", name) from None
-    finally:
-        os.close(fd)
-
-
-def decode_utf8(data: bytes, name: str, *, code: str = "E100", what: str = "file") -> str:
-    """``data`` as UTF-8 text (a leading BOM dropped); bad bytes -> ``code`` at line:col."""
-    try:
-        text = data.decode("utf-8")
-    except UnicodeDecodeError as error:
-        start = error.start
-        line = data.count(b"\n", 0, start) + 1
-        col = start - (data.rfind(b"\n", 0, start) + 1) + 1
-        raise _fail(code, f"{what} is not valid UTF-8 (byte 0x{data[start]:02x})", name, line, col) from None
-    return text[1:] if text.startswith("\ufeff") else text
-
-
-class _JsonLimit(ValueError):
-    pass
-
-
-def _json_int(text: str) -> int:
-    if len(text.lstrip("-")) > MAX_JSON_INT_DIGITS:
-        raise _JsonLimit(f"an integer of {len(text.lstrip('-'))} digits (the limit is {MAX_JSON_INT_DIGITS})")
-    return int(text)
-
-
-def _json_float(text: str) -> float:
-    value = float(text)
-    if value in (float("inf"), float("-inf")):
-        raise _JsonLimit(f"the number {text[:40]} is out of range")
-    return value
-
-
-def _json_constant(text: str) -> Any:
-    raise _JsonLimit(f"{text} is not a JSON number")
-
-
-_SURROGATE = re.compile("[\ud800-\udfff]")
-
-
-def json_depth(obj: Any) -> int:
-    """Nesting depth of decoded JSON (scalars 0), without recursion; -1 when a string or a
-    key holds a lone surrogate (``"\\ud800"`` decodes to text no file can hold)."""
-    deepest = 0
-    stack: list[tuple[Any, int]] = [(obj, 0)]
-    while stack:
-        node, depth = stack.pop()
-        if isinstance(node, str):
-            if _SURROGATE.search(node):
-                return -1
-            continue
-        if isinstance(node, dict):
-            if any(_SURROGATE.search(key) for key in node):
-                return -1
-            node = list(node.values())
-        if isinstance(node, list):
-            depth += 1
-            deepest = max(deepest, depth)
-            if depth > MAX_JSON_DEPTH:
-                return depth
-            stack.extend((child, depth) for child in node if isinstance(child, dict | list | str))
-    return deepest
-
-
-_JSON_TOKEN = re.compile(r'"(?:[^"\\]|\\.)*"|-?[0-9]+(?:\.[0-9]+)?(?:[eE][+-]?[0-9]+)?|NaN|-?Infinity|[\[\]{}]')
-
-
-def _json_problem_at(text: str) -> tuple[int, int]:
-    """Line and column of the first token that breaks a limit of :func:`parse_json` (too
-    deep, a huge or infinite number, NaN, a string with a lone surrogate); linear, and only
-    run once decoding has already failed.  (1, 1) when nothing is found."""
-    depth = 0
-    for token in _JSON_TOKEN.finditer(text):
-        found = token.group()
-        bad = False
-        if found in "[{":
-            depth += 1
-            bad = depth > MAX_JSON_DEPTH
-        elif found in "]}":
-            depth -= 1
-        elif found.startswith('"'):
-            with contextlib.suppress(ValueError):
-                bad = "\\u" in found and _SURROGATE.search(json.loads(found)) is not None
-        else:
-            digits = found.lstrip("-").split(".")[0].split("e")[0].split("E")[0]
-            bad = found in ("NaN", "Infinity", "-Infinity") or len(digits) > MAX_JSON_INT_DIGITS
-            bad = bad or float(found) in (float("inf"), float("-inf"))
-        if bad:
-            line = text.count("\n", 0, token.start()) + 1
-            return line, token.start() - (text.rfind("\n", 0, token.start()) + 1) + 1
-    return 1, 1
-
-
-def parse_json(text: str, name: str, *, code: str = "E100", line: int | None = None) -> Any:
-    """Decode JSON text; syntax errors, nesting deeper than MAX_JSON_DEPTH, integers of
-    more than MAX_JSON_INT_DIGITS digits, NaN/Infinity and strings holding a lone surrogate
-    -> ``code`` at the offending line:col.
-    ``line``: the 1-based line of ``text`` in its file (one line of a JSON-lines file)."""
-    first = line or 1
-
-    def fail(message: str) -> MseError:
-        at_line, col = _json_problem_at(text)
-        return _fail(code, message, name, at_line + first - 1, col)
-
-    try:
-        obj = json.loads(text, parse_int=_json_int, parse_float=_json_float, parse_constant=_json_constant)
-    except json.JSONDecodeError as error:
-        raise _fail(code, f"invalid JSON: {error.msg}", name, error.lineno + first - 1, error.colno) from None
-    except RecursionError:
-        raise fail(f"JSON nested more than {MAX_JSON_DEPTH} levels deep") from None
-    except ValueError as error:  # _JsonLimit, and any other limit of the json module
-        raise fail(f"invalid JSON: {error}") from None
-    depth = json_depth(obj)
-    if depth < 0:
-        raise fail("invalid JSON: a string holds a lone surrogate (not a Unicode character)")
-    if depth > MAX_JSON_DEPTH:
-        raise fail(f"JSON nested more than {MAX_JSON_DEPTH} levels deep")
-    return obj
-
-
-def read_json(path: PathLike, *, limit: int = MAX_INPUT_BYTES, what: str = "file", code: str = "E100") -> Any:
-    """A JSON file read with :func:`read_input`, :func:`decode_utf8` and :func:`parse_json`."""
-    name = os.fspath(path)
-    text = decode_utf8(read_input(path, limit=limit, what=what), name, code=code, what=what)
-    return parse_json(text, name, code=code)
-
-
 # -- writing --------------------------------------------------------------------------------
 def _write_error(path: str, message: str) -> MseError:
-    return _fail("E105", message, path)
+    return located_error("E105", message, path)
 
 
 def _same_file(a: os.stat_result, b: os.stat_result) -> bool:
@@ -357,7 +181,7 @@ def _resolve_target(name: str) -> tuple[str, os.stat_result | None]:
         return name, info
     if stat.S_ISCHR(mode) or stat.S_ISFIFO(mode):
         return name, info
-    raise _write_error(name, f"cannot write output: is {_kind(mode)}")
+    raise _write_error(name, f"cannot write output: is {file_kind(mode)}")
 
 
 def write_atomic(path: PathLike, data: str | bytes, *, inputs: Iterable[PathLike] = (), durable: bool = True) -> None:

@@ -3,14 +3,12 @@
 from __future__ import annotations
 
 import argparse
-import contextlib
 import json
 import os
 import re
 import stat
 import sys
 import time
-from collections.abc import Iterable, Iterator
 from typing import Any
 
 from mse.cli.common import add_quiet, emit, print_diagnostics, print_error, read_stdin_bytes
@@ -227,44 +225,6 @@ def run(args: argparse.Namespace) -> int:
         return print_error(error)
 
 
-class _Output:
-    """Where streamed output goes: stdout, or a file written atomically (a temporary file
-    that takes the output's place when everything is written).  The first write is flushed at
-    once, later ones every FLUSH_EVERY seconds, so that a reader sees the first timeline
-    without waiting for the rest."""
-
-    FLUSH_EVERY = 0.2
-
-    def __init__(self, handle: Any) -> None:
-        self.handle = handle
-        self.flushed = 0.0
-
-    def write(self, text: str) -> None:
-        self.handle.write(text)
-        now = time.monotonic()
-        if now - self.flushed >= self.FLUSH_EVERY:
-            self.handle.flush()
-            self.flushed = now
-
-
-@contextlib.contextmanager
-def _output(path: str | None, inputs: Iterable[str]) -> Iterator[_Output]:
-    if path and path != "-":
-        from mse.fileio import atomic_path
-
-        with atomic_path(path, inputs=inputs) as temporary, open(temporary, "w", encoding="utf-8") as handle:
-            yield _Output(handle)
-        return
-    try:
-        yield _Output(sys.stdout)
-        sys.stdout.flush()
-    except BrokenPipeError:
-        # The reader went away (``| head``): stop quietly, and let no later flush complain.
-        devnull = os.open(os.devnull, os.O_WRONLY)
-        os.dup2(devnull, sys.stdout.fileno())
-        raise
-
-
 def _seed(args: argparse.Namespace) -> int:
     """The seed of the run: given, or fresh (and recorded in the output)."""
     if args.seed is not None:
@@ -278,10 +238,11 @@ def _stream(model: Any, args: argparse.Namespace) -> int:
     """JSON lines, one per occurrence as soon as it is decided; each line names the expression,
     the seed and the duration of its timeline (``--count``: timelines one after another)."""
     from mse.api import iter_sample
+    from mse.cli.sample_output import output_to
     from mse.solve.protocol import derive_seed
 
     seed = _seed(args)
-    with _output(args.output, [p for p in (args.source,) if p]) as out:
+    with output_to(args.output, [p for p in (args.source,) if p]) as out:
         for index in range(args.count or 1):
             began = time.monotonic()
             timeline_seed = derive_seed(seed, index)
@@ -300,13 +261,14 @@ def _stream(model: Any, args: argparse.Namespace) -> int:
 
 def _sample(model: Any, args: argparse.Namespace) -> int:
     from mse.api import iter_timelines, sample
+    from mse.cli.sample_output import is_folder, output_to, render_timelines, write_folder, write_many, write_video_file
 
     fmt = args.format or ("table" if sys.stdout.isatty() and not args.output else "json")
     if args.count is not None and not args.animate and fmt in BASE_FORMATS:
         timelines_stream = iter_timelines(model, args.duration, seed=args.seed, count=args.count,
                                           solver=args.solver, mode=args.mode, **_options(args))
-        with _output(args.output, [p for p in (args.source,) if p]) as out:
-            _write_many(timelines_stream, fmt, out)
+        with output_to(args.output, [p for p in (args.source,) if p]) as out:
+            write_many(timelines_stream, fmt, out)
         return 0
     result = sample(
         model, args.duration, seed=args.seed, count=args.count, solver=args.solver, mode=args.mode, **_options(args)
@@ -320,113 +282,11 @@ def _sample(model: Any, args: argparse.Namespace) -> int:
         inputs = [p for p in (args.source, args.library) if p]
         timelines = animate_timelines([(t, model) for t in timelines], Path(args.animate), args.library, inputs=inputs)
     if fmt in VIDEO_FORMATS:
-        return _video(timelines, fmt, args)
-    if fmt in EXPORT_FORMATS and args.output and _is_folder(args.output):
-        return _write_folder(timelines, fmt, args)
+        return write_video_file(timelines, fmt, args)
+    if fmt in EXPORT_FORMATS and args.output and is_folder(args.output):
+        return write_folder(timelines, fmt, args)
     inputs = [p for p in (args.source, args.library, args.face_library) if p]
-    emit(_render(timelines, fmt, args, many=args.count is not None), args.output, inputs=inputs)
+    emit(render_timelines(timelines, fmt, args, many=args.count is not None), args.output, inputs=inputs)
     return 0
 
 
-def _write_many(timelines: Iterable[Any], fmt: str, out: _Output) -> None:
-    """``--count`` output written timeline by timeline (the same text as rendering them all)."""
-    for index, timeline in enumerate(timelines):
-        if fmt == "jsonl":
-            out.write(timeline.dumps(indent=None) + "\n")
-        elif fmt == "json":
-            item = json.dumps(timeline.to_json(), indent=2, ensure_ascii=False).replace("\n", "\n  ")
-            out.write(("[\n  " if index == 0 else ",\n  ") + item)
-        else:
-            from mse.cli.table import render_table
-
-            out.write(("" if index == 0 else "\n") + render_table(timeline))
-    if fmt == "json":
-        out.write("\n]\n")
-
-
-def _is_folder(output: str) -> bool:
-    from pathlib import Path
-
-    return output.endswith(("/", "\\")) or Path(output).is_dir()
-
-
-def _write_folder(timelines: list[Any], fmt: str, args: argparse.Namespace) -> int:
-    """One file per timeline, ``<expression>-<n><suffix>`` (n from 1); all rendered first."""
-    from pathlib import Path
-
-    from mse.cli.cmd_export import report_unmapped_faces
-    from mse.export import SUFFIXES, export_notes, render
-    from mse.fileio import write_atomic
-
-    options = _export_options(args)
-    report_unmapped_faces(timelines, options, fmt)
-    pages = [render(t, fmt, options) for t in timelines]
-    for timeline in timelines:
-        print_diagnostics(export_notes(timeline, fmt, options, where=args.source or "<sample>"))
-    for number, (timeline, page) in enumerate(zip(timelines, pages, strict=True), 1):
-        target = Path(args.output) / f"{timeline.expression or 'timeline'}-{number}{SUFFIXES[fmt]}"
-        write_atomic(target, page, inputs=[p for p in (args.source, args.library, args.face_library) if p])
-    return 0
-
-
-def _video(timelines: list[Any], fmt: str, args: argparse.Namespace) -> int:
-    from pathlib import Path
-
-    from mse.cli.cmd_render import print_notes
-    from mse.export.video import write_video
-
-    if not args.output or args.output == "-" or len(timelines) > 1:
-        message = f"--format {fmt} writes one timeline to a file: give -o FILE, no --count"
-        raise MseError([Diagnostic("E100", message, Span("<arguments>"))])
-    where = args.source or timelines[0].expression or "<sample>"
-    try:
-        report = write_video(timelines[0], Path(args.output), fmt, _export_options(args))
-    except OSError as error:
-        reason = error.strerror or str(error)
-        raise MseError([Diagnostic("E100", f"cannot write output: {reason}", Span(args.output))]) from None
-    print_notes(report.notes, where)
-    return 0
-
-
-def _export_options(args: argparse.Namespace) -> Any:
-    from pathlib import Path
-
-    from mse.export import ExportOptions
-
-    return ExportOptions(
-        character_id=args.character_id,
-        face_library=Path(args.face_library) if args.face_library else None,
-        bml_extensions=args.bml_extensions,
-        motion_base_dir=Path(args.animate) if args.animate else None,
-        realizer=args.realizer,
-        library_dir=Path(args.library_dir) if args.library_dir else None,
-        head_library=args.head_library,
-        lexicon=tuple(args.lexicon),
-    )
-
-
-def _render(timelines: list[Any], fmt: str, args: argparse.Namespace, *, many: bool) -> str:
-    from mse.timeline import dumps_jsonl
-
-    if fmt == "table":
-        from mse.cli.table import render_table
-
-        return "\n".join(render_table(t) for t in timelines)
-    if fmt == "jsonl":
-        return dumps_jsonl(timelines)
-    if fmt == "json":
-        if many:
-            return json.dumps([t.to_json() for t in timelines], indent=2, ensure_ascii=False) + "\n"
-        return str(timelines[0].dumps()) + "\n"
-    from mse.export import export_notes, render
-
-    options = _export_options(args)
-    if len(timelines) > 1:
-        raise MseError([Diagnostic("E100", f"--format {fmt} exports one timeline; drop --count or give -o FOLDER/",
-                                   Span("<arguments>"))])
-    from mse.cli.cmd_export import report_unmapped_faces
-
-    report_unmapped_faces(timelines, options, fmt)
-    text = str(render(timelines[0], fmt, options))
-    print_diagnostics(export_notes(timelines[0], fmt, options, where=args.source or "<sample>"))
-    return text

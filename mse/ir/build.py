@@ -1,95 +1,27 @@
-"""AST -> resolved Model, with every semantic check (E2xx) of a file reported at once."""
+"""AST -> resolved Model, with every semantic check (E2xx) of a file reported at once.
+
+The checker that collects them is build_checker.py's; each constraint's expression is resolved
+by build_constraints.py."""
 
 from __future__ import annotations
 
-import difflib
 import math
 import re
-from collections.abc import Callable
 
 from mse.diagnostics import Diagnostic, Span, has_errors
 from mse.ir import model as ir
-from mse.ir.schedule import to_ticks
-from mse.limits import parse_double, parse_integer, time_problem, xml_char_problem
+from mse.ir.build_checker import BuildChecker
+from mse.ir.build_constraints import ConstraintResolver
+from mse.limits import xml_char_problem
 from mse.syntax import ast
 
 IDENTIFIER = re.compile(r"[A-Za-z_][A-Za-z0-9_]*\Z")
 EXPRESSION_NAME = re.compile(r"[A-Za-z_][A-Za-z0-9_.\-]*\Z")
 
 
-class _Checker:
-    def __init__(self, path: str) -> None:
-        self.path = path
-        self.diagnostics: list[Diagnostic] = []
-
-    def error(self, code: str, message: str, span: Span) -> None:
-        self.diagnostics.append(Diagnostic(code, message, span))
-
-    def number(
-        self,
-        attributes: dict[str, ast.Attribute],
-        key: str,
-        default: float,
-        *,
-        minimum: float | None = None,
-        maximum: float | None = None,
-        code: str = "E204",
-    ) -> float:
-        attribute = attributes.get(key)
-        if attribute is None:
-            return default
-        parsed = parse_double(attribute.value)
-        if parsed is None:
-            special = attribute.value.strip().lower().lstrip("+-") in ("nan", "inf", "infinity")
-            reason = "must be a finite number" if special else "is not a number"
-            self.error("E204", f"{key}={attribute.value[:60]!r} {reason}", attribute.span)
-            return default
-        value = parsed
-        if not math.isfinite(value):
-            self.error("E204", f"{key}={attribute.value[:60]!r} must be a finite number", attribute.span)
-            return default
-        if (minimum is not None and value < minimum) or (maximum is not None and value > maximum):
-            bounds = f"in [{minimum:g}, {maximum:g}]" if maximum is not None else f">= {minimum:g}"
-            self.error(code, f"{key}={attribute.value[:60]} must be {bounds}", attribute.span)
-            return default
-        return value
-
-    def seconds(self, attributes: dict[str, ast.Attribute], key: str, default: float) -> float:
-        """A duration attribute: a number in [0, MAX_SECONDS] (E204, E215)."""
-        value = self.number(attributes, key, default, minimum=0.0)
-        attribute = attributes.get(key)
-        problem = time_problem(value, minimum=0.0) if attribute is not None and math.isfinite(value) else None
-        if attribute is not None and problem is not None:
-            self.error("E215", f"{key}={attribute.value[:60]} {problem}", attribute.span)
-            return default
-        return value
-
-    def ticks(self, seconds: float, span: Span, what: str) -> int:
-        """``seconds`` on the 1 ms grid, with a W309 warning when that rounds it."""
-        ticks = to_ticks(seconds)
-        if abs(seconds * 1000 - ticks) > 1e-6:
-            self.error("W309", f"{what} {seconds:g} s is finer than the 1 ms grid of the semantics: "
-                       f"it is rounded to {ticks / 1000:g} s", span)
-        return ticks
-
-    def integer(self, attributes: dict[str, ast.Attribute], key: str, default: int, *, minimum: int, code: str) -> int:
-        attribute = attributes.get(key)
-        if attribute is None:
-            return default
-        value = parse_integer(attribute.value)
-        if value is None or value < minimum:
-            self.error(
-                code,
-                f"{key}={attribute.value[:60]!r} must be a whole number >= {minimum} (at most 9 digits)",
-                attribute.span,
-            )
-            return default
-        return value
-
-
 def build_model(document: ast.Document) -> tuple[ir.Model | None, list[Diagnostic]]:
     """Resolve and validate ``document``; the model is None when there are errors."""
-    checker = _Checker(document.path)
+    checker = BuildChecker(document.path)
     name = _expression_name(document, checker)
     modalities = _modalities(document, checker)
     signals = _signals(document, checker)
@@ -112,7 +44,7 @@ def build_model(document: ast.Document) -> tuple[ir.Model | None, list[Diagnosti
     )
 
 
-def _expression_name(document: ast.Document, checker: _Checker) -> str:
+def _expression_name(document: ast.Document, checker: BuildChecker) -> str:
     if document.name is None:
         return "expression"
     if not EXPRESSION_NAME.match(document.name.value):
@@ -120,7 +52,7 @@ def _expression_name(document: ast.Document, checker: _Checker) -> str:
     return document.name.value
 
 
-def _modalities(document: ast.Document, checker: _Checker) -> list[ir.Modality]:
+def _modalities(document: ast.Document, checker: BuildChecker) -> list[ir.Modality]:
     seen: set[str] = set()
     result: list[ir.Modality] = []
     for declaration in document.modalities:
@@ -137,7 +69,7 @@ def _modalities(document: ast.Document, checker: _Checker) -> list[ir.Modality]:
     return result
 
 
-def _signals(document: ast.Document, checker: _Checker) -> list[ir.Signal]:
+def _signals(document: ast.Document, checker: BuildChecker) -> list[ir.Signal]:
     if not document.signals:
         checker.error("E209", "the expression declares no signal", document.span)
         return []
@@ -202,7 +134,7 @@ def _signals(document: ast.Document, checker: _Checker) -> list[ir.Signal]:
     return result
 
 
-def _repetitivity(attributes: dict[str, ast.Attribute], checker: _Checker) -> int:
+def _repetitivity(attributes: dict[str, ast.Attribute], checker: BuildChecker) -> int:
     attribute = attributes.get("repetitivity")
     if attribute is None:
         return 0
@@ -213,7 +145,7 @@ def _repetitivity(attributes: dict[str, ast.Attribute], checker: _Checker) -> in
     return int(text)
 
 
-def _motion(declaration: ast.MotionDecl | None, checker: _Checker) -> ir.MotionLeaf | None:
+def _motion(declaration: ast.MotionDecl | None, checker: BuildChecker) -> ir.MotionLeaf | None:
     if declaration is None:
         return None
     attributes = declaration.attributes
@@ -238,7 +170,7 @@ def _motion(declaration: ast.MotionDecl | None, checker: _Checker) -> ir.MotionL
     )
 
 
-def _constraints(document: ast.Document, signal_ids: set[str], checker: _Checker) -> list[ir.Constraint]:
+def _constraints(document: ast.Document, signal_ids: set[str], checker: BuildChecker) -> list[ir.Constraint]:
     explicit = {d.id.value for d in document.constraints if d.id is not None}
     seen: dict[str, Span] = {}
     result: list[ir.Constraint] = []
@@ -262,7 +194,7 @@ def _constraints(document: ast.Document, signal_ids: set[str], checker: _Checker
                 constraint_id = f"c{position}_{suffix}"
         if declaration.expr is None:
             continue
-        resolver = _Resolver(signal_ids, constraint_id, checker)
+        resolver = ConstraintResolver(signal_ids, constraint_id, checker)
         expr = resolver.expr(declaration.expr)
         result.append(
             ir.Constraint(
@@ -276,149 +208,3 @@ def _constraints(document: ast.Document, signal_ids: set[str], checker: _Checker
     return result
 
 
-class _Resolver:
-    """Resolves names and converts seconds to ms ticks inside one constraint."""
-
-    def __init__(self, signal_ids: set[str], constraint_id: str, checker: _Checker) -> None:
-        self.signal_ids = signal_ids
-        self.constraint_id = constraint_id
-        self.checker = checker
-
-    def signal(self, name: ast.Name) -> str:
-        if name.text not in self.signal_ids:
-            guess = difflib.get_close_matches(name.text, sorted(self.signal_ids), n=1, cutoff=0.6)
-            hint = f" (did you mean {guess[0]!r}?)" if guess else ""
-            self.checker.error(
-                "E203", f"unknown signal {name.text!r} in constraint {self.constraint_id!r}{hint}", name.span
-            )
-        return name.text
-
-    def ticks(self, value: float, span: Span, what: str) -> int:
-        """Seconds to ms ticks, within the supported range (E215 otherwise)."""
-        problem = time_problem(value)
-        if problem is not None:
-            self.checker.error("E215", f"{what} {value:g} {problem} (constraint {self.constraint_id!r})", span)
-            return 0
-        return self.checker.ticks(value, span, what)
-
-    def term(self, node: ast.TermNode) -> ir.Term:
-        if isinstance(node, ast.SignalTimeNode):
-            edge: ir.Edge = "start" if node.edge == "start" else "stop"
-            offset = self.ticks(node.offset, node.span, "offset")
-            return ir.SignalTime(self.signal(node.signal), edge, offset, node.span)
-        assert not isinstance(node, ast.DifferenceNode), "differences are built by _difference"
-        if isinstance(node, ast.DurationNode):
-            return ir.DurationTime(self.ticks(node.offset, node.span, "offset"), node.span)
-        return ir.Constant(self.ticks(node.value, node.span, "time"), node.span)
-
-    @staticmethod
-    def operands(node: ast.NotNode | ast.BinaryNode) -> list[ast.ExprNode]:
-        """The operands of ``node``; a chain of one connective (``a and b and c``, however
-        parenthesised) is one n-ary node, gathered without recursion."""
-        if isinstance(node, ast.NotNode):
-            return [node.operand]
-        if node.op == "implies":
-            return [node.left, node.right]
-        found: list[ast.ExprNode] = []
-        pending: list[ast.ExprNode] = [node]
-        while pending:
-            current = pending.pop()
-            if isinstance(current, ast.BinaryNode) and current.op == node.op:
-                pending.append(current.right)
-                pending.append(current.left)
-            else:
-                found.append(current)
-        return found
-
-    def expr(self, node: ast.ExprNode) -> ir.Expr:
-        # Iterative post-order, so that very long or deep expressions do not recurse, and
-        # each chain is built once (memory linear in the length of the expression).
-        handlers: dict[type, Callable[[ast.ExprNode], ir.Expr]] = {
-            ast.ExistsNode: self._exists,
-            ast.RelationNode: self._relation,
-            ast.CompareNode: self._compare,
-        }
-        results: dict[int, ir.Expr] = {}
-        stack: list[tuple[ast.ExprNode, bool]] = [(node, False)]
-        while stack:
-            current, expanded = stack.pop()
-            if isinstance(current, ast.NotNode | ast.BinaryNode):
-                operands = self.operands(current)
-                if not expanded:
-                    stack.append((current, True))
-                    stack.extend((operand, False) for operand in reversed(operands))
-                    continue
-                built = [results.pop(id(operand)) for operand in operands]
-                results[id(current)] = _connective(current, built)
-            else:
-                results[id(current)] = handlers[type(current)](current)
-        return results[id(node)]
-
-    def _exists(self, node: ast.ExprNode) -> ir.Expr:
-        assert isinstance(node, ast.ExistsNode)
-        return ir.Exists(self.signal(node.signal), node.span)
-
-    def _relation(self, node: ast.ExprNode) -> ir.Expr:
-        assert isinstance(node, ast.RelationNode)
-        kind: ir.RelationKind = {
-            "includes": "includes",
-            "excludes": "excludes",
-            "precedes": "precedes",
-            "rightincludes": "rightincludes",
-        }[node.kind]  # type: ignore[assignment]
-        return ir.Relation(kind, self.signal(node.left), self.signal(node.right), node.span)
-
-    def _compare(self, node: ast.ExprNode) -> ir.Expr:
-        assert isinstance(node, ast.CompareNode)
-        tolerance = 0
-        if node.tolerance is not None:
-            if node.tolerance.value < 0:
-                self.checker.error(
-                    "E208", f"tolerance {node.tolerance.value:g} must not be negative", node.tolerance.span
-                )
-            else:
-                tolerance = self.ticks(node.tolerance.value, node.tolerance.span, "tolerance")
-        op: ir.CompareOp = {"<": "<", ">": ">", "=": "=", "<=": "<=", ">=": ">="}[node.op]  # type: ignore[assignment]
-        if isinstance(node.left, ast.DifferenceNode) or isinstance(node.right, ast.DifferenceNode):
-            return self._difference(op, node, tolerance)
-        return ir.Compare(op, self.term(node.left), self.term(node.right), tolerance, node.span)
-
-    def _difference(self, op: ir.CompareOp, node: ast.CompareNode, tolerance: int) -> ir.Expr:
-        """``stop(a) - start(b) + c op k`` (``length(a)`` is ``stop(a) - start(a)``) is the
-        comparison of two times ``stop(a) op start(b) + (k - c)``: the same atom, evaluated
-        and solved as every other one (docs/semantics.md).  A difference compared with
-        anything but a number would need more than two times and is refused (E216)."""
-        left, right = node.left, node.right
-        if isinstance(left, ast.DifferenceNode) and isinstance(right, ast.NumberNode):
-            shift = self.ticks(right.value - left.offset, right.span, "time")
-            return ir.Compare(
-                op, self._edge(left.minuend), self._edge(left.subtrahend, shift), tolerance, node.span
-            )
-        if isinstance(right, ast.DifferenceNode) and isinstance(left, ast.NumberNode):
-            shift = self.ticks(left.value - right.offset, left.span, "time")
-            return ir.Compare(
-                op, self._edge(right.subtrahend, shift), self._edge(right.minuend), tolerance, node.span
-            )
-        other = right if isinstance(left, ast.DifferenceNode) else left
-        self.checker.error(
-            "E216",
-            "a signal's length (length(s), or a difference such as stop(a) - start(b)) can only be "
-            f"compared with a number (constraint {self.constraint_id!r})",
-            other.span,
-        )
-        difference = left if isinstance(left, ast.DifferenceNode) else right
-        assert isinstance(difference, ast.DifferenceNode)
-        return ir.Exists(self.signal(difference.minuend.signal), node.span)  # a placeholder: E216 fails the build
-
-    def _edge(self, node: ast.SignalTimeNode, offset: int = 0) -> ir.SignalTime:
-        edge: ir.Edge = "start" if node.edge == "start" else "stop"
-        return ir.SignalTime(self.signal(node.signal), edge, offset, node.span)
-
-
-def _connective(node: ast.NotNode | ast.BinaryNode, operands: list[ir.Expr]) -> ir.Expr:
-    if isinstance(node, ast.NotNode):
-        return ir.Not(operands[0], node.span)
-    if node.op == "implies":
-        return ir.Implies(operands[0], operands[1], node.span)
-    kind = ir.And if node.op == "and" else ir.Or
-    return kind(tuple(operands), node.span)

@@ -22,115 +22,20 @@ from __future__ import annotations
 
 import itertools
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass, field
-from typing import TYPE_CHECKING, Any, Literal, Union
+from typing import TYPE_CHECKING, Any
 
 from mse.diagnostics import Span
 from mse.ir import model as ir
 from mse.ir.schedule import to_ticks
 from mse.solve.bounds import length_bounds
+from mse.solve.cpsat.encoding import Edge, Encoding, Frame, Item, ItemKind, Lit, Slot, Time, lnot, time_of_edge, var
 from mse.solve.protocol import Pin
 
 if TYPE_CHECKING:
     from ortools.sat.python import cp_model
-    from ortools.sat.python.cp_model_helper import Literal as CpLiteral
 
-    Lit = Union[CpLiteral, bool]  # noqa: UP007 (a runtime-free alias)
-    Edge = Union[cp_model.IntVar, int]  # noqa: UP007
-else:
-    Lit = object
-    Edge = object
-
-ItemKind = Literal["constraint", "duration", "occurrence rule", "pin", "require", "forbid"]
-
-
-@dataclass(frozen=True, slots=True)
-class Item:
-    """One rule that can be switched off: what an explanation is made of."""
-
-    id: str
-    kind: ItemKind
-    span: Span
-    text: str
-
-
-@dataclass(frozen=True)
-class Frame:
-    """The part of a timeline one solve decides (the rolling horizon of docs/solvers.md).
-
-    *Window* slots decide the occurrences that start in ``[begin, end)``; a once-only
-    signal's one slot may also start later (its "later" option).  *Later* slots of
-    repetitive signals (``later`` per signal) start in ``[end, duration]``: they are not
-    kept, they only prove that the timeline can still be completed.  ``past`` holds the
-    committed occurrences that still matter (per signal its first and its last: see
-    :mod:`mse.solve.cpsat.horizon`), ``committed`` how many occurrences each signal already
-    has, and ``falsified`` the atoms that committed occurrences already make false.
-    The default frame is a whole timeline decided at once."""
-
-    begin: int = 0
-    end: int | None = None
-    past: Mapping[str, tuple[tuple[int, int], ...]] = field(default_factory=dict)
-    committed: Mapping[str, int] = field(default_factory=dict)
-    falsified: frozenset[ir.Atom] = frozenset()
-    later: Mapping[str, int] = field(default_factory=dict)
-
-
-@dataclass(slots=True)
-class Slot:
-    """One optional occurrence.  ``group`` is "past" (a committed occurrence: constant
-    times, ``present`` True), "window" or "later"."""
-
-    signal: str
-    index: int
-    present: Any  # a CP-SAT literal; True for a committed occurrence
-    start: Any  # CP-SAT variables; ints for a committed occurrence
-    stop: Any
-    length: Any
-    group: str = "window"
-
-    @property
-    def decided(self) -> bool:
-        return self.group != "past"
-
-
-@dataclass(frozen=True, slots=True)
-class _Time:
-    """``var + const`` (var None: a constant)."""
-
-    var: cp_model.IntVar | None
-    const: int
-
-
-def var(edge: Edge) -> cp_model.IntVar:
-    """The variable of a decided slot's edge (a committed slot's edges are constants)."""
-    assert not isinstance(edge, int), "a committed occurrence has no variables"
-    return edge
-
-
-def _time(edge: Edge, offset: int = 0) -> _Time:
-    if isinstance(edge, int):
-        return _Time(None, edge + offset)
-    return _Time(edge, offset)
-
-
-@dataclass
-class Encoding:
-    """A built CP-SAT model and the handles the solver, explainer and linter need."""
-
-    cp: cp_model.CpModel
-    model: ir.Model
-    duration: int
-    slots: dict[str, list[Slot]]
-    occurs: dict[str, Lit]
-    frame: Frame = field(default_factory=Frame)
-    instantiated: dict[str, Lit] = field(default_factory=dict)
-    violated: dict[str, Lit] = field(default_factory=dict)
-    enable: dict[str, cp_model.IntVar] = field(default_factory=dict)  # item key -> literal
-    items: dict[str, Item] = field(default_factory=dict)  # item key -> item
-
-    def decided(self, signal_id: str) -> list[Slot]:
-        """The slots of ``signal_id`` this solve decides (window and later ones)."""
-        return [slot for slot in self.slots[signal_id] if slot.decided]
+# The encoding's data and literal helpers live in encoding.py; importers keep taking them from here.
+__all__ = ["Edge", "Encoding", "Frame", "Item", "ItemKind", "Lit", "Slot", "build", "lnot", "var"]
 
 
 _MODEL_CLASS: Any = None
@@ -310,8 +215,8 @@ class _Builder:
                     second = members[j]
                     if first.signal == second.signal or (first.signal, second.signal) not in related:
                         continue
-                    before = self.le(_time(first.stop), _time(second.start))
-                    after = self.le(_time(second.stop), _time(first.start))
+                    before = self.le(time_of_edge(first.stop), time_of_edge(second.start))
+                    after = self.le(time_of_edge(second.stop), time_of_edge(first.start))
                     clause = [before, after, lnot(actives[i]), lnot(actives[j])]
                     if not any(lit is True for lit in clause):
                         self.cp.add_bool_or([lit for lit in clause if lit is not False])
@@ -329,7 +234,7 @@ class _Builder:
         return self._related
 
     # -- terms, atoms and connectives -----------------------------------------------------
-    def le(self, left: _Time, right: _Time, bound: int = 0) -> Lit:
+    def le(self, left: Time, right: Time, bound: int = 0) -> Lit:
         """The literal of ``left - right <= bound``."""
         if left.var is right.var:
             return left.const - right.const <= bound
@@ -349,18 +254,18 @@ class _Builder:
         self._le_cache[key] = holds
         return holds
 
-    def time(self, term: ir.Term, chosen: Mapping[str, Slot]) -> _Time:
+    def time(self, term: ir.Term, chosen: Mapping[str, Slot]) -> Time:
         if isinstance(term, ir.SignalTime):
             slot = chosen[term.signal]
-            return _time(slot.start if term.edge == "start" else slot.stop, term.offset)
+            return time_of_edge(slot.start if term.edge == "start" else slot.stop, term.offset)
         if isinstance(term, ir.DurationTime):
-            return _Time(None, self.duration + term.offset)
-        return _Time(None, term.value)
+            return Time(None, self.duration + term.offset)
+        return Time(None, term.value)
 
     def holds(self, atom: ir.Relation | ir.Compare, chosen: Mapping[str, Slot]) -> Lit:
         if isinstance(atom, ir.Relation):
             a, b = chosen[atom.left], chosen[atom.right]
-            sa, ea, sb, eb = (_time(v) for v in (a.start, a.stop, b.start, b.stop))
+            sa, ea, sb, eb = (time_of_edge(v) for v in (a.start, a.stop, b.start, b.stop))
             if atom.kind == "includes":
                 return self.land([self.le(sa, sb), self.le(eb, ea)])
             if atom.kind == "excludes":
@@ -458,12 +363,6 @@ class _Builder:
         for signal in forbid:
             rule = self.guard(f"forbid:{signal}", Item(signal, "forbid", where, f"{signal} forbidden"))
             self.require_not(self.enc.occurs[signal], rule)
-
-
-def lnot(literal: Lit) -> Lit:
-    if isinstance(literal, bool):
-        return not literal
-    return ~literal
 
 
 def build(

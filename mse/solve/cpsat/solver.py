@@ -29,22 +29,20 @@ import itertools
 import random
 import time
 from collections.abc import Iterator, Mapping, Sequence
-from typing import TYPE_CHECKING, Any
 
 from mse.diagnostics import Diagnostic, MseError, Span
 from mse.ir import model as ir
 from mse.ir.evaluate import check_schedule
 from mse.ir.schedule import Occurrence, Schedule, to_ticks
 from mse.solve.bounds import MAX_SLOTS, atom_mentions, length_bounds, semantic_limit, slot_counts
-from mse.solve.cpsat.encode import Encoding, Frame, build, var
+from mse.solve.cpsat.encode import Encoding, Frame, build
 from mse.solve.cpsat.engine import make_solver
 from mse.solve.cpsat.explain import whole_set_span
 from mse.solve.cpsat.horizon import Committed
 from mse.solve.cpsat.prior import SlotPrior, frame_priors
+from mse.solve.cpsat.search import POSITION_WORK as POSITION_WORK  # re-exported: the budgets sit together
+from mse.solve.cpsat.search import best_positions, decided_occurrences, hint_later, run_search
 from mse.solve.protocol import NoSolution, SolveRequest, check_request, derive_seed
-
-if TYPE_CHECKING:
-    from mse.solve.cpsat.objective import Stages
 
 #: Timelines up to this many ticks are decided in one frame.
 SINGLE_FRAME = 30_000
@@ -55,9 +53,7 @@ SAMPLE_WORK = 0.3
 #: ... on a large frame (more than LARGE_SLOTS decided slots) ...
 LARGE_WORK = 0.1
 LARGE_SLOTS = 40
-#: ... and on its positions (stage 2).
-POSITION_WORK = 0.1
-#: ... and on one --diverse timeline after the first.
+#: ... and on one --diverse timeline after the first (stage 2, the positions: search.POSITION_WORK).
 DIVERSE_WORK = 0.2
 #: Gibbs sweeps after CP-SAT (one frame, profile objective): :mod:`mse.solve.cpsat.refine`.
 REFINE_SWEEPS = 12
@@ -296,19 +292,19 @@ def _solve_frame(
     while True:
         enc = _build(model, request, priors, frame, duration)
         stages = set_objective(enc, request.objective, seed, priors, previous, request.require)
-        _hint_later(enc, later_hints)
+        hint_later(enc, later_hints)
         large = (sum(len(enc.decided(s.id)) for s in model.signals) > LARGE_SLOTS
                  or bool(request.options.get("first", False)))
         work = DIVERSE_WORK if previous else LARGE_WORK if large else SAMPLE_WORK
         work = float(request.options.get("work", work))  # type: ignore[arg-type]
         mixed = bool(previous) or request.objective in ("most-signals", "fewest-signals")
-        status, solver = _run(enc, request, seed, deadline, work, large=large,
+        status, solver = run_search(enc, request, seed, deadline, work, large=large,
                               stage="mixed" if mixed else "options")
         if status in (cp_model.OPTIMAL, cp_model.FEASIBLE):
             if (stages.positions and not large and request.options.get("positions", True)
                     and stages.position_cost(solver) > 0):
-                return _positions(enc, request, seed, deadline, solver, stages, large=large)
-            return _decode(enc, solver)
+                return best_positions(enc, request, seed, deadline, solver, stages, large=large)
+            return decided_occurrences(enc, solver)
         if status != cp_model.INFEASIBLE:
             message = (f"no timeline of {request.duration:g} s found within the time limit of "
                        f"{request.time_limit:g} s; this is not a proof that none exists (raise --time-limit)")
@@ -328,110 +324,6 @@ def _solve_frame(
                    "per signal; this is not a proof that none exists")
         raise NoSolution([Diagnostic("W401", message, whole_set_span(model))], proven=False, reason=message)
     raise _proven_infeasible(model, request)
-
-
-def _hint_later(enc: Encoding, later_hints: Sequence[Occurrence]) -> None:
-    """Later slots start from the previous window's plan for them."""
-    from mse.solve.cpsat.objective import hint
-
-    by_signal: dict[str, list[Occurrence]] = {}
-    for occurrence in later_hints:
-        by_signal.setdefault(occurrence.signal, []).append(occurrence)
-    for name, slots in enc.slots.items():
-        hinted = sorted(by_signal.get(name, []))
-        for rank, slot in enumerate(s for s in slots if s.group == "later"):
-            if rank < len(hinted):
-                hint(enc, slot, hinted[rank].start, hinted[rank].stop - hinted[rank].start)
-            else:
-                hint(enc, slot, -1, 0)
-
-
-def _solver(request: SolveRequest, seed: int, deadline: float, work: float, *, large: bool,
-            stage: str = "options") -> Any:
-    """No presolve (it costs more than the search on these models).  Large models: no LP (it
-    costs more than the whole search), branching on the hint (the thinned draw) and stopping
-    at the first timeline: improving it costs seconds for little.  Small ones, by ``stage``
-    (measured in docs/solvers.md "Sampling at 10 s"):
-
-    * ``options`` (the profile's one-hot option scores): no LP either; every option costs
-      its own non-positive score, so the objective bound alone prunes the search, and
-      without the LP each node is cheap (2x faster than with it);
-    * ``positions`` (stage 2, every option fixed): presolve (it removes the fixed options),
-      the LP relaxation, which bounds the distances nearly at the optimum, and a search up
-      from that lower bound (the plain search closes the gap one unit per solution);
-    * ``mixed`` (preferences, --diverse): the LP relaxation proves the optimum at once."""
-    from ortools.sat.python import cp_model
-
-    solver = make_solver(max(0.01, deadline - time.monotonic()), request.workers, seed, light=True)
-    if large:
-        solver.parameters.search_branching = cp_model.HINT_SEARCH
-        solver.parameters.stop_after_first_solution = True
-    elif stage == "positions":
-        solver.parameters.cp_model_presolve = True
-        solver.parameters.linearization_level = 2
-        solver.parameters.max_cut_rounds_at_level_zero = 1
-        solver.parameters.use_objective_lb_search = True
-    elif stage == "mixed":
-        solver.parameters.linearization_level = 2
-        solver.parameters.max_cut_rounds_at_level_zero = 1  # cuts cost more than they save here
-    solver.parameters.max_deterministic_time = work
-    return solver
-
-
-def _run(enc: Encoding, request: SolveRequest, seed: int, deadline: float, work: float, *,
-         large: bool, stage: str) -> tuple[Any, Any]:
-    """Solve with a deterministic work budget; without any timeline by then, go on to the first
-    one (or a proof) within the wall-clock deadline."""
-    from ortools.sat.python import cp_model
-
-    solver = _solver(request, seed, deadline, work, large=large, stage=stage)
-    status = solver.solve(enc.cp)
-    if status != cp_model.UNKNOWN:
-        return status, solver
-    solver = make_solver(max(0.01, deadline - time.monotonic()), request.workers, seed)
-    solver.parameters.stop_after_first_solution = True
-    return solver.solve(enc.cp), solver
-
-
-def _positions(enc: Encoding, request: SolveRequest, seed: int, deadline: float, first: Any,
-               stages: Stages, *, large: bool) -> list[Occurrence]:
-    """Stage 2: every option kept as stage 1 chose it, positions as close as possible to
-    their targets (within POSITION_WORK); stage 1's timeline if nothing better is found."""
-    from ortools.sat.python import cp_model
-
-    found = _decode(enc, first)
-    cp = enc.cp
-    values = list(first.response_proto.solution)
-    variables = cp.proto.variables
-    for literal in stages.options:
-        if isinstance(literal, cp_model.IntVar):  # fixing its domain: no constraint to add
-            domain = variables[literal.index].domain
-            domain[0] = domain[1] = values[literal.index]
-        else:
-            cp.add_bool_or([literal if first.boolean_value(literal) else ~literal])
-    cp.clear_hints()  # type: ignore[no-untyped-call]
-    for slots in enc.slots.values():
-        for slot in slots:
-            if slot.decided:
-                for edge in (slot.start, slot.stop, slot.length):
-                    cp.add_hint(var(edge), values[var(edge).index])
-    cp.maximize(sum(stages.second(cp)))
-    work = float(request.options.get("work", POSITION_WORK))  # type: ignore[arg-type]
-    solver = _solver(request, seed, deadline, work, large=large, stage="positions")
-    status = solver.solve(cp)
-    if status in (cp_model.OPTIMAL, cp_model.FEASIBLE):
-        return _decode(enc, solver)
-    return found
-
-
-def _decode(enc: Encoding, solver: Any) -> list[Occurrence]:
-    found = []
-    for slots in enc.slots.values():
-        for slot in slots:
-            if slot.decided and solver.boolean_value(slot.present):
-                start, stop = solver.value(slot.start), solver.value(slot.stop)
-                found.append(Occurrence(start, stop, slot.signal))
-    return found
 
 
 def _proven_infeasible(model: ir.Model, request: SolveRequest) -> NoSolution:

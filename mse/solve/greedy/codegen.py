@@ -1,6 +1,6 @@
 """Constraint checks compiled to one flat Python function each (docs/sampler.md, "Speed").
 
-:func:`mse.solve.greedy.partial.compile_expr` builds a tree of closures: one call per node of
+:func:`mse.solve.greedy.closures.compile_expr` builds a tree of closures: one call per node of
 the expression per check, and the walk makes tens of thousands of checks per second.  Here a
 whole constraint becomes the source of one function, made once per plan with ``exec``: every
 signal's boxes are fetched once, every atom's usual case (one occurrence of each signal) is
@@ -21,7 +21,7 @@ from typing import Any
 from mse.ir import model as ir
 
 #: The inlined usual case of each relation, on one box ``a`` of the left signal and one ``b``
-#: of the right (partial.py's ``_precedes`` ... ``_rightincludes``, written out).
+#: of the right (masks.py's ``_precedes`` ... ``_rightincludes``, written out).
 _RELATION_SOURCE = {
     "precedes": "(1 if a[2] <= b[1] else 0) | (2 if a[3] > b[0] else 0)",
     "includes": "(1 if a[0] <= b[1] and b[2] <= a[3] else 0) | (2 if a[1] > b[0] or b[3] > a[2] else 0)",

@@ -1,0 +1,210 @@
+"""The fast path of :func:`mse.ir.evaluate.check_schedule`: closures compiled once per model
+recognise a consistent schedule without building any message (:func:`is_clean`).
+"""
+
+from __future__ import annotations
+
+import itertools
+import weakref
+from collections.abc import Callable, Mapping, Sequence
+
+from mse.ir import model as ir
+from mse.ir.evaluate.semantics import Truth, compare_holds, evaluate_atom, kleene_and, kleene_not, kleene_or
+from mse.ir.schedule import Schedule, to_ticks
+
+# -- the fast path: recognising a consistent schedule without building messages ---------------
+# The sampler verifies every timeline it returns; almost all of them are consistent, so the
+# common answer "no violation" is computed by closures compiled once per model.  They decide
+# exactly what the full path (mse.ir.evaluate, semantics.py) decides (tests/test_greedy_check.py compares them); any
+# doubt -- an unknown signal, any structural or constraint violation -- sends the schedule
+# through the full path, which builds the messages.
+_Pool = Sequence[tuple[int, int]]
+_Node = Callable[[Mapping[str, _Pool], int], Truth]
+
+_RELATIONS: dict[str, Callable[[tuple[int, int], tuple[int, int]], bool]] = {
+    "includes": lambda a, b: a[0] <= b[0] and b[1] <= a[1],
+    "excludes": lambda a, b: a[1] <= b[0] or b[1] <= a[0],
+    "precedes": lambda a, b: a[1] <= b[0],
+    "rightincludes": lambda a, b: a[0] <= b[1] <= a[1],
+}
+
+
+def _compile_relation(atom: ir.Relation) -> _Node:
+    holds, left, right = _RELATIONS[atom.kind], atom.left, atom.right
+    if left == right:  # one occurrence stands for both names
+
+        def same(intervals: Mapping[str, _Pool], _duration: int) -> Truth:
+            pool = intervals.get(left)
+            return None if not pool else all(holds(a, a) for a in pool)
+
+        return same
+
+    def pair(intervals: Mapping[str, _Pool], _duration: int) -> Truth:
+        lefts, rights = intervals.get(left), intervals.get(right)
+        if not lefts or not rights:
+            return None
+        for a in lefts:
+            for b in rights:
+                if not holds(a, b):
+                    return False
+        return True
+
+    return pair
+
+
+def _reader(term: ir.Term) -> Callable[[tuple[int, int], int], int]:
+    """The value of ``term`` given the chosen interval of its signal and the duration."""
+    if isinstance(term, ir.SignalTime):
+        index, offset = (0 if term.edge == "start" else 1), term.offset
+        return lambda interval, _duration: interval[index] + offset
+    if isinstance(term, ir.DurationTime):
+        after = term.offset
+        return lambda _interval, duration: duration + after
+    value = term.value
+    return lambda _interval, _duration: value
+
+
+def _compile_compare(atom: ir.Compare) -> _Node:
+    names = tuple(dict.fromkeys(ir.atom_signals(atom)))  # the left term's signal first
+    if not names:
+        return lambda intervals, duration: evaluate_atom(atom, intervals, duration)
+    op, tolerance, left, right = atom.op, atom.tolerance, _reader(atom.left), _reader(atom.right)
+    if len(names) == 1:  # a signal against a constant, or against itself
+        name = names[0]
+
+        def one(intervals: Mapping[str, _Pool], duration: int) -> Truth:
+            pool = intervals.get(name)
+            if not pool:
+                return None
+            return all(compare_holds(op, left(a, duration), right(a, duration), tolerance) for a in pool)
+
+        return one
+    a_name, b_name = names
+
+    def two(intervals: Mapping[str, _Pool], duration: int) -> Truth:
+        lefts, rights = intervals.get(a_name), intervals.get(b_name)
+        if not lefts or not rights:
+            return None
+        for a in lefts:
+            value = left(a, duration)
+            for b in rights:
+                if not compare_holds(op, value, right(b, duration), tolerance):
+                    return False
+        return True
+
+    return two
+
+
+def _compile(expr: ir.Expr) -> _Node:
+    """A closure equal to ``evaluate_expr(expr, ...)``."""
+    if isinstance(expr, ir.Exists):
+        name = expr.signal
+        return lambda intervals, _duration: bool(intervals.get(name))
+    if isinstance(expr, ir.Relation):
+        return _compile_relation(expr)
+    if isinstance(expr, ir.Compare):
+        return _compile_compare(expr)
+    if isinstance(expr, ir.Not):
+        inner = _compile(expr.operand)
+        return lambda intervals, duration: kleene_not(inner(intervals, duration))
+    if isinstance(expr, ir.Implies):
+        premise, conclusion = _compile(expr.left), _compile(expr.right)
+        return lambda intervals, duration: kleene_or(
+            [kleene_not(premise(intervals, duration)), conclusion(intervals, duration)]
+        )
+    parts = [_compile(e) for e in ir.children(expr)]
+    combine = kleene_and if isinstance(expr, ir.And) else kleene_or
+    return lambda intervals, duration: combine([part(intervals, duration) for part in parts])
+
+
+_NO_LIMIT = 1 << 62  # stands for "unbounded": no length or count reaches it
+
+
+class _Checker:
+    """One model, compiled: :meth:`clean` is True iff :func:`check_schedule` finds nothing."""
+
+    __slots__ = ("constraints", "limits")
+
+    def __init__(self, model: ir.Model) -> None:
+        exclusive = model.exclusive_modalities
+        #: signal -> (shortest, longest, most occurrences, exclusive modality or None), in ticks
+        self.limits: dict[str, tuple[int, int, int, str | None]] = {
+            s.id: (
+                to_ticks(s.min_duration),
+                _NO_LIMIT if s.max_duration is None else to_ticks(s.max_duration),
+                1 if not s.repetitive else _NO_LIMIT if s.max_occurrences is None else s.max_occurrences,
+                s.modality if s.modality in exclusive else None,
+            )
+            for s in model.signals
+        }
+        self.constraints = tuple((tuple(c.triggers), _compile(c.expr)) for c in model.constraints)
+
+    def clean(self, schedule: Schedule) -> bool:
+        duration, limits = schedule.duration, self.limits
+        grouped: dict[str, list[tuple[int, int]]] = {}
+        for occurrence in schedule.occurrences:
+            name, start, stop = occurrence.signal, occurrence.start, occurrence.stop
+            spec = limits.get(name)
+            if spec is None or not 0 <= start < stop <= duration:
+                return False
+            if not spec[0] <= stop - start <= spec[1]:
+                return False
+            pool = grouped.get(name)
+            if pool is None:
+                grouped[name] = [(start, stop)]
+            else:
+                pool.append((start, stop))
+        by_modality: dict[str, list[tuple[int, int]]] = {}
+        for name, pool in grouped.items():
+            _, _, most, modality = limits[name]
+            if len(pool) > 1:
+                if len(pool) > most:
+                    return False
+                ordered = sorted(pool)
+                for first, second in itertools.pairwise(ordered):
+                    if second[0] < first[1]:
+                        return False
+            elif most < 1:
+                return False
+            if modality is not None:
+                members = by_modality.get(modality)
+                if members is None:
+                    by_modality[modality] = pool
+                else:
+                    by_modality[modality] = members + pool  # a new list: pools stay as they are
+        for members in by_modality.values():
+            # No two occurrences of one signal overlap (checked above), so any overlap in the
+            # modality is between two signals: an exclusivity violation.
+            if len(members) > 1:
+                reach = -1
+                for start, stop in sorted(members):
+                    if start < reach:
+                        return False
+                    if stop > reach:
+                        reach = stop
+        for triggers, node in self.constraints:
+            if triggers:
+                for name in triggers:
+                    if name in grouped:  # grouped holds no empty list
+                        break
+                else:
+                    continue  # ignored: no trigger occurs
+            if node(grouped, duration) is False:
+                return False
+        return True
+
+
+# Compiled per model object (identity: hashing a whole model per call would cost more than the
+# check); the weak reference tells a reused id from the same model.
+_CHECKERS: dict[int, tuple[weakref.ref[ir.Model], _Checker]] = {}
+_CHECKERS_LIMIT = 256
+
+
+def is_clean(model: ir.Model, schedule: Schedule) -> bool:
+    """True iff :func:`check_schedule` would return no violation (fast: no messages)."""
+    entry = _CHECKERS.get(id(model))
+    if entry is None or entry[0]() is not model:
+        if len(_CHECKERS) >= _CHECKERS_LIMIT:
+            _CHECKERS.clear()
+        entry = _CHECKERS[id(model)] = (weakref.ref(model), _Checker(model))
+    return entry[1].clean(schedule)
