@@ -96,17 +96,22 @@ def estimate_duration_scale(stats: Sequence[GaussianStats], prior: float = 1.0) 
     return AffineTransform(np.diag(1.0 / scales), np.zeros(states))
 
 
-def regression_class(unit: str, by_context: bool = False) -> str:
+def regression_class(unit: str, by_context: bool = False, timing: bool = False) -> str:
     """The regression class of a unit: its swing leg (``a``/``b``) for steps, else itself.
 
     Steps of the same leg (first/inner/last) share most of their poses, so a transform
     estimated on the steps seen in the adaptation data carries over to unseen contexts.
     ``by_context`` (hand cycles, i.e. waves): the context (``first``/``inner``/``last``)
     instead, because a wave's first and last units raise and lower the arms, poses that
-    its swings of either side never take.
+    its swings of either side never take. A wave's ``second`` unit (the return from the
+    rise's last turn) swings through the swings' poses, so its output transform is the
+    ``inner`` class's; with ``timing`` (duration transforms) it is a class of its own: its
+    tempo is not the swings' (Bandai dataset 2 feminine: 9-11 frames, its holds 5-166).
     """
     context, _, leg = unit.partition("-")
-    return context if by_context or not leg else leg
+    if not by_context:
+        return leg or context
+    return "inner" if context == "second" and not timing else context
 
 
 def class_blocks(
@@ -146,7 +151,7 @@ def transform_units(
         found = classes or {}
         transform = found.get(f"unit:{name}", found.get(regression_class(name, by_context), output))
         means, variances = transform.model_space(unit.means, unit.variances)
-        timing = (duration_classes or {}).get(regression_class(name, by_context), duration)
+        timing = (duration_classes or {}).get(regression_class(name, by_context, timing=True), duration)
         d_means, d_vars = timing.model_space(
             unit.duration_means[None, :], unit.duration_variances[None, :]
         )
@@ -269,7 +274,7 @@ def adapt_units(
             # Each context its own tempo (see the docstring).
             by_class: dict[str, list[GaussianStats]] = {}
             for name, st in dstats.items():
-                by_class.setdefault(regression_class(name, by_context), []).append(st)
+                by_class.setdefault(regression_class(name, by_context, timing=True), []).append(st)
             timing = {label: estimate_duration_scale(members, prior) for label, members in by_class.items()}
         adapted = transform_units(units, output, duration, classes, by_context, timing)
     if use_map:

@@ -20,32 +20,29 @@ import numpy as np
 
 from mse.motion.base.bvh import Motion
 from mse.motion.hsmm.adapt import adapt_units, adaptive_training, auto_blocks, blocks_for
-from mse.motion.hsmm.carried import carried_profiles, clip_carried
-from mse.motion.hsmm.features import FloatArray, observations
+from mse.motion.hsmm.carried import carried_profiles
+from mse.motion.hsmm.features import FloatArray
+from mse.motion.hsmm.instances import (
+    Segmentation,
+    clip_instances,
+    cycle_signal,
+    gather_instances,
+    is_cyclic,
+    segment_motion,
+)
 from mse.motion.hsmm.mlpg import global_variance
-from mse.motion.hsmm.model import (
-    HsmmModel,
-    Instance,
-    train_units,
-    uniform_bounds,
-    variance_floor,
-)
-from mse.motion.hsmm.prep import Template, build_template, pose_positions, static_features
-from mse.motion.hsmm.segment import (
-    CYCLIC_ACTIONS,
-    HAND_CYCLE_ACTIONS,
-    LOCOMOTION,
-    ONE_SHOT_UNIT,
-    Segment,
-    foot_separation,
-    hand_sway,
-    segment_clip,
-)
+from mse.motion.hsmm.model import HsmmModel, Instance, train_units, variance_floor
+from mse.motion.hsmm.prep import Template, build_template
+from mse.motion.hsmm.segment import HAND_CYCLE_ACTIONS, LOCOMOTION
 from mse.motion.hsmm.synth import synthesize as _synthesize
 
 __all__ = [
     "Options",
+    "Segmentation",
     "adapt_model",
+    "clip_instances",
+    "cycle_signal",
+    "is_cyclic",
     "segment_motion",
     "synthesize",
     "train_average",
@@ -117,102 +114,6 @@ def one_blas_thread(func: Callable[_P, _R]) -> Callable[_P, _R]:
 synthesize = _synthesize
 
 
-def is_cyclic(action: str) -> bool:
-    return action in CYCLIC_ACTIONS
-
-
-def cycle_signal(statics: FloatArray, template: Template, action: str | None = None) -> FloatArray:
-    """The signal whose alternating extrema cut a clip into units: the feet's forward
-    separation (steps), or for :data:`HAND_CYCLE_ACTIONS` the hands' sway."""
-    positions = pose_positions(statics, template)
-    if action in HAND_CYCLE_ACTIONS:
-        from mse.motion.base.bodyparts import body_map
-
-        body = body_map(template.skeleton)
-        return hand_sway(positions, (body.left_hand, body.right_hand), body.torso, template.frame_time)
-    return foot_separation(positions, template.contacts)
-
-
-def segment_motion(motion: Motion, template: Template, cyclic: bool, action: str | None = None) -> list[Segment]:
-    """The unit segments of a complete clip (steps in context for cyclic actions; the hands'
-    swings for ``action`` in :data:`HAND_CYCLE_ACTIONS`)."""
-    statics = static_features(motion, template)
-    separation = cycle_signal(statics, template, action) if cyclic else None
-    return segment_clip(statics.shape[0], cyclic, separation)
-
-
-#: Unit segments per clip, e.g. from a hand labelling or from :func:`segment_motion` on a
-#: whole take when only some of its steps are used; None: found automatically.
-Segmentation = Sequence[Sequence[Segment] | None] | None
-
-
-def clip_instances(
-    motion: Motion,
-    style: str,
-    template: Template,
-    cyclic: bool,
-    states: int,
-    segments: Sequence[Segment] | None = None,
-    action: str | None = None,
-) -> tuple[list[Instance], FloatArray]:
-    """Unit instances of one clip (equal state splits) and its static features.
-
-    With ``segments`` (labelled frame ranges of the clip), only those frames are used and
-    the static features returned are those of the frames they span. ``action`` selects the
-    cycle signal (:func:`cycle_signal`) and whether flight phases are learnt (locomotion).
-    """
-    statics = static_features(motion, template)
-    obs = observations(statics)
-    if segments is None:
-        separation = cycle_signal(statics, template, action) if cyclic else None
-        segments = segment_clip(statics.shape[0], cyclic, separation)
-    elif segments:
-        for segment in segments:
-            if not 0 <= segment.start < segment.stop <= statics.shape[0]:
-                raise ValueError(
-                    f"segment {segment.unit} [{segment.start}, {segment.stop}) is outside the "
-                    f"clip's {statics.shape[0]} frames"
-                )
-        statics = statics[min(s.start for s in segments) : max(s.stop for s in segments)]
-    carried = clip_carried(motion, template) if cyclic and action not in HAND_CYCLE_ACTIONS else None
-    instances = [
-        Instance(
-            s.unit,
-            style,
-            obs[s.start : s.stop],
-            uniform_bounds(s.length, states),
-            carried[s.start : s.stop] if carried is not None else None,
-        )
-        for s in segments
-        if s.length >= states
-    ]
-    return instances, statics
-
-
-def _gather(
-    clips: Sequence[tuple[Motion, str]],
-    template: Template,
-    cyclic: bool,
-    states: int,
-    segmentation: Segmentation = None,
-    action: str | None = None,
-) -> tuple[list[Instance], list[FloatArray]]:
-    instances: list[Instance] = []
-    statics: list[FloatArray] = []
-    if segmentation is not None and len(segmentation) != len(clips):
-        raise ValueError(f"{len(segmentation)} segmentations for {len(clips)} clips")
-    for index, (motion, style) in enumerate(clips):
-        segments = segmentation[index] if segmentation is not None else None
-        found, features = clip_instances(motion, style, template, cyclic, states, segments, action)
-        instances.extend(found)
-        statics.append(features)
-    if cyclic and any(i.unit != ONE_SHOT_UNIT for i in instances):
-        instances = [i for i in instances if i.unit != ONE_SHOT_UNIT]  # clips without steps
-    if not instances:
-        raise ValueError("no clip is long enough to train a model")
-    return instances, statics
-
-
 def _first_leg(instances: Sequence[Instance]) -> str:
     legs = [i.unit.rpartition("-")[2] for i in instances if i.unit.startswith("first-")]
     return max(("a", "b"), key=legs.count) if legs else "a"
@@ -266,7 +167,7 @@ def _prepare(
     else:
         lengths = [m.frame_count for m, _ in clips]
     options = replace(options, states=unit_states(cyclic, lengths, options))
-    instances, statics = _gather(clips, template, cyclic, options.states, segmentation, action)
+    instances, statics = gather_instances(clips, template, cyclic, options.states, segmentation, action)
     return cyclic, template, instances, statics, variance_floor(instances), options
 
 
@@ -353,7 +254,7 @@ def adapt_model(
     the contexts they have in the take); default: each motion is a complete sequence.
     """
     template = average.template
-    instances, statics = _gather(
+    instances, statics = gather_instances(
         [(m, style) for m in motions], template, average.cyclic, average.states, segmentation, average.action
     )
     # A style starts with the leg its takes start with: a walk started on the average model's
@@ -409,4 +310,3 @@ def adapt_model(
         },
         carried=carried_profiles(units, instances, prior=average.carried) if average.carried else {},
     )
-

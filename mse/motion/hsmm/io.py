@@ -1,7 +1,8 @@
 """Model files: one ``.npz`` archive (no pickle) with a JSON header under the key ``meta``.
 
-Format ``mse-hsmm/6`` (the layout of ``/4``; adapted waves have regression classes by
-context, the rise and fall with per-joint static blocks; ``/5`` models have up to 500
+Format ``mse-hsmm/7`` (the layout of ``/4``; wave models have a ``second`` unit, the
+return from the rise, whose adapted duration has a tempo of its own; ``/6`` adapted waves
+had regression classes by context, the rise and fall with per-joint static blocks; ``/5`` models have up to 500
 states per unit, and adapted locomotion models have the root joint's static rotation in a
 CMLLR block of its own). ``/4``'s template scalars added the training clips' ``feet_lift`` (``/3``
 files load with their standing legs stilled; ``/2`` files load, without flight profiles or
@@ -32,13 +33,13 @@ from mse.motion.base.bvh import Skeleton
 from mse.motion.hsmm.model import HsmmModel, UnitModel
 from mse.motion.hsmm.prep import Template
 
-FORMAT = "mse-hsmm/6"
+FORMAT = "mse-hsmm/7"
 #: formats this version reads (``/2``: no flight profiles, feet always pinned; ``/2`` and
 #: ``/3``: no feet lift of the training clips, standing legs always stilled; ``/4`` and
 #: ``/5``: the same layout as ``/6``; ``/4`` trained with at most 60 states per unit and
 #: adapted with the root joint inside the stream-wide CMLLR blocks; ``/5`` adapted waves
-#: with leg classes)
-READABLE_FORMATS = ("mse-hsmm/2", "mse-hsmm/3", "mse-hsmm/4", "mse-hsmm/5", FORMAT)
+#: with leg classes; ``/6`` waves have no ``second`` unit and play ``inner`` there)
+READABLE_FORMATS = ("mse-hsmm/2", "mse-hsmm/3", "mse-hsmm/4", "mse-hsmm/5", "mse-hsmm/6", FORMAT)
 _UNIT_FIELDS = ("means", "variances", "duration_means", "duration_variances")
 
 

@@ -46,9 +46,11 @@ def plan_units(model: HsmmModel, steps: int | None = None, frames: int | None = 
         steps = 2 + max(0, round((total - first - last) / max(inner, 1.0)))
     steps = max(2, steps)
     names = [f"first-{leg}"]
-    for _ in range(steps - 2):
+    # Waves' unit after the first has a context of its own (segment.SECOND_CONTEXT_ACTIONS).
+    second = any(name.startswith("second-") for name in model.units)
+    for index in range(steps - 2):
         leg = _other(leg)
-        names.append(f"inner-{leg}")
+        names.append(f"{'second' if second and index == 0 else 'inner'}-{leg}")
     names.append(f"last-{_other(leg)}")
     return names
 
