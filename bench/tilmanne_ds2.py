@@ -56,7 +56,9 @@ from mse.motion.hsmm.synth import synthesize
 def heldout_loglik(model: HsmmModel, motion: Motion) -> float:
     """Mean log-likelihood per frame of a take under ``model`` (its steps forced through
     the model's units, best state split of each step)."""
-    instances, _ = api.clip_instances(motion, model.style, model.template, model.cyclic, model.states)
+    instances, _ = api.clip_instances(
+        motion, model.style, model.template, model.cyclic, model.states, action=model.action
+    )
     total, frames = 0.0, 0
     for instance in instances:
         unit = model.unit(instance.unit)
