@@ -115,7 +115,7 @@ def travels(carried: Sequence[FloatArray], leg_length: float) -> bool:
 #: faster stride jolted the pinned root: Samadani, dataset 2 walks, ten folds, 8 neighbours
 #: each: new jerk failures over 2x real, e.g. elderly -> normal 18,400 -> 24,400 cm/s^3,
 #: limit 20,900 (docs/motion.md, "Generation", step 12)
-MAX_NEIGHBOURS = 1
+MAX_NEIGHBOURS = 2
 
 
 #: which joints :func:`restore_stride` widens: "legs" (thighs and shins), "all" (every
