@@ -74,7 +74,7 @@ SCUFF_LIFT = 0.03
 #: (s) on either side, the root's horizontal velocity goes from the old foot's to the new
 #: foot's along a minimum-jerk curve instead of following either foot
 DOUBLE_SUPPORT_S = 0.1
-DOUBLE_SUPPORT_BAND = 0.03
+DOUBLE_SUPPORT_BAND = 0.02
 #: a foot is on the floor when the lowest foot point is within this height (cm, file units)
 #: of the clip's floor, fully off it from twice that. Bandai's runs barely leave the floor
 #: (the lowest toe 1-5 cm up in flight): with 3 cm their flight phases counted as half
