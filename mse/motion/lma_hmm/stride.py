@@ -162,8 +162,6 @@ def restore_stride(
     return restored_flight(widened, means, rotations, labels, frame_time, hz, 3 * len(rotated))
 
 
-
-
 def restored_flight(
     widened: FloatArray,
     means: FloatArray,
