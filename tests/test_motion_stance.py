@@ -58,7 +58,7 @@ def _two_steps(frames: int = 60, change: int = 30) -> np.ndarray:
 
 def test_the_double_support_smooths_the_change_of_stance_foot() -> None:
     relative = _two_steps()
-    smooth = root_track(relative, [0, 1], 0.0, FRAME_TIME, hysteresis=0.001)
+    smooth = root_track(relative, [0, 1], 0.0, FRAME_TIME, hysteresis=0.001, double_support_s=0.1)
     switched = root_track(relative, [0, 1], 0.0, FRAME_TIME, hysteresis=0.001, double_support_s=0.0)
     assert _jerk(smooth) < 0.5 * _jerk(switched)
     # outside the double support each stance foot stays put in the world
@@ -73,7 +73,7 @@ def test_the_double_support_smooths_the_change_of_stance_foot() -> None:
 def test_a_standing_body_keeps_its_lowest_point_pinned() -> None:
     # hysteresis 0 (the standing pin): no double support passage, the lowest point is pinned
     relative = _two_steps()
-    pinned = root_track(relative, [0, 1], 0.0, FRAME_TIME, hysteresis=0.0)
+    pinned = root_track(relative, [0, 1], 0.0, FRAME_TIME, hysteresis=0.0, double_support_s=0.1)
     unsmoothed = root_track(relative, [0, 1], 0.0, FRAME_TIME, hysteresis=0.0, double_support_s=0.0)
     assert np.allclose(pinned, unsmoothed)
 
