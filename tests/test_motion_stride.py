@@ -106,7 +106,7 @@ def test_a_swaying_body_does_not_travel_a_walking_one_does() -> None:
     assert not travels([walk], 0.0) and not travels([], 80.0)
 
 
-def test_the_swing_is_restored_for_one_neighbour_only() -> None:
+def test_the_swing_is_restored_for_one_or_two_neighbours_only() -> None:
     from mse.motion.lma_hmm.hmm import encode, encoding_for
 
     library = starter_library()
@@ -118,8 +118,10 @@ def test_the_swing_is_restored_for_one_neighbour_only() -> None:
     means = np.array([rotations[labels == s].mean(axis=0) for s in range(8)])
     one = restore_stride(means, [rotations], [labels], FRAME_TIME, 3.0, encoding, "all")
     two = restore_stride(means, [rotations] * 2, [labels] * 2, FRAME_TIME, 3.0, encoding, "all")
+    three = restore_stride(means, [rotations] * 3, [labels] * 3, FRAME_TIME, 3.0, encoding, "all")
     assert not np.allclose(one, means)  # one neighbour: widened
-    np.testing.assert_allclose(two, means)  # several: the takes' differences are not a swing
+    assert not np.allclose(two, means)  # two (dataset 1's forward walks): widened
+    np.testing.assert_allclose(three, means)  # more: the takes' differences are not a swing
 
 
 def test_swing_joints_are_the_thighs_and_shins() -> None:

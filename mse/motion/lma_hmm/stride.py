@@ -110,12 +110,15 @@ def travels(carried: Sequence[FloatArray], leg_length: float) -> bool:
 
 
 #: the swing is restored for at most this many neighbours. With one, the means average
-#: that clip's own frames (Bandai dataset 1: every style has one clip). With several, they
-#: also average between takes, the gains (1.1-2) mix in the takes' differences, and the
-#: faster stride jolted the pinned root: Samadani, dataset 2 walks, ten folds, 8 neighbours
-#: each: new jerk failures over 2x real, e.g. elderly -> normal 18,400 -> 24,400 cm/s^3,
-#: limit 20,900 (docs/motion.md, "Generation", step 12)
-MAX_NEIGHBOURS = 1
+#: that clip's own frames (Bandai dataset 1: one clip per style of runs, dashes, backwards and
+#: sideways walks); with two, two takes (its forward walks: the musical walk, left alone, went
+#: 2.7 cm/s; widened, 121 cm/s, jerk within 2x real once the changes of stance foot were
+#: smoothed, base.contacts). With more, the gains (1.1-2) mix in the takes' differences, and
+#: the faster stride jolted the pinned root: Samadani, dataset 2 walks, ten folds, 8
+#: neighbours each: new jerk failures over 2x real, e.g. elderly -> normal 18,400 -> 24,400
+#: cm/s^3, limit 20,900 (docs/motion.md, "Generation", step 12; measured before the
+#: changes of stance foot were smoothed)
+MAX_NEIGHBOURS = 2
 
 
 #: which joints :func:`restore_stride` widens: "legs" (thighs and shins), "all" (every
@@ -157,8 +160,6 @@ def restore_stride(
     selected = None if which == "all" else [k for k, joint in enumerate(rotated) if joint in swing]
     widened = restored_means(means, rotations, gains, selected)
     return restored_flight(widened, means, rotations, labels, frame_time, hz, 3 * len(rotated))
-
-
 
 
 def restored_flight(
