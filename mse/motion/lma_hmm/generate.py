@@ -86,6 +86,7 @@ from mse.motion.lma_hmm.pose import PhaseSpace, phase_space, with_velocity
 from mse.motion.lma_hmm.standing import (
     arm_variance,
     cycle_rate,
+    cycles_by_velocity,
     expected_variance,
     landed_support,
     leg_length,
@@ -169,6 +170,13 @@ def _modulate(
             n_iter=params.n_iter,
             decide_on=len(phases),
         )
+    elif dynamic and params.topology == "auto" and params.cycle_velocity_weight > 0:
+        # a slow, small wave (feminine) cycles by its velocity only (standing.cycles_by_velocity)
+        found = cycles_by_velocity(
+            phases, desired_phase, copies, params.states, params.n_iter, params.cycle_velocity_weight
+        )
+        if found is not None:
+            trained, phases, desired_phase = found
     if params.shared_stance and stands(carried, encoding.skeleton):
         rotations = shared_stance(rotations, encoding)
     timings["hmm_fit"] = time.perf_counter() - clock
