@@ -40,7 +40,9 @@ exactly those (folds and desired paths are drawn over every clip whatever the fi
 ``--no-standing-pin`` pins standing bodies with the
 walks' stance hysteresis, as before the fifth pass (docs/motion.md, "Generation", step 11);
 ``--arm-spread-cap 1`` leaves a standing body's arms as the state means draw them (before the
-sixth pass), ``--shared-stance`` gives a standing body's neighbours one leg posture.
+sixth pass), ``--shared-stance`` gives a standing body's neighbours one leg posture,
+``--cycle-velocity-weight 0`` leaves slow, small waves that do not cycle by their positions
+to a left-to-right chain (before the seventh pass).
 Note that ``--actions`` changes the folds (they are drawn over the clips kept).
 """
 
@@ -171,6 +173,9 @@ def main() -> int:
                         "factor (1: off, before the sixth pass)")
     parser.add_argument("--shared-stance", action="store_true",
                         help="a standing body's neighbours share one leg posture (docs/motion.md, step 11)")
+    parser.add_argument("--cycle-velocity-weight", type=float, default=GenerationParams().cycle_velocity_weight,
+                        help="a standing body whose neighbours do not cycle by their positions is judged again "
+                        "with their velocity at this weight (0: off, before; docs/motion.md, step 11)")
     parser.add_argument("--stride", default=GenerationParams().stride,
                         help="travelling bodies' swing widened: legs, all, off (docs/motion.md, step 12)")
     parser.add_argument("--no-travel-cycles", action="store_true",
@@ -203,6 +208,7 @@ def main() -> int:
             standing_pin=not args.no_standing_pin,
             arm_spread_cap=args.arm_spread_cap,
             shared_stance=args.shared_stance,
+            cycle_velocity_weight=args.cycle_velocity_weight,
             stride=args.stride,
             travel_cycles=not args.no_travel_cycles,
         )
