@@ -31,7 +31,9 @@ Waves (neighbours that stand and cycle): the phase space also holds the velocity
 where the decoding sat in one state are played, and changes of state the neighbours never
 make bridged, by the neighbours' own sequences, the cut-off is at most twice their cycle rate,
 and a standing body pins its lowest foot point without the stance hysteresis
-(``GenerationParams.velocity`` and ``standing_pin``; docs/motion.md, "Generation", step 11).
+(``GenerationParams.velocity`` and ``standing_pin``; docs/motion.md, "Generation", step 11);
+standing neighbours that cycle by their velocity only (slow, small feminine waves) are
+judged so and treated as waves (``cycle_velocity_weight``).
 Any standing body (:mod:`mse.motion.lma_hmm.standing`) has its arms' spread widened towards
 the neighbours' (``arm_spread_cap``) and lands its hops on the floor; ``shared_stance`` (off)
 gives its neighbours one leg posture.
