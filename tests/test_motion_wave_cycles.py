@@ -27,13 +27,15 @@ def _swings(count: int, frames: int = 240) -> list[np.ndarray]:
             for k in range(count)]
 
 
-def test_a_movement_done_once_does_not_cycle_and_weight_zero_is_off() -> None:
+def test_once_one_neighbour_short_clips_or_weight_zero_are_not_judged_cycling() -> None:
     t = np.linspace(0.0, 1.0, 240)
     once = [np.column_stack([np.sin(np.pi * t) + 0.01 * k, t]) for k in range(6)]
     assert cycles_by_velocity(once, once[0], 0, 12, 10, CYCLE_VELOCITY_WEIGHT) is None
     assert cycles_by_velocity(_swings(6), _swings(1)[0], 0, 12, 10, 0.0) is None
     # clips too short to repeat anything (fewer than 4 frames per state) are not judged
     assert cycles_by_velocity(_swings(6, 40), _swings(1, 40)[0], 0, 12, 10, CYCLE_VELOCITY_WEIGHT) is None
+    # one neighbour: its chain keeps its cycles, nothing to average away
+    assert cycles_by_velocity(_swings(1), _swings(1)[0], 0, 12, 10, CYCLE_VELOCITY_WEIGHT) is None
     found = cycles_by_velocity(_swings(6), _swings(1)[0], 0, 12, 10, CYCLE_VELOCITY_WEIGHT)
     assert found is not None and found[0].cyclic
     assert found[1][0].shape == (240, 4) and found[2].shape == (240, 4)  # the velocity appended
