@@ -35,7 +35,7 @@ and a standing body pins its lowest foot point without the stance hysteresis
 standing neighbours that cycle by their velocity only (slow, small feminine waves) are
 judged so and treated as waves (``cycle_velocity_weight``).
 Any standing body (:mod:`mse.motion.lma_hmm.standing`) has its arms' spread widened towards
-the neighbours' (``arm_spread_cap``) and lands its hops on the floor; ``shared_stance`` (off)
+the neighbours' (``arm_spread_cap``) and lands its hops on the floor; ``shared_stance``
 gives its neighbours one leg posture.
 
 Steps 1-5 are cached per (library fingerprint, action, style, desired clip, parameters) in

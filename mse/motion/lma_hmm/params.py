@@ -65,8 +65,10 @@ class GenerationParams:
     #: factor (:func:`~mse.motion.lma_hmm.standing.arm_variance`; 1: off, the method before)
     arm_spread_cap: float = ARM_SPREAD_CAP
     #: a standing body's neighbours share one leg posture before the state means are taken
-    #: (:func:`~mse.motion.lma_hmm.standing.shared_stance`)
-    shared_stance: bool = False
+    #: (:func:`~mse.motion.lma_hmm.standing.shared_stance`; False: the method before). Samadani
+    #: waves over ten folds: feminine targets rated youthful for their free foot's slide, 13
+    #: of 60 before, none with it (docs/motion.md, "Samadani")
+    shared_stance: bool = True
     #: a standing body whose neighbours do not cycle by their positions is judged again with
     #: their velocity at this weight, and when they cycle so, fitted fully connected on it
     #: (:func:`~mse.motion.lma_hmm.standing.cycles_by_velocity`: slow, small feminine waves;
