@@ -40,7 +40,10 @@ exactly those (folds and desired paths are drawn over every clip whatever the fi
 ``--no-standing-pin`` pins standing bodies with the
 walks' stance hysteresis, as before the fifth pass (docs/motion.md, "Generation", step 11);
 ``--arm-spread-cap 1`` leaves a standing body's arms as the state means draw them (before the
-sixth pass), ``--shared-stance`` gives a standing body's neighbours one leg posture.
+sixth pass), ``--no-shared-stance`` leaves a standing body's neighbours their own leg
+postures (before the seventh pass),
+``--cycle-velocity-weight 0`` leaves slow, small waves that do not cycle by their positions
+to a left-to-right chain (before the seventh pass).
 Note that ``--actions`` changes the folds (they are drawn over the clips kept).
 """
 
@@ -169,8 +172,13 @@ def main() -> int:
     parser.add_argument("--arm-spread-cap", type=float, default=GenerationParams().arm_spread_cap,
                         help="a standing body's arms widened towards the neighbours' spread by at most this "
                         "factor (1: off, before the sixth pass)")
-    parser.add_argument("--shared-stance", action="store_true",
-                        help="a standing body's neighbours share one leg posture (docs/motion.md, step 11)")
+    parser.add_argument("--shared-stance", action=argparse.BooleanOptionalAction,
+                        default=GenerationParams().shared_stance,
+                        help="a standing body's neighbours share one leg posture (default; --no-shared-stance: "
+                        "before the seventh pass; docs/motion.md, step 11)")
+    parser.add_argument("--cycle-velocity-weight", type=float, default=GenerationParams().cycle_velocity_weight,
+                        help="a standing body whose neighbours do not cycle by their positions is judged again "
+                        "with their velocity at this weight (0: off, before; docs/motion.md, step 11)")
     parser.add_argument("--stride", default=GenerationParams().stride,
                         help="travelling bodies' swing widened: legs, all, off (docs/motion.md, step 12)")
     parser.add_argument("--no-travel-cycles", action="store_true",
@@ -203,6 +211,7 @@ def main() -> int:
             standing_pin=not args.no_standing_pin,
             arm_spread_cap=args.arm_spread_cap,
             shared_stance=args.shared_stance,
+            cycle_velocity_weight=args.cycle_velocity_weight,
             stride=args.stride,
             travel_cycles=not args.no_travel_cycles,
         )

@@ -31,9 +31,11 @@ Waves (neighbours that stand and cycle): the phase space also holds the velocity
 where the decoding sat in one state are played, and changes of state the neighbours never
 make bridged, by the neighbours' own sequences, the cut-off is at most twice their cycle rate,
 and a standing body pins its lowest foot point without the stance hysteresis
-(``GenerationParams.velocity`` and ``standing_pin``; docs/motion.md, "Generation", step 11).
+(``GenerationParams.velocity`` and ``standing_pin``; docs/motion.md, "Generation", step 11);
+standing neighbours that cycle by their velocity only (slow, small feminine waves) are
+judged so and treated as waves (``cycle_velocity_weight``).
 Any standing body (:mod:`mse.motion.lma_hmm.standing`) has its arms' spread widened towards
-the neighbours' (``arm_spread_cap``) and lands its hops on the floor; ``shared_stance`` (off)
+the neighbours' (``arm_spread_cap``) and lands its hops on the floor; ``shared_stance``
 gives its neighbours one leg posture.
 
 Steps 1-5 are cached per (library fingerprint, action, style, desired clip, parameters) in
@@ -86,6 +88,7 @@ from mse.motion.lma_hmm.pose import PhaseSpace, phase_space, with_velocity
 from mse.motion.lma_hmm.standing import (
     arm_variance,
     cycle_rate,
+    cycles_by_velocity,
     expected_variance,
     landed_support,
     leg_length,
@@ -169,6 +172,13 @@ def _modulate(
             n_iter=params.n_iter,
             decide_on=len(phases),
         )
+    elif dynamic and params.topology == "auto" and params.cycle_velocity_weight > 0:
+        # a slow, small wave (feminine) cycles by its velocity only (standing.cycles_by_velocity)
+        found = cycles_by_velocity(
+            phases, desired_phase, copies, params.states, params.n_iter, params.cycle_velocity_weight
+        )
+        if found is not None:
+            trained, phases, desired_phase = found
     if params.shared_stance and stands(carried, encoding.skeleton):
         rotations = shared_stance(rotations, encoding)
     timings["hmm_fit"] = time.perf_counter() - clock

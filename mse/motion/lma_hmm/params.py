@@ -7,7 +7,7 @@ from dataclasses import dataclass
 
 from mse.motion.lma_hmm.hmm import TOPOLOGIES
 from mse.motion.lma_hmm.search import EPSILON_FRACTION
-from mse.motion.lma_hmm.standing import ARM_SPREAD_CAP
+from mse.motion.lma_hmm.standing import ARM_SPREAD_CAP, CYCLE_VELOCITY_WEIGHT
 from mse.motion.lma_hmm.stride import STRIDE_CHOICES
 
 __all__ = ["VELOCITY_CHOICES", "GenerationParams"]
@@ -65,8 +65,15 @@ class GenerationParams:
     #: factor (:func:`~mse.motion.lma_hmm.standing.arm_variance`; 1: off, the method before)
     arm_spread_cap: float = ARM_SPREAD_CAP
     #: a standing body's neighbours share one leg posture before the state means are taken
-    #: (:func:`~mse.motion.lma_hmm.standing.shared_stance`)
-    shared_stance: bool = False
+    #: (:func:`~mse.motion.lma_hmm.standing.shared_stance`; False: the method before). Samadani
+    #: waves over ten folds: feminine targets rated youthful for their free foot's slide, 13
+    #: of 60 before, none with it (docs/motion.md, "Samadani")
+    shared_stance: bool = True
+    #: a standing body whose neighbours do not cycle by their positions is judged again with
+    #: their velocity at this weight, and when they cycle so, fitted fully connected on it
+    #: (:func:`~mse.motion.lma_hmm.standing.cycles_by_velocity`: slow, small feminine waves;
+    #: 0: off, the method before)
+    cycle_velocity_weight: float = CYCLE_VELOCITY_WEIGHT
 
     def __post_init__(self) -> None:
         if self.regenerate not in ("means", "frames"):
@@ -79,5 +86,7 @@ class GenerationParams:
             raise ValueError(f"stride must be one of {', '.join(STRIDE_CHOICES)}, not {self.stride!r}")
         if not self.arm_spread_cap >= 1.0:
             raise ValueError(f"arm_spread_cap must be at least 1 (1: off), not {self.arm_spread_cap!r}")
+        if not self.cycle_velocity_weight >= 0.0:
+            raise ValueError(f"cycle_velocity_weight must be at least 0 (0: off), not {self.cycle_velocity_weight!r}")
         if self.topology not in TOPOLOGIES:
             raise ValueError(f"topology must be one of {', '.join(TOPOLOGIES)}, not {self.topology!r}")
