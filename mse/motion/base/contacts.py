@@ -307,7 +307,8 @@ def root_track(
         reach = max(1, round(double_support_s / frame_time))
         steps = _double_support(steps, foot_heights, on, DOUBLE_SUPPORT_BAND * leg, reach)
     if hysteresis > 0 and jolt_limit > 0 and (carried is None or not runs(carried[:, 3])):
-        steps = _jolts_limited(steps, jolt_limit * leg * frame_time**2)
+        # the first step is the start (0), not a velocity
+        steps[1:] = _jolts_limited(steps[1:], jolt_limit * leg * frame_time**2)
     if carried is not None:
         weight = sharpened_support(carried[:, 3:4])
         steps[1:] = weight[1:] * steps[1:] + (1.0 - weight[1:]) * carried[1:, :2] * frame_time
