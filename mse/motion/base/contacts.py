@@ -21,7 +21,10 @@ Both methods generate joint *rotations*; where the body is in the room follows f
   over the **double support** (both feet down) the root's horizontal velocity passes from
   the old foot's to the new foot's along a minimum-jerk curve, since generated legs put the
   new foot down still moving and lift the old one early; it removed most of the remaining
-  jolts but made the root's speed steadier than real walks'.
+  jolts but made the root's speed steadier than real walks'. On by default instead, the
+  **jolt limit** (:data:`JOLT_LEG_LENGTHS_PER_S2`): the root's velocity changes from frame to
+  frame no faster than real walks' roots do; only the excess of a jolt is spread, so the
+  speed keeps its own variation.
 
 Runs and dashes have **flight phases**, when no foot carries the body. :func:`support`
 measures them on real clips, frame by frame: whether a foot is on the floor (the lowest foot
