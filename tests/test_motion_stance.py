@@ -1,6 +1,6 @@
 """Changes of stance foot in the root's track (mse.motion.base.contacts.root_track): a foot
 swinging through low is not stepped on, and the root's velocity passes from one foot to the
-other over the double support."""
+other over the double support; the root's velocity changes no faster than real walks'."""
 
 from __future__ import annotations
 
@@ -9,7 +9,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from mse.motion.base.contacts import root_track
+from mse.motion.base.contacts import JOLT_LEG_LENGTHS_PER_S2, root_track
 from mse.motion.base.fidelity import check, measure, reference
 from mse.motion.base.library import load_library
 
@@ -37,7 +37,7 @@ def test_a_foot_swinging_through_low_does_not_take_the_stance() -> None:
     track = root_track(relative, [0, 1], 0.0, FRAME_TIME)
     velocity = np.diff(track[:, 2]) / FRAME_TIME
     assert np.all(velocity > 100.0), "the root was thrown back by the swinging foot"
-    stepped_on = root_track(relative, [0, 1], 0.0, FRAME_TIME, scuff=np.inf, double_support_s=0.0)
+    stepped_on = root_track(relative, [0, 1], 0.0, FRAME_TIME, scuff=np.inf, double_support_s=0.0, jolt_limit=0.0)
     assert np.min(np.diff(stepped_on[:, 2])) / FRAME_TIME < -100.0  # what the rule prevents
 
 
@@ -58,8 +58,8 @@ def _two_steps(frames: int = 60, change: int = 30) -> np.ndarray:
 
 def test_the_double_support_smooths_the_change_of_stance_foot() -> None:
     relative = _two_steps()
-    smooth = root_track(relative, [0, 1], 0.0, FRAME_TIME, hysteresis=0.001, double_support_s=0.1)
-    switched = root_track(relative, [0, 1], 0.0, FRAME_TIME, hysteresis=0.001, double_support_s=0.0)
+    smooth = root_track(relative, [0, 1], 0.0, FRAME_TIME, hysteresis=0.001, double_support_s=0.1, jolt_limit=0.0)
+    switched = root_track(relative, [0, 1], 0.0, FRAME_TIME, hysteresis=0.001, double_support_s=0.0, jolt_limit=0.0)
     assert _jerk(smooth) < 0.5 * _jerk(switched)
     # outside the double support each stance foot stays put in the world
     for foot, frames in ((0, slice(0, 26)), (1, slice(35, 60))):
@@ -68,6 +68,38 @@ def test_the_double_support_smooths_the_change_of_stance_foot() -> None:
     # the velocity goes from one foot's to the other's
     velocity = np.diff(smooth[:, 2]) / FRAME_TIME
     assert velocity[5] == pytest.approx(120.0) and velocity[-5] == pytest.approx(60.0)
+
+
+def test_a_jolt_at_the_change_of_stance_foot_is_spread_over_the_fewest_frames() -> None:
+    # foot 1 lands moving at 60 cm/s where foot 0 moved at 240: the root's velocity
+    # changes by up to 72 cm/s a frame over the blend (27 leg lengths per s^2)
+    relative = _two_steps()
+    relative[:, 0, 2] *= 2.0
+    limited = root_track(relative, [0, 1], 0.0, FRAME_TIME, hysteresis=0.001)
+    switched = root_track(relative, [0, 1], 0.0, FRAME_TIME, hysteresis=0.001, jolt_limit=0.0)
+    velocity = np.diff(limited[:, 2]) / FRAME_TIME
+    bound = JOLT_LEG_LENGTHS_PER_S2 * LEG * FRAME_TIME
+    assert np.max(np.abs(np.diff(velocity))) <= bound + 1e-6
+    assert np.max(np.abs(np.diff(np.diff(switched[:, 2]) / FRAME_TIME))) > bound  # what it bounds
+    assert _jerk(limited) < 0.5 * _jerk(switched)
+    # only about the change: each foot's own velocity before and after it
+    assert velocity[5] == pytest.approx(240.0) and velocity[-5] == pytest.approx(60.0)
+    changed = np.nonzero(np.abs(velocity - np.diff(switched[:, 2]) / FRAME_TIME) > 1e-6)[0]
+    assert changed.min() >= 22 and changed.max() <= 37
+
+
+def test_a_walk_whose_speed_varies_within_the_bound_is_left_alone() -> None:
+    # the stance foot moves back at 120 cm/s +- 30 % over a 1 s cycle: the speed's own
+    # variation (about 7 leg lengths per s^2 at most) is not a jolt
+    frames = 60
+    t = np.arange(frames) * FRAME_TIME
+    relative = np.zeros((frames, 2, 3))
+    relative[:, 0, 1] = -LEG
+    relative[:, 1, 1] = -LEG + 10.0
+    relative[:, 0, 2] = -120.0 * t + 36.0 / (2 * np.pi) * np.cos(2 * np.pi * t)
+    limited = root_track(relative, [0, 1], 0.0, FRAME_TIME)
+    free = root_track(relative, [0, 1], 0.0, FRAME_TIME, jolt_limit=0.0)
+    assert np.allclose(limited, free)
 
 
 def test_a_standing_body_keeps_its_lowest_point_pinned() -> None:
