@@ -1,4 +1,4 @@
-"""The fuzz harness shared by ``tests/test_fuzz.py`` (hypothesis, in CI) and ``bench/fuzz.py``
+"""The fuzz harness shared by ``tests/test_fuzz.py`` (hypothesis, in CI) and ``bench/robustness/fuzz.py``
 (a longer run, atheris when it is installed).
 
 Targets take raw input and drive mse the way a user does; each enforces the invariants of

@@ -5,7 +5,6 @@ from __future__ import annotations
 import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
-from strategies import models
 
 from mse.ir import model as ir
 from mse.ir.evaluate import check_schedule
@@ -16,6 +15,7 @@ from mse.solve.cpsat.engine import make_solver
 from mse.solve.cpsat.explain import explain
 from mse.solve.cpsat.solver import solve_one
 from mse.solve.protocol import NoSolution, SolveRequest
+from tests.strategies import models
 
 
 def _feasible_without(model: ir.Model, duration: float, require: tuple[str, ...], keys: list[str]) -> bool:

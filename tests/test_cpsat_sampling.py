@@ -7,7 +7,6 @@ from __future__ import annotations
 import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
-from strategies import models
 
 from mse.ir import model as ir
 from mse.ir.evaluate import check_schedule
@@ -17,6 +16,7 @@ from mse.solve.cpsat import CpSatSolver
 from mse.solve.cpsat.encode import build
 from mse.solve.cpsat.engine import make_solver
 from mse.solve.protocol import NoSolution, SolveRequest
+from tests.strategies import models
 
 SETTINGS = settings(max_examples=60, deadline=None, suppress_health_check=list(HealthCheck))
 

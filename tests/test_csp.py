@@ -7,7 +7,6 @@ from pathlib import Path
 import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
-from strategies import models
 
 from mse.api import load, loads, sample
 from mse.diagnostics import MseError
@@ -18,6 +17,7 @@ from mse.solve.cpsat.solver import enumerate_schedules, solve_one
 from mse.solve.csp.solver import CspSolver, enumerate_grid
 from mse.solve.protocol import NoSolution, Pin, SolveRequest
 from mse.timeline import Timeline
+from tests.strategies import models
 
 TINY = Path(__file__).parent / "fixtures" / "solvers" / "tiny.xml"
 CONFLICT = Path(__file__).parent / "fixtures" / "solvers" / "conflict.xml"

@@ -86,7 +86,7 @@ def test_api_lint_deep_runs_the_rules() -> None:
 
 
 def test_bundled_sets_deep_lint_finds_timelines() -> None:
-    # Lint time (target 5 s) is measured by bench/cpsat.py, not asserted here.
+    # Lint time (target 5 s) is measured by bench/speed/cpsat.py, not asserted here.
     if not bundled_names():
         pytest.skip("no bundled sets")
     found = mse.api.lint([behaviour_sets_dir()], deep=True)

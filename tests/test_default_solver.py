@@ -8,7 +8,6 @@ import json
 import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
-from strategies import models
 
 import mse.api as api
 from mse.cli import main
@@ -18,6 +17,7 @@ from mse.ir.schedule import Schedule
 from mse.solve.default import DefaultSolver
 from mse.solve.greedy import GreedySolver
 from mse.solve.protocol import NoSolution, Pin, SolveRequest, get_solver
+from tests.strategies import models
 
 SEQ = """<?xml version="1.0" encoding="UTF-8"?>
 <expression name="seq">

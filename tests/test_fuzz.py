@@ -3,7 +3,7 @@ drawn from the grammar, timelines, BVH clips and compiled IR with hostile values
 runs under a wall-clock bound and a memory bound; the invariants live in ``fuzzing.py``:
 no traceback, an E-code with a position, consistent timelines, well-formed exports.
 
-``bench/fuzz.py`` runs the same targets much longer (and coverage-guided with atheris)."""
+``bench/robustness/fuzz.py`` runs the same targets much longer (and coverage-guided with atheris)."""
 
 from __future__ import annotations
 
@@ -11,9 +11,10 @@ import os
 from typing import Any
 
 import pytest
-from fuzzing import STRATEGIES, TARGETS, bounded, peak_rss_kib
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
+
+from tests.fuzzing import STRATEGIES, TARGETS, bounded, peak_rss_kib
 
 #: Wall-clock bound of one case.  The slowest case of a 20-minute run took 1.4 s, but CI
 #: shares 2 cores with other jobs; the bugs this guards against took minutes.

@@ -10,7 +10,6 @@ from pathlib import Path
 import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
-from strategies import models
 
 import mse.api as api
 from mse.diagnostics import MseError
@@ -21,6 +20,7 @@ from mse.resources import bundled_names
 from mse.solve.greedy import GreedySolver
 from mse.solve.greedy.walk import CAREFUL_DEBTS
 from mse.solve.protocol import NoSolution, SolveRequest
+from tests.strategies import models
 
 REPO = Path(__file__).resolve().parent.parent
 BUNDLED = bundled_names()
@@ -487,16 +487,12 @@ def test_a_walk_owing_many_debts_from_the_start_is_careful() -> None:
 
 
 def test_planted_200_signal_sets_are_sampled_by_the_walk_alone() -> None:
-    # The scale point of issue 12 (bench/sample.py --scale): before the careful walk, the
-    # walk alone gave up on every seed of these two sets (an optional choice made early left
-    # a required signal no room) and CP-SAT took over.
-    import importlib.util
+    # The scale point of issue 12 (python -m bench.speed.sample --scale): before the careful
+    # walk, the walk alone gave up on every seed of these two sets (an optional choice made
+    # early left a required signal no room) and CP-SAT took over.
+    from bench.generators.corpus import planted_model
 
-    spec = importlib.util.spec_from_file_location("bench_corpus", REPO / "bench" / "corpus.py")
-    assert spec is not None and spec.loader is not None
-    corpus = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(corpus)
     for k in (0, 2):
-        model = corpus.planted_model(1000 * k + 600, 200, 400, 10.0)
+        model = planted_model(1000 * k + 600, 200, 400, 10.0)
         for schedule in solve(model, duration=10, seed=0, count=2):
             assert_consistent(model, schedule)

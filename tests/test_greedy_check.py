@@ -6,7 +6,6 @@ from __future__ import annotations
 
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
-from strategies import models
 
 import mse.api as api
 from mse.ir import model as ir
@@ -15,6 +14,7 @@ from mse.ir.schedule import Occurrence, Schedule, to_ticks
 from mse.resources import bundled_names
 from mse.solve.greedy import GreedySolver
 from mse.solve.protocol import SolveRequest
+from tests.strategies import models
 
 DURATION = 6_000
 

@@ -9,7 +9,6 @@ from __future__ import annotations
 
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
-from strategies import models
 
 from mse.ir import model as ir
 from mse.ir.evaluate import evaluate_expr, is_violated
@@ -28,6 +27,7 @@ from mse.solve.greedy.partial import (
     relation_mask,
 )
 from mse.solve.greedy.windows import feasible, nearest, nearest_feasible
+from tests.strategies import models
 
 DURATION = 10_000
 

@@ -31,7 +31,7 @@ def test_angry_bow_bows(bandai_dir: Path, tmp_path: Path, method: str) -> None:
     # the issue: lma-hmm's angry bow moved the head by 0.5 cm, HSMM bows jittered
     library = load_library(_library(bandai_dir, tmp_path, "bow", ("normal", "angry", "sad")))
     motion = generator_for(method, tmp_path / "cache").generate(library, GenerationRequest("bow", "angry", 3.0))
-    # checked against the real bows of all fifteen styles, as bench/motion_fidelity.py does
+    # checked against the real bows of all fifteen styles, as bench/evaluation/motion_fidelity.py does
     real = [read_bvh(path) for path in sorted((bandai_dir / "data").glob("dataset-1_bow_*.bvh"))]
     angry = [read_bvh(bandai_dir / "data" / "dataset-1_bow_angry_001.bvh")]
     values = measure(motion)

@@ -145,7 +145,7 @@ def test_bandai_standing_cases_perform_within_the_real_spread(
     bandai_dir: Path, tmp_path: Path, action: str, style: str
 ) -> None:
     """The three dataset 1 misses of the fifth pass (one clip per style, so the neighbour is
-    the target style's clip; the spread is the action's, as bench/motion_fidelity.py has it)."""
+    the target style's clip; the spread is the action's, as bench/evaluation/motion_fidelity.py has it)."""
     full = load_library(bandai_dir)
     library = load_library(_byes(bandai_dir, tmp_path, action, ("normal", style)))
     real = [full.motion(c) for c in full.select(action)]

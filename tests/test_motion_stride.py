@@ -170,7 +170,7 @@ def test_a_tired_run_keeps_the_neighbours_stride(bandai_dir: Path, tmp_path: Pat
     (tmp_path / "library.json").write_text(json.dumps({"clips": entries}))
     library = load_library(tmp_path)
     before = GenerationParams(stride="off", travel_cycles=False)
-    duration = library.motion(library.clips[1]).duration  # as bench/motion_fidelity.py
+    duration = library.motion(library.clips[1]).duration  # as bench/evaluation/motion_fidelity.py
     slow = measure(generate_motion(library, "run", "tired", duration=duration, params=before).motion)
     now = measure(generate_motion(library, "run", "tired", duration=duration).motion)
     assert now["forward_speed"] > slow["forward_speed"] + 10.0
@@ -202,6 +202,6 @@ def test_a_musical_dash_does_not_slide_in_its_stance(bandai_dir: Path) -> None:
     # third of the flight velocity while a foot was on the floor: foot slip 30.3, limit 24.4
     library = load_library(bandai_dir)
     own = [library.motion(c) for c in library.select("dash") if c.style == "musical"]
-    duration = float(np.median([m.duration for m in own]))  # as bench/motion_fidelity.py
+    duration = float(np.median([m.duration for m in own]))  # as bench/evaluation/motion_fidelity.py
     motion = generate_motion(library, "dash", "musical", duration=duration).motion
     assert measure(motion)["foot_slip"] < 24.4

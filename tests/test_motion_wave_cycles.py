@@ -46,7 +46,7 @@ def test_a_negative_cycle_velocity_weight_is_refused() -> None:
         GenerationParams(cycle_velocity_weight=-1.0)
 
 
-#: Samadani fold 0 (bench/samadani_ds2.py): the desired normal wave and the feminine
+#: Samadani fold 0 (bench/evaluation/samadani_ds2.py): the desired normal wave and the feminine
 #: neighbours the method chose for it from the training folds
 _DESIRED = "dataset-2_wave-both-hands_normal_026"
 _NEIGHBOURS = ("001", "002", "003", "004", "005", "012", "015", "021")

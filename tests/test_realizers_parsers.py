@@ -12,7 +12,8 @@ from __future__ import annotations
 from pathlib import Path
 
 import pytest
-from realizer_harness import (
+
+from tests.realizer_harness import (
     Corpus,
     asap_variants,
     build_corpus,

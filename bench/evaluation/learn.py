@@ -19,7 +19,7 @@ ground truth:
 Speed: ``--speed N`` learns N timelines of one set and prints the time, with reading the
 same corpus as the baseline measured in the same run (the ratio is what to compare).
 
-    python bench/learn.py --sizes 100 1000 --speed 10000
+    python -m bench.evaluation.learn --sizes 100 1000 --speed 10000
 """
 
 from __future__ import annotations

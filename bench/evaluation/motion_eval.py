@@ -1,6 +1,6 @@
 """Objective validation of the LMA + HMM generation on Bandai dataset 1 (paper §IV-D, §V-A).
 
-    python bench/motion_eval.py [--data ../shared/motion/bandai-ds1] [--actions bow,bye,...]
+    python -m bench.evaluation.motion_eval [--data ../shared/motion/bandai-ds1] [--actions bow,bye,...]
 
 Leave-one-performance-out: each clip of the chosen actions in the styles normal, happy, sad,
 angry, proud, not-confident, tired, active is the desired path; it is generated in every
@@ -22,15 +22,12 @@ from __future__ import annotations
 
 import argparse
 import os
-import sys
 import time
 import warnings
 from collections import Counter, defaultdict
 from pathlib import Path
 
 import numpy as np
-
-sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
 from mse.motion.base.library import Clip, MotionLibrary, load_library
 from mse.motion.base.lma import lma_features
@@ -75,7 +72,7 @@ def _rate(pairs: list[tuple[str, str]]) -> float:
 
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    shared = Path(os.environ.get("MSE_SHARED", Path(__file__).resolve().parents[2] / "shared"))
+    shared = Path(os.environ.get("MSE_SHARED", Path(__file__).resolve().parents[3] / "shared"))
     parser.add_argument("--data", default=str(shared / "motion" / "bandai-ds1"))
     parser.add_argument("--actions", default=",".join(DEFAULT_ACTIONS))
     parser.add_argument(

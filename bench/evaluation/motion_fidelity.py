@@ -1,8 +1,8 @@
 """Action fidelity of both motion methods, every action and style of a library.
 
-    python bench/motion_fidelity.py --library ../shared/motion/bandai-ds1
-    python bench/motion_fidelity.py --library ../shared/motion/bandai-ds2 --methods lma-hmm
-    python bench/motion_fidelity.py --library starter --filmstrips docs/images
+    python -m bench.evaluation.motion_fidelity --library ../shared/motion/bandai-ds1
+    python -m bench.evaluation.motion_fidelity --library ../shared/motion/bandai-ds2 --methods lma-hmm
+    python -m bench.evaluation.motion_fidelity --library starter --filmstrips docs/images
 
 For each action of the library, a reference is measured on its real clips
 (:mod:`mse.motion.base.fidelity`: the action's signature measures and their spread, foot

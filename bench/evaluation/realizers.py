@@ -1,6 +1,6 @@
 """What real realizers make of mse's BML (issue 14): the table of docs/realizers.md.
 
-    MSE_SHARED=../shared python bench/realizers.py
+    MSE_SHARED=../shared python -m bench.evaluation.realizers
 
 Builds the corpus tests/test_realizers_parsers.py checks (8 bundled + 11 imported Greta sets x
 seeds 1-3, 10 s, one file per realizer variant), runs AsapRealizer's parser and Greta's
@@ -18,11 +18,7 @@ import tempfile
 import time
 from pathlib import Path
 
-REPO = Path(__file__).resolve().parent.parent
-sys.path.insert(0, str(REPO))
-sys.path.insert(0, str(REPO / "tests"))
-
-from realizer_harness import (  # noqa: E402
+from tests.realizer_harness import (
     Corpus,
     Resolution,
     asap_variants,
@@ -33,6 +29,7 @@ from realizer_harness import (  # noqa: E402
     native_resolution,
 )
 
+REPO = Path(__file__).resolve().parent.parent.parent
 MODALITIES = ("face", "head", "gaze", "gesture", "torso")
 
 

@@ -1,6 +1,6 @@
 """Samadani et al.'s objective validation on Bandai dataset 2 (many takes per style).
 
-    python bench/samadani_ds2.py [--data ../shared/motion/bandai-ds2] [--per-group 1] [--folds 10]
+    python -m bench.evaluation.samadani_ds2 [--data ../shared/motion/bandai-ds2] [--per-group 1] [--folds 10]
 
 Protocol (the paper's §IV with data that allows it):
 
@@ -59,8 +59,6 @@ from collections import defaultdict
 from pathlib import Path
 
 import numpy as np
-
-sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
 from mse.motion.base.bvh import Motion
 from mse.motion.base.compose import resample_motion
@@ -148,7 +146,7 @@ class Descriptors:
 
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    shared = Path(os.environ.get("MSE_SHARED", Path(__file__).resolve().parents[2] / "shared"))
+    shared = Path(os.environ.get("MSE_SHARED", Path(__file__).resolve().parents[3] / "shared"))
     parser.add_argument("--data", default=str(shared / "motion" / "bandai-ds2"))
     parser.add_argument("--folds", type=int, default=10)
     parser.add_argument("--per-group", type=int, default=1, help="desired paths per (action, style) per fold")

@@ -1,6 +1,6 @@
 """Evaluation of the HSMM stylistic synthesis (issue 7) on Bandai dataset 1 walks and bows.
 
-    python bench/style_eval.py [--library ../shared/motion/bandai-ds1] [--actions walk bow]
+    python -m bench.evaluation.style_eval [--library ../shared/motion/bandai-ds1] [--actions walk bow]
                                [--steps 1 2 4 0] [--runs 0] [--one-fold] [--split-take]
                                [--shared-average]
 
@@ -46,14 +46,11 @@ from __future__ import annotations
 import argparse
 import math
 import os
-import sys
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
-
-sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
 from mse.motion.base.bvh import Motion
 from mse.motion.base.library import MotionLibrary, load_library
@@ -376,7 +373,7 @@ def evaluate(
 
 
 def main() -> int:
-    default = Path(os.environ.get("MSE_SHARED", Path(__file__).resolve().parents[2] / "shared"))
+    default = Path(os.environ.get("MSE_SHARED", Path(__file__).resolve().parents[3] / "shared"))
     parser = argparse.ArgumentParser(description=(__doc__ or "").splitlines()[0])
     parser.add_argument("--library", default=str(default / "motion" / "bandai-ds1"))
     parser.add_argument("--actions", nargs="+", default=["walk", "bow"])

@@ -1,7 +1,7 @@
 """Tilmanne et al.'s claim on Bandai dataset 2 walks: does adapting an average model beat a
 model trained from scratch on the same few takes?
 
-    python bench/tilmanne_ds2.py [--data ../shared/motion/bandai-ds2] [--takes 1,2,4,8]
+    python -m bench.evaluation.tilmanne_ds2 [--data ../shared/motion/bandai-ds2] [--takes 1,2,4,8]
                                  [--trials 3] [--held-out 5] [--average-takes 4]
 
 Protocol, per target style (7 styles):
@@ -21,7 +21,7 @@ Protocol, per target style (7 styles):
      style better is the better model of the style;
   2. **recognition**: a clip synthesized by each model, as long as the held-out take, is
      rated by a style recognizer trained on real takes of all styles minus the held-out ones
-     (2 s windows of the aligned features, as ``bench/style_eval.py``);
+     (2 s windows of the aligned features, as ``bench/evaluation/style_eval.py``);
 - tests, per n: (a) paired over trials x held-out takes within each style, adapted vs
   scratch likelihood, Wilcoxon signed-rank; (b) over the 7 styles, the sign of the mean
   difference, two-sided sign test. "Adaptation beats scratch" **holds** at n when the mean
@@ -41,11 +41,7 @@ from pathlib import Path
 
 import numpy as np
 
-sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
-sys.path.insert(0, str(Path(__file__).resolve().parent))
-
-from style_eval import Recognizer, sign_test, wilcoxon
-
+from bench.evaluation.style_eval import Recognizer, sign_test, wilcoxon
 from mse.motion.base.bvh import Motion
 from mse.motion.base.library import load_library
 from mse.motion.hsmm import api
@@ -72,7 +68,7 @@ def heldout_loglik(model: HsmmModel, motion: Motion) -> float:
 
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    shared = Path(os.environ.get("MSE_SHARED", Path(__file__).resolve().parents[2] / "shared"))
+    shared = Path(os.environ.get("MSE_SHARED", Path(__file__).resolve().parents[3] / "shared"))
     parser.add_argument("--data", default=str(shared / "motion" / "bandai-ds2"))
     parser.add_argument("--action", default="walk")
     parser.add_argument("--takes", default="1,2,4,8")

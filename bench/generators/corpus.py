@@ -1,4 +1,4 @@
-"""Random behaviour sets for the sampler bench (``bench/sample.py --corpus``).
+"""Random behaviour sets for the sampler bench (``bench/speed/sample.py --corpus``).
 
 Our own generator, independent of the test strategies: every operator (exists, includes,
 excludes, precedes, rightincludes, <, >, <=, >=, = with and without tolerance, and, or, not,

@@ -1,4 +1,4 @@
-"""Random behaviour sets for bench/cpsat.py: feasible ones with a planted timeline, and
+"""Random behaviour sets for bench/speed/cpsat.py: feasible ones with a planted timeline, and
 infeasible ones with a small planted conflict.
 
 ``feasible_set(signals, constraints, seed)`` first draws a *witness* timeline (some signals

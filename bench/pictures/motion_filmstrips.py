@@ -1,10 +1,10 @@
 """Filmstrips for docs/images: real clip vs the two methods, a handful of cases.
 
-    python bench/motion_filmstrips.py [--out docs/images] [--shared ../shared]
+    python -m bench.pictures.motion_filmstrips [--out docs/images] [--shared ../shared]
 
 Each PNG has three rows: a real clip of the target style (first take), the LMA + HMM clip and
 the HSMM clip generated for that style as long as the real clip; frames are spread evenly over
-each clip and every clip is seen from the side in its own body frame (bench/filmstrip.py).
+each clip and every clip is seen from the side in its own body frame (bench/pictures/filmstrip.py).
 Models are cached under ``$MSE_CACHE_DIR``.
 """
 
@@ -12,14 +12,10 @@ from __future__ import annotations
 
 import argparse
 import os
-import sys
 import warnings
 from pathlib import Path
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
-
-from filmstrip import filmstrip
-
+from bench.pictures.filmstrip import filmstrip
 from mse.motion.base.library import MotionLibrary, load_library
 from mse.motion.base.starter import starter_library
 from mse.motion.generator import GenerationRequest, generator_for

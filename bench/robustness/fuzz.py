@@ -1,8 +1,8 @@
 """A long fuzz run of mse's readers (issue 13): the targets of ``tests/fuzzing.py``, run for
 minutes instead of the CI suite's seconds.
 
-    python bench/fuzz.py --seconds 600                 # atheris if installed, else hypothesis
-    python bench/fuzz.py --engine hypothesis --seconds 60 --targets xml,expression
+    python -m bench.robustness.fuzz --seconds 600       # atheris if installed, else hypothesis
+    python -m bench.robustness.fuzz --engine hypothesis --seconds 60 --targets xml,expression
 
 Engines: ``atheris`` (coverage-guided libFuzzer over mse's own code, seeded with the bundled
 sets, the fixtures, a timeline, a BVH clip and compiled IR; ``pip install atheris``) or
@@ -31,8 +31,7 @@ import traceback
 from pathlib import Path
 from typing import Any
 
-ROOT = Path(__file__).resolve().parent.parent
-sys.path.insert(0, str(ROOT / "tests"))
+from bench.baseline import NEUTRAL, environment
 
 TARGET_NAMES = ("xml", "expression", "timeline", "bvh", "ir")
 
@@ -75,7 +74,7 @@ class Stats:
 
 
 def run_case(name: str, case: Any, stats: Stats, case_seconds: float, seed: int = 0) -> None:
-    import fuzzing
+    from tests import fuzzing
 
     raw = case if isinstance(case, bytes) else str(case).encode("utf-8", errors="surrogatepass")
     problem: str | None = None
@@ -105,9 +104,10 @@ def hypothesis_worker(args: argparse.Namespace, stats: Stats) -> None:
 
 def _batch(name: str, stats: Stats, case_seconds: float) -> Any:
     """200 fresh examples of one target per call."""
-    import fuzzing
     from hypothesis import HealthCheck, given, settings
     from hypothesis import strategies as st
+
+    from tests import fuzzing
 
     @settings(max_examples=200, deadline=None, database=None, suppress_health_check=list(HealthCheck))
     @given(case=fuzzing.STRATEGIES[name], seed=st.integers(0, 2**31 - 1))
@@ -118,7 +118,7 @@ def _batch(name: str, stats: Stats, case_seconds: float) -> Any:
 
 
 def _seed_corpus(folder: Path) -> None:
-    import fuzzing
+    from tests import fuzzing
 
     seeds: list[tuple[int, bytes]] = [(0, doc) for doc in fuzzing.seed_documents()]
     seeds += [
@@ -140,7 +140,7 @@ def atheris_worker(args: argparse.Namespace, stats: Stats) -> None:
     import atheris
 
     with atheris.instrument_imports(include=["mse"]):
-        import fuzzing  # noqa: F401  (imports and instruments mse)
+        from tests import fuzzing  # noqa: F401  (imports and instruments mse)
 
     names = args.targets
 
@@ -238,14 +238,16 @@ def main() -> int:
         (atheris_worker if args.engine == "atheris" else hypothesis_worker)(args, stats)
         return 0
     stats_file = Path(tempfile.mkdtemp(prefix="mse-fuzz-")) / "stats.json"
-    command = [sys.executable, __file__, "--worker", str(stats_file), "--engine", args.engine]
+    command = [sys.executable, "-m", "bench.robustness.fuzz", "--worker", str(stats_file), "--engine", args.engine]
     command += ["--seconds", str(args.seconds), "--targets", ",".join(args.targets)]
     command += ["--case-seconds", str(args.case_seconds), "--rss-mb", str(args.rss_mb)]
     if args.failures:
         command += ["--failures", str(args.failures)]
     began = time.monotonic()
-    env = {**os.environ, "MSE_CACHE_DIR": os.environ.get("MSE_CACHE_DIR", str(stats_file.parent / "cache"))}
-    worker = subprocess.run(command, env=env, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, check=False)
+    env = environment(None, MSE_CACHE_DIR=os.environ.get("MSE_CACHE_DIR", str(stats_file.parent / "cache")))
+    worker = subprocess.run(
+        command, env=env, cwd=NEUTRAL, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, check=False
+    )
     elapsed = time.monotonic() - began
     if not stats_file.exists():
         print(worker.stderr.decode(errors="replace")[-4000:], file=sys.stderr)

@@ -1,6 +1,6 @@
 """Speed of ``mse animate`` on a 10 s timeline: first run (empty caches) and warm runs.
 
-    python bench/animate_speed.py [--shared ../shared] [--runs 3]
+    python -m bench.speed.animate_speed [--shared ../shared] [--runs 3]
 
 Timelines: the bundled ``embarrassment`` set sampled for 10 s (seed 1: a bow and a hand on the
 mouth that overlap), animated with the starter library, Bandai dataset 1 and dataset 2
@@ -24,7 +24,7 @@ import tempfile
 import time
 from pathlib import Path
 
-ROOT = Path(__file__).resolve().parent.parent
+ROOT = Path(__file__).resolve().parent.parent.parent
 MSE = [sys.executable, "-m", "mse"]
 
 DS2_SET = """<?xml version="1.0" encoding="UTF-8"?>

@@ -1,17 +1,17 @@
 """Benchmark of the CP-SAT backend and of solver-backed lint (issue 12; earlier issue 4).
 
-    python bench/cpsat.py                          # every section, baseline 14df718
-    python bench/cpsat.py --sections scale,lint --baseline-ref main
-    python bench/cpsat.py --quick                  # fewer runs, for a smoke test
+    python -m bench.speed.cpsat                    # every section, no baseline
+    python -m bench.speed.cpsat --sections scale,lint --baseline main
+    python -m bench.speed.cpsat --quick            # fewer runs, for a smoke test
 
-Every measurement runs in its own process (bench/cpsat_measure.py), once against this checkout
-and, where the section says "vs", once against ``--baseline-ref`` checked out into a temporary
-git worktree (default 14df718, the CP-SAT before this work), so that ratios are measured in
-the same run on the same (shared, noisy) machine.  The load average is printed with each
+Every measurement runs in its own process (bench/speed/cpsat_measure.py), once against this
+checkout and, where the section says "vs", once against ``--baseline REF`` (bench/baseline.py:
+a git revision or a source tree), so that ratios are measured in the same run on the same
+(shared, noisy) machine.  The load average is printed with each
 section.  Sections:
 
 * ``sampling``: model build + solve per bundled set at 10 s, p50/p95 (vs baseline);
-* ``scale``: generated feasible sets (planted timeline, bench/cpsat_sets.py) of 50/100 and
+* ``scale``: generated feasible sets (planted timeline, bench/generators/cpsat_sets.py) of 50/100 and
   200/400 signals/constraints at 10 s, p50/p95 (target 200/400: p50 <= 1 s; vs baseline);
 * ``explain``: generated infeasible sets of 10-50 signals: time to "no timeline" with its proof
   and minimal explanation (target <= 2 s at 50 signals);
@@ -43,8 +43,9 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
-REPO = Path(__file__).resolve().parent.parent
-MEASURE = Path(__file__).resolve().parent / "cpsat_measure.py"
+from bench.baseline import add_argument, baseline_tree, describe, run_python
+
+REPO = Path(__file__).resolve().parent.parent.parent
 SECTIONS = ("sampling", "scale", "explain", "long", "lint", "fidelity", "controls")
 
 
@@ -54,10 +55,7 @@ def load_average() -> str:
 
 def measure(kind: str, root: Path | None = None, **arguments: Any) -> dict[str, Any]:
     """Run one measurement in a fresh process against ``root`` (None: this checkout)."""
-    env = dict(os.environ)
-    env["PYTHONPATH"] = str(root or REPO)
-    done = subprocess.run([sys.executable, str(MEASURE), kind, json.dumps(arguments)], env=env,
-                          capture_output=True, text=True, check=False)
+    done = run_python(root, ["-m", "bench.speed.cpsat_measure", kind, json.dumps(arguments)])
     if done.returncode != 0:
         return {"error": done.stderr.strip().splitlines()[-1] if done.stderr.strip() else "failed"}
     result: dict[str, Any] = json.loads(done.stdout.strip().splitlines()[-1])
@@ -123,7 +121,7 @@ def section_scale(args: argparse.Namespace, base: Path | None) -> None:
                 line += (f"   {statistics.median(old['times']):7.2f} {pct(old['times'], 0.95):7.2f} "
                          f"{old['failures']:4d}   {speed}")
         print(line)
-    # The same size from the default sampler's generator (bench/corpus.py, planted timeline).
+    # The same size from the default sampler's generator (bench/generators/corpus.py, planted timeline).
     new = measure("scale", signals=200, constraints=400, sets=sets, duration=10.0, generator="corpus")
     if "times" in new:
         print(f"{'200/400 corpus.py':20s} {statistics.median(new['times']):7.2f} {pct(new['times'], 0.95):7.2f} "
@@ -281,22 +279,10 @@ def section_controls(args: argparse.Namespace, base: Path | None) -> None:
         print(f"{'all':24s} {solver_name:7s} {totals[0]:4d}/{totals[1]:<5d} {totals[2]:4d}/{totals[3]:<5d}")
 
 
-def baseline_worktree(ref: str) -> Path | None:
-    if not ref:
-        return None
-    folder = Path(tempfile.mkdtemp(prefix="mse-cpsat-baseline-"))
-    done = subprocess.run(["git", "-C", str(REPO), "worktree", "add", "--detach", str(folder / "tree"), ref],
-                          capture_output=True, text=True, check=False)
-    if done.returncode != 0:
-        print(f"baseline {ref!r} unavailable: {done.stderr.strip()}")
-        return None
-    return folder / "tree"
-
-
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--sections", default=",".join(SECTIONS))
-    parser.add_argument("--baseline-ref", default="14df718", help="git revision to compare with ('' for none)")
+    add_argument(parser)
     parser.add_argument("--quick", action="store_true")
     shared = Path(os.environ.get("MSE_SHARED", REPO.parent / "shared"))
     parser.add_argument("--greta-sets", help="folder of imported Greta sets (mse import-greta ... -o DIR)")
@@ -307,16 +293,12 @@ def main() -> None:
         subprocess.run([sys.executable, "-m", "mse", "import-greta", str(shared / "greta" / "lexicon.xml"),
                         str(shared / "greta" / "constraint.xml"), "-o", str(folder)], capture_output=True, check=False)
         args.greta_sets = str(folder)
-    base = baseline_worktree(args.baseline_ref)
-    print(f"mse CP-SAT bench; baseline {args.baseline_ref or 'none'}; load {load_average()}; cpus {os.cpu_count()}")
+    print(f"mse CP-SAT bench; baseline {describe(args.baseline)}; load {load_average()}; cpus {os.cpu_count()}")
     try:
-        for name in args.sections.split(","):
-            globals()[f"section_{name.strip()}"](args, base)
+        with baseline_tree(args.baseline) as base:
+            for name in args.sections.split(","):
+                globals()[f"section_{name.strip()}"](args, base)
     finally:
-        if base is not None:
-            subprocess.run(["git", "-C", str(REPO), "worktree", "remove", "--force", str(base)],
-                           capture_output=True, check=False)
-            shutil.rmtree(base.parent, ignore_errors=True)
         if imported is not None:
             shutil.rmtree(imported, ignore_errors=True)
 

@@ -1,7 +1,8 @@
-"""One measurement of bench/cpsat.py, run in its own process against whichever ``mse`` is first
-on ``sys.path`` (this checkout, or a baseline revision's worktree); prints one JSON object.
+"""One measurement of bench/speed/cpsat.py, run in its own process against whichever ``mse``
+is first on ``PYTHONPATH`` (this checkout, or the baseline of bench/baseline.py); prints one
+JSON object.
 
-    python bench/cpsat_measure.py KIND '{"json": "arguments"}'
+    python -m bench.speed.cpsat_measure KIND '{"json": "arguments"}'
 
 Kinds: ``bundled`` (sampling time per bundled set), ``scale`` (generated feasible sets),
 ``explain`` (generated infeasible sets), ``long`` (one long timeline: time, occurrences per
@@ -21,10 +22,7 @@ import time
 from pathlib import Path
 from typing import Any
 
-sys.path.insert(1, str(Path(__file__).resolve().parent))
-
-from cpsat_sets import feasible_set, infeasible_set
-
+from bench.generators.cpsat_sets import feasible_set, infeasible_set
 from mse.api import load, loads
 from mse.ir.schedule import to_ticks
 from mse.resources import bundled_names
@@ -53,7 +51,7 @@ def bundled(duration: float, runs: int) -> dict[str, Any]:
 
 def scale(signals: int, constraints: int, sets: int, duration: float, seeds: int = 1,
           locality: int | None = None, generator: str = "cpsat_sets") -> dict[str, Any]:
-    """``generator``: ``cpsat_sets`` (bench/cpsat_sets.py) or ``corpus`` (bench/corpus.py's
+    """``generator``: ``cpsat_sets`` (bench/generators/cpsat_sets.py) or ``corpus`` (bench/generators/corpus.py's
     planted sets, the default sampler's bench generator: every operator, wide constraints)."""
     solver = get_solver("cpsat")
     solver.solve(load("anger"), SolveRequest(duration=10.0, seed=0))

@@ -1,8 +1,8 @@
 """Benchmark of ``mse render`` (issue 16: 10 s at 25 fps in at most 10 s).  Prints numbers;
 asserts nothing.
 
-    python bench/render.py                      # 10 s of embarrassment, 960x540, 25 fps
-    python bench/render.py --formats mp4 webm gif --size 640x360 --repeat 3
+    python -m bench.speed.render                # 10 s of embarrassment, 960x540, 25 fps
+    python -m bench.speed.render --formats mp4 webm gif --size 640x360 --repeat 3
 
 For each format: the wall time of ``mse render TIMELINE -o clip.FMT`` as a user runs it (a
 subprocess: start-up, lexeme tables, painting, encoding, atomic write), and in this process
@@ -18,21 +18,17 @@ from __future__ import annotations
 import argparse
 import os
 import statistics
-import subprocess
-import sys
 import tempfile
 import time
 from pathlib import Path
 
-REPO = Path(__file__).resolve().parent.parent
-sys.path.insert(0, str(REPO))
+import numpy as np
 
-import numpy as np  # noqa: E402
-
-from mse.api import load, sample  # noqa: E402
-from mse.export import ExportOptions  # noqa: E402
-from mse.export.video import VideoOptions, _encode, frame_times, iter_frames, painter, write_video  # noqa: E402
-from mse.timeline import Timeline  # noqa: E402
+from bench.baseline import run_python
+from mse.api import load, sample
+from mse.export import ExportOptions
+from mse.export.video import VideoOptions, _encode, frame_times, iter_frames, painter, write_video
+from mse.timeline import Timeline
 
 
 def _timed(action: object) -> tuple[float, float]:
@@ -42,10 +38,9 @@ def _timed(action: object) -> tuple[float, float]:
 
 
 def _cli(timeline_path: Path, out: Path, size: str, fps: float) -> float:
-    command = [sys.executable, "-m", "mse", "render", str(timeline_path), "-o", str(out), "--size", size]
-    command += ["--fps", str(fps)]
+    command = ["-m", "mse", "render", str(timeline_path), "-o", str(out), "--size", size, "--fps", str(fps)]
     began = time.perf_counter()
-    subprocess.run(command, check=True, capture_output=True, cwd=REPO)
+    run_python(None, command, check=True)
     return time.perf_counter() - began
 
 

@@ -1,6 +1,6 @@
-"""Run sampling jobs in a subprocess against a given source tree (this one, or another git
-revision extracted with ``git archive``), so that the bench compares two versions of the
-sampler in the same run, under the same load (``bench/sample.py --baseline-ref REV``).
+"""Run sampling jobs in a subprocess against a given version of ``mse`` (this checkout, or the
+baseline of :mod:`bench.baseline`), so that the bench compares two versions of the sampler in
+the same run, under the same load (``python -m bench.speed.sample --baseline REF``).
 
 A job is a list of items ``{"name", "model" (canonical IR JSON), "duration", "seeds",
 "solver", "warm"}``; the subprocess answers, per item, the CPU and wall time of sampling every
@@ -14,20 +14,15 @@ subprocess uses only what both versions have: ``mse.ir.canonical.model_from_json
 from __future__ import annotations
 
 import json
-import subprocess
-import sys
-import tarfile
-import tempfile
 from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
-REPO = Path(__file__).resolve().parent.parent
+from bench.baseline import run_python
 
-#: Executed as ``python -c SCRIPT ROOT`` with the job on stdin.
+#: Executed as ``python -c SCRIPT`` with the job on stdin.
 SCRIPT = r"""
 import json, sys, time
-sys.path.insert(0, sys.argv[1])
 from mse.ir.canonical import model_from_json
 from mse.solve.protocol import NoSolution, SolveRequest, get_solver
 job = json.load(sys.stdin)
@@ -69,29 +64,10 @@ print(json.dumps(results))
 """
 
 
-def extract(revision: str, into: Path) -> Path:
-    """The source tree of ``revision`` (``git archive``: no worktree, no change to the
-    repository) under ``into``; returns its root."""
-    archive = subprocess.run(
-        ["git", "archive", "--format=tar", revision], cwd=REPO, capture_output=True, check=True
-    ).stdout
-    root = into / revision.replace("/", "_")
-    root.mkdir(parents=True, exist_ok=True)
-    with tempfile.TemporaryFile() as handle:
-        handle.write(archive)
-        handle.seek(0)
-        with tarfile.open(fileobj=handle) as tar:
-            tar.extractall(root, filter="data")
-    return root
-
-
-def run_job(root: Path, job: Sequence[dict[str, Any]]) -> list[dict[str, Any]]:
-    """Run ``job`` with the sampler of the tree at ``root`` in a fresh interpreter."""
-    done = subprocess.run(
-        [sys.executable, "-c", SCRIPT, str(root)], input=json.dumps(list(job)), capture_output=True, text=True,
-        check=False,
-    )
+def run_job(root: Path | None, job: Sequence[dict[str, Any]]) -> list[dict[str, Any]]:
+    """Run ``job`` with the sampler of ``root`` (None: this checkout) in a fresh interpreter."""
+    done = run_python(root, ["-c", SCRIPT], stdin=json.dumps(list(job)))
     if done.returncode != 0:
-        raise RuntimeError(f"bench subprocess failed ({root}):\n{done.stderr[-2000:]}")
+        raise RuntimeError(f"bench subprocess failed ({root or 'this checkout'}):\n{done.stderr[-2000:]}")
     result: list[dict[str, Any]] = json.loads(done.stdout.strip().splitlines()[-1])
     return result

@@ -1,21 +1,20 @@
 """Benchmarks of the default sampler (issues 3, 12 and 19).  Prints numbers; asserts nothing.
 
-    python bench/sample.py --sets                       # every bundled and Greta set, 10 s
-    python bench/sample.py --bytecodes --count 100      # the same, in bytecodes per timeline (load-free)
-    python bench/sample.py --corpus                     # random sets, CP-SAT as ground truth
-    python bench/sample.py --growth                     # growth exponents, 200/400 at 10 s
-    python bench/sample.py --scale                      # 200 signals / 400 constraints at 10 s only
-    python bench/sample.py --long                       # one-hour timelines: rate, memory, stream
-    python bench/sample.py --infeasible                 # time to a proof (CLI, up to 50 signals)
-    python bench/sample.py --fidelity                   # per-signal rates against the definition
-    python bench/sample.py --constraint-less            # the control condition
-    python bench/sample.py --cli                        # start time of `mse sample`
-    ... --baseline-ref 14df718                          # compare with another revision's walk
+    python -m bench.speed.sample --sets                 # every bundled and Greta set, 10 s
+    python -m bench.speed.sample --bytecodes --count 100   # the same, in bytecodes per timeline (load-free)
+    python -m bench.speed.sample --corpus               # random sets, CP-SAT as ground truth
+    python -m bench.speed.sample --growth               # growth exponents, 200/400 at 10 s
+    python -m bench.speed.sample --scale                # 200 signals / 400 constraints at 10 s only
+    python -m bench.speed.sample --long                 # one-hour timelines: rate, memory, stream
+    python -m bench.speed.sample --infeasible           # time to a proof (CLI, up to 50 signals)
+    python -m bench.speed.sample --fidelity             # per-signal rates against the definition
+    python -m bench.speed.sample --constraint-less      # the control condition
+    python -m bench.speed.sample --cli                  # start time of `mse sample`
+    ... --baseline main                                 # compare with another version (a revision or a path)
 
-The machine is shared: every speed is also given as a ratio against the baseline revision
-(``--baseline-ref``, default 14df718, the walk before issue 12), measured in the same run:
-the baseline's source tree is extracted with ``git archive`` into a temporary folder and run
-in a subprocess alternately with this tree (bench/runner.py).  The load average is printed
+The machine is shared: with ``--baseline REF`` every speed is also given as a ratio against
+that version (bench/baseline.py: a git revision or a source tree), measured in the same run, in
+a subprocess alternately with this tree (bench/speed/runner.py).  The load average is printed
 before and after.  Greta's sets are imported from ``$MSE_SHARED/greta`` (default ../shared).
 """
 
@@ -37,19 +36,17 @@ from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Any
 
-REPO = Path(__file__).resolve().parent.parent
-sys.path.insert(0, str(REPO))
-sys.path.insert(0, str(Path(__file__).resolve().parent))
+from bench.baseline import add_argument, baseline_tree, run_python
+from bench.generators.corpus import planted_model, random_model
+from bench.speed.runner import run_job
+from mse.api import load, loads
+from mse.ir import model as ir
+from mse.ir.canonical import model_to_json
+from mse.ir.evaluate import check_schedule
+from mse.resources import bundled_names
+from mse.solve.protocol import NoSolution, SolveRequest, get_solver
 
-from corpus import planted_model, random_model  # noqa: E402
-from runner import extract, run_job  # noqa: E402
-
-from mse.api import load, loads  # noqa: E402
-from mse.ir import model as ir  # noqa: E402
-from mse.ir.canonical import model_to_json  # noqa: E402
-from mse.ir.evaluate import check_schedule  # noqa: E402
-from mse.resources import bundled_names  # noqa: E402
-from mse.solve.protocol import NoSolution, SolveRequest, get_solver  # noqa: E402
+REPO = Path(__file__).resolve().parent.parent.parent
 
 GRETA_EMOTIONS = (
     "anger", "anxiety", "embarrassment", "joy", "panic_fear", "pride", "regret", "rejoice", "relief", "tension",
@@ -97,12 +94,12 @@ def all_sets() -> dict[str, ir.Model]:
 class Compare:
     """Runs the same job on this tree and on the baseline revision, alternately."""
 
-    def __init__(self, baseline: str | None, folder: Path) -> None:
-        self.baseline_root = extract(baseline, folder) if baseline else None
+    def __init__(self, baseline: str | None, root: Path | None) -> None:
+        self.baseline_root = root
         self.baseline = baseline
 
     def run(self, job: list[dict[str, Any]], baseline_solver: str = "greedy") -> tuple[list[dict[str, Any]], ...]:
-        mine = run_job(REPO, job)
+        mine = run_job(None, job)
         if self.baseline_root is None:
             return (mine,)
         theirs = run_job(self.baseline_root, [{**item, "solver": baseline_solver} for item in job])
@@ -148,7 +145,6 @@ def bench_sets(compare: Compare, count: int, duration: float, rounds: int = 1, o
 # -- --bytecodes: the same work counted in bytecodes (load-independent) -------------------------------
 BYTECODES_SCRIPT = r"""
 import json, sys
-sys.path.insert(0, sys.argv[1])
 from mse.ir.canonical import model_from_json
 from mse.solve.protocol import NoSolution, SolveRequest, get_solver
 job = json.load(sys.stdin)
@@ -187,11 +183,10 @@ def bench_bytecodes(compare: Compare, count: int, duration: float, only: Sequenc
     print(f"{'set':24s} {'bytecodes/tl':>12s} {'baseline':>10s} {'ratio':>6s}")
     job = [{"name": name, "model": model_to_json(model), "duration": duration, "seeds": list(range(1, count + 1))}
            for name, model in sets.items()]
-    roots = [REPO] + ([compare.baseline_root] if compare.baseline_root is not None else [])
+    roots = [None] + ([compare.baseline_root] if compare.baseline_root is not None else [])
     counts = []
     for root in roots:
-        done = subprocess.run([sys.executable, "-c", BYTECODES_SCRIPT, str(root)], input=json.dumps(job),
-                              capture_output=True, text=True, check=True)
+        done = run_python(root, ["-c", BYTECODES_SCRIPT], stdin=json.dumps(job), check=True)
         counts.append({r["name"]: r["bytecodes"] for r in json.loads(done.stdout.strip().splitlines()[-1])})
     for name in sets:
         line = f"{name:24s} {counts[0][name]:12.0f}"
@@ -225,7 +220,7 @@ def bench_corpus(compare: Compare, count: int, seeds: int, seed: int, time_limit
                 infeasible += 1
             else:
                 unknown += 1
-    print(f"== corpus: {count} random sets (3-40 signals, n/2-2n constraints, 4/10/30 s, bench/corpus.py, "
+    print(f"== corpus: {count} random sets (3-40 signals, n/2-2n constraints, 4/10/30 s, bench/generators/corpus.py, "
           f"seed {seed}); CP-SAT ({time_limit:g} s): {len(feasible)} feasible, {infeasible} infeasible, "
           f"{unknown} undecided ({time.perf_counter() - began:.0f} s)")
     job = [item(name, model, duration, range(seeds), warm=0) for name, model, duration in feasible]
@@ -271,7 +266,8 @@ def bench_growth(compare: Compare, models: int, seeds: int) -> None:
         "duration (20 signals, 30 constraints)": [(d, 20, 30, d) for d in (5.0, 10.0, 30.0, 60.0, 120.0)],
     }
     print(f"== growth: planted sets (a random timeline drawn first, then random constraints it satisfies, "
-          f"bench/corpus.py), {models} sets x {seeds} seeds per point; median time per timeline; {load_line()}")
+          f"bench/generators/corpus.py), {models} sets x {seeds} seeds per point; median time per timeline; "
+          f"{load_line()}")
     for title, points in series.items():
         xs, mine_medians, theirs_medians = [], [], []
         print(title)
@@ -306,7 +302,8 @@ def bench_growth(compare: Compare, models: int, seeds: int) -> None:
 def bench_scale(compare: Compare, models: int, seeds: int, repeat: int) -> None:
     """The 200/400 point of --growth, ``repeat`` times, this tree and the baseline alternately:
     p50/p99 per timeline, failures, fallbacks, backtracks per timeline, ratio of the medians."""
-    print(f"== scale: planted sets of 200 signals / 400 constraints at 10 s (bench/corpus.py), {models} sets x "
+    print(f"== scale: planted sets of 200 signals / 400 constraints at 10 s (bench/generators/corpus.py), "
+          f"{models} sets x "
           f"{seeds} seeds, {repeat} rounds; the first timeline of each set (plan building) not counted; "
           f"{load_line()}")
     job = [{**item(f"p{k}", planted_model(1000 * k + 600, 200, 400, 10.0), 10.0, range(seeds), warm=1),
@@ -342,13 +339,12 @@ def bench_scale(compare: Compare, models: int, seeds: int, repeat: int) -> None:
 # -- --long: one-hour timelines ---------------------------------------------------------------------
 LONG_SCRIPT = r"""
 import json, sys, time, resource
-sys.path.insert(0, sys.argv[1])
 import mse.api as api
 from mse.solve.protocol import SolveRequest, get_solver
 def rss():
     with open("/proc/self/statm") as f:
         return int(f.read().split()[1]) * 4096 / 2**20
-path, duration = sys.argv[2], float(sys.argv[3])
+path, duration = sys.argv[1], float(sys.argv[2])
 model = api.load(path)
 solver = get_solver("greedy")
 before = rss()
@@ -383,8 +379,7 @@ def bench_long(duration: float, names: Sequence[str]) -> None:
         for name in names:
             path = Path(folder) / f"{name.replace(':', '_')}.json"
             path.write_text(json.dumps(model_to_json(sets[name])), encoding="utf-8")
-            done = subprocess.run([sys.executable, "-c", LONG_SCRIPT, str(REPO), str(path), str(duration)],
-                                  capture_output=True, text=True, check=False)
+            done = run_python(None, ["-c", LONG_SCRIPT, str(path), str(duration)])
             if done.returncode != 0:
                 print(f"{name:24s} failed: {done.stderr[-300:]}")
                 continue
@@ -406,12 +401,11 @@ def bench_long(duration: float, names: Sequence[str]) -> None:
 
 
 # -- --infeasible: proofs ----------------------------------------------------------------------------
-def cli_run(root: Path, args: list[str]) -> tuple[subprocess.CompletedProcess[str], float, float]:
-    """``mse ARGS`` with the package of the tree at ``root`` in a fresh interpreter: the
-    process, its wall time and its CPU time."""
-    code = f"import sys; sys.path.insert(0, {str(root)!r}); from mse.cli import main; sys.exit(main({args!r}))"
+def cli_run(root: Path | None, args: list[str]) -> tuple[subprocess.CompletedProcess[str], float, float]:
+    """``mse ARGS`` with the package of ``root`` (None: this checkout) in a fresh interpreter:
+    the process, its wall time and its CPU time."""
     began, usage = time.perf_counter(), resource.getrusage(resource.RUSAGE_CHILDREN)
-    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=False)
+    done = run_python(root, ["-m", "mse", *args])
     wall = time.perf_counter() - began
     after = resource.getrusage(resource.RUSAGE_CHILDREN)
     return done, wall, after.ru_utime + after.ru_stime - usage.ru_utime - usage.ru_stime
@@ -452,7 +446,7 @@ def bench_infeasible(compare: Compare, count: int, seed: int, time_limit: float,
             args = ["sample", str(path), "--seed", "1", "--duration", str(duration)]
             runs: dict[str, list[tuple[subprocess.CompletedProcess[str], float, float]]] = {"mine": [], "base": []}
             for _ in range(repeat):
-                runs["mine"].append(cli_run(REPO, args))
+                runs["mine"].append(cli_run(None, args))
                 if compare.baseline_root is not None:
                     runs["base"].append(cli_run(compare.baseline_root, args))
             done = runs["mine"][0][0]
@@ -475,7 +469,7 @@ def bench_infeasible(compare: Compare, count: int, seed: int, time_limit: float,
 
 # -- --fidelity -------------------------------------------------------------------------------------
 def bench_fidelity(count: int, cp_count: int, duration: float, draws: int, names: Sequence[str] | None) -> None:
-    from fidelity import marginals, target
+    from bench.evaluation.sampler_fidelity import marginals, target
 
     sets = all_sets()
     if names:
@@ -593,7 +587,7 @@ def main() -> None:
     for flag in ("sets", "bytecodes", "corpus", "growth", "scale", "long", "infeasible", "fidelity",
                  "constraint-less", "cli"):
         parser.add_argument(f"--{flag}", action="store_true")
-    parser.add_argument("--baseline-ref", default="14df718", help="revision to compare with ('' for none)")
+    add_argument(parser)
     parser.add_argument("--count", type=int, default=2000,
                         help="--sets: timelines per set (--bytecodes: at most 200)")
     parser.add_argument("--duration", type=float, default=None, help="--sets (10), --long (3600), --fidelity (10)")
@@ -609,9 +603,10 @@ def main() -> None:
     args = parser.parse_args()
 
     print(load_line(" before"))
-    with tempfile.TemporaryDirectory() as folder:
-        needs_compare = args.sets or args.bytecodes or args.corpus or args.growth or args.scale or args.infeasible
-        compare = Compare(args.baseline_ref or None, Path(folder)) if needs_compare else Compare(None, Path(folder))
+    needs_compare = args.sets or args.bytecodes or args.corpus or args.growth or args.scale or args.infeasible
+    reference = args.baseline if needs_compare else None
+    with baseline_tree(reference) as root:
+        compare = Compare(reference, root)
         modes = {
             "sets": lambda: bench_sets(compare, args.count, args.duration or 10.0, args.rounds, args.sets_only or ()),
             "bytecodes": lambda: bench_bytecodes(compare, min(args.count, 200), args.duration or 10.0,

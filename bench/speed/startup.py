@@ -1,12 +1,12 @@
 """Start-up of ``mse sample --duration 10`` (the main job), warm and cold compiled-model cache.
 
-    python bench/startup.py [--runs 15] [--compare OTHER_CHECKOUT]
+    python -m bench.speed.startup [--runs 15] [--baseline REF]
 
 Prints the median wall time of each case and its ratio to ``python -c pass`` measured in
 the same run (the machine is shared: absolute times are noisy, ratios less so), and the
-modules that take longest to import (``-X importtime``).  ``--compare`` runs the same cases
-with another source tree first on ``PYTHONPATH`` (e.g. an export of ``main`` before a
-change), interleaved with this one.
+modules that take longest to import (``-X importtime``).  ``--baseline REF`` (a git revision
+or a source tree, bench/baseline.py) runs the same cases with that version, interleaved with
+this one.
 
 Cases: *warm* reuses one cache folder (the compiled model is read from the cache: neither
 lxml nor lark is imported); *cold* gets a fresh cache folder each run (the file is parsed,
@@ -24,12 +24,9 @@ import tempfile
 import time
 from pathlib import Path
 
-ROOT = Path(__file__).resolve().parent.parent
+from bench.baseline import NEUTRAL, add_argument, baseline_tree, environment
+
 SAMPLE = ["-m", "mse", "sample", "--duration", "10", "--seed", "1", "--format", "json"]
-
-
-#: Subprocesses run from a neutral folder: ``-m`` puts the working folder first on sys.path.
-NEUTRAL = tempfile.gettempdir()
 
 
 def _run(arguments: list[str], env: dict[str, str]) -> float:
@@ -39,10 +36,8 @@ def _run(arguments: list[str], env: dict[str, str]) -> float:
 
 
 def _env(tree: Path | None, cache: str) -> dict[str, str]:
-    env = {**os.environ, "MSE_CACHE_DIR": cache}
+    env = environment(tree, MSE_CACHE_DIR=cache)
     env.pop("PYTHONDONTWRITEBYTECODE", None)  # start-up as installed: bytecode cached
-    if tree is not None:
-        env["PYTHONPATH"] = str(tree)
     return env
 
 
@@ -67,24 +62,29 @@ def _importtime(tree: Path | None, cache: str) -> list[tuple[int, str]]:
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--runs", type=int, default=15)
-    parser.add_argument("--compare", type=Path, help="another source tree to measure the same way")
+    add_argument(parser)
     args = parser.parse_args()
+    with baseline_tree(args.baseline) as root:
+        return measure(args.runs, args.baseline, root)
+
+
+def measure(runs: int, reference: str | None, root: Path | None) -> int:
     trees: list[tuple[str, Path | None]] = [("this tree", None)]
-    if args.compare is not None:
-        trees.insert(0, (f"compare ({args.compare})", args.compare.resolve()))
+    if root is not None:
+        trees.insert(0, (f"baseline ({reference})", root))
     with tempfile.TemporaryDirectory() as scratch:
         warm = {label: str(Path(scratch) / f"warm-{n}") for n, (label, _) in enumerate(trees)}
         for label, tree in trees:  # fill each warm cache once
             _run(SAMPLE, _env(tree, warm[label]))
         results: dict[str, list[float]] = {"python -c pass": []}
-        for _ in range(args.runs):
+        for _ in range(runs):
             results["python -c pass"].append(_run(["-c", "pass"], dict(os.environ)))
             for label, tree in trees:
                 results.setdefault(f"{label}: warm", []).append(_run(SAMPLE, _env(tree, warm[label])))
                 cold = tempfile.mkdtemp(dir=scratch)
                 results.setdefault(f"{label}: cold", []).append(_run(SAMPLE, _env(tree, cold)))
         baseline = statistics.median(results["python -c pass"])
-        print(f"mse sample --duration 10, median of {args.runs} runs (ratio to python -c pass)")
+        print(f"mse sample --duration 10, median of {runs} runs (ratio to python -c pass)")
         for name, times in results.items():
             median = statistics.median(times)
             print(f"  {name:<48} {median * 1000:7.0f} ms  {median / baseline:5.1f}x")

@@ -25,7 +25,7 @@ This is the *prior*: each signal on its own, before constraints.  A sampled time
 the prior **conditioned on being consistent** (every constraint holds, exclusive modalities do
 not overlap): drawing from the prior and keeping only consistent timelines would give the same
 distribution.  The greedy walk approximates that conditional, CP-SAT's default objective
-approximates it too; ``bench/sample.py`` measures both against it.  The control condition
+approximates it too; ``bench/speed/sample.py`` measures both against it.  The control condition
 (``--mode constraint-less``) is the prior conditioned on violating at least one constraint.
 """
 

@@ -16,7 +16,7 @@ def make_solver(
     time_limit: float, workers: int = 1, seed: int = 0, *, light: bool = False
 ) -> cp_model.CpSolver:
     """A CP-SAT solver; ``light`` skips presolve and LP relaxation, which cost more than
-    they save on the small sampling models (measured in bench/cpsat.py: 3x faster)."""
+    they save on the small sampling models (measured in bench/speed/cpsat.py: 3x faster)."""
     from ortools.sat.python import cp_model
 
     solver = cp_model.CpSolver()

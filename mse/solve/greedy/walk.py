@@ -52,7 +52,7 @@ CAREFUL_AFTER = 1
 CAREFUL_TRIES = 10
 #: A walk whose empty timeline already owes this many debts (mandatory signals, ``--require``)
 #: is careful from the start: taking optional debts on top of them rarely ends well (half the
-#: walks of the planted 200-signal sets of ``bench/sample.py --scale``, which owe 7-25, failed
+#: walks of the planted 200-signal sets of ``bench/speed/sample.py --scale``, which owe 7-25, failed
 #: after their backtracks).  The bundled and Greta sets owe at most one.
 CAREFUL_DEBTS = 4
 
