@@ -9,7 +9,6 @@ from functools import reduce
 import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
-from test_greedy_partial import DURATION, env_of, timelines
 
 from mse.api import load
 from mse.ir import model as ir
@@ -32,6 +31,7 @@ from mse.solve.greedy.solver import GreedySolver
 from mse.solve.greedy.windows import critical_points, critical_rules, critical_values
 from mse.solve.protocol import SolveRequest, get_solver
 from tests.strategies import models
+from tests.test_greedy_partial import DURATION, env_of, timelines
 
 
 def test_n_ary_connectives_fold_over_the_binary_tables() -> None:
