@@ -1,4 +1,4 @@
-"""Every shell example in README.md and docs/*.md runs (issue 18 item 2).
+"""Every shell example in README.md and docs/**/*.md runs (issue 18 item 2).
 
 Extracted: whole fenced ```sh / ```bash / ```console blocks, and the lines starting with
 ``mse `` in any other fenced block.  A block right after ``<!-- illustrative: REASON -->`` is
@@ -31,7 +31,7 @@ from pathlib import Path
 import pytest
 
 REPO_ROOT = Path(__file__).resolve().parent.parent
-PAGES = [REPO_ROOT / "README.md", *sorted((REPO_ROOT / "docs").glob("*.md"))]
+PAGES = [REPO_ROOT / "README.md", *sorted((REPO_ROOT / "docs").rglob("*.md"))]
 SHELL_LANGUAGES = {"sh", "bash", "console", "shell"}
 FENCE = re.compile(r"^\s*```(\S*)\s*$")
 MARKER = re.compile(r"<!--\s*(illustrative|run-by)\b[^>]*-->")
