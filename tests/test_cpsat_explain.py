@@ -37,6 +37,7 @@ def _key(item_kind: str, item_id: str) -> str:
     return f"{prefix}:{item_id}"
 
 
+@pytest.mark.slow
 @settings(max_examples=80, deadline=None, suppress_health_check=list(HealthCheck))
 @given(model=models(min_signals=1, max_signals=5, max_constraints=5), data=st.data())
 def test_explanations_agree_with_solving_and_are_minimal(model: ir.Model, data: st.DataObject) -> None:

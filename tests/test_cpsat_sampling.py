@@ -42,6 +42,7 @@ def _check(model: ir.Model, schedule: Schedule, *, violate: bool = False) -> Non
     assert violations == []
 
 
+@pytest.mark.slow
 @SETTINGS
 @given(model=models(min_signals=1, max_signals=6, max_constraints=6),
        duration=st.sampled_from([1.0, 4.0, 10.0]), seed=st.integers(0, 2**20))
@@ -56,6 +57,7 @@ def test_timelines_are_consistent_and_complete(model: ir.Model, duration: float,
     _check(model, schedule)
 
 
+@pytest.mark.slow
 @settings(max_examples=25, deadline=None, suppress_health_check=list(HealthCheck))
 @given(model=models(min_signals=1, max_signals=5, max_constraints=5),
        duration=st.sampled_from([45.0, 64.5]), seed=st.integers(0, 2**20))
@@ -74,6 +76,7 @@ def test_rolling_horizon_never_dead_ends(model: ir.Model, duration: float, seed:
     assert Schedule.of(schedule.duration, streamed) == schedule
 
 
+@pytest.mark.slow
 @SETTINGS
 @given(model=models(min_signals=1, max_signals=5, max_constraints=5),
        duration=st.sampled_from([4.0, 10.0, 45.0]), seed=st.integers(0, 2**20))

@@ -90,6 +90,7 @@ def test_csp_feasible_implies_cpsat_feasible(model: ir.Model, seed: int, data: s
     assert check_schedule(model, schedule) == []
 
 
+@pytest.mark.slow
 @ORACLE
 @given(model=small_models)
 def test_grid_enumerations_agree(model: ir.Model) -> None:

@@ -93,6 +93,7 @@ def test_bundled_sets_deep_lint_finds_timelines() -> None:
     assert not any(d.code in ("E401", "W401") for d in found), [d.render() for d in found]
 
 
+@pytest.mark.slow
 @pytest.mark.shared
 def test_greta_sets_deep_lint(greta_dir: Path) -> None:
     from mse.syntax.greta import import_greta

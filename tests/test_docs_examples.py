@@ -142,6 +142,7 @@ def python_blocks(page: Path) -> list[Block]:
     return [b for b in blocks(page) if b.language == "python" and b.marker is None]
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("page", [p for p in PAGES if commands(p) or python_blocks(p)], ids=lambda p: p.name)
 def test_every_shell_example_runs(
     page: Path, tmp_path: Path, shared_dir: Path, monkeypatch: pytest.MonkeyPatch

@@ -74,6 +74,7 @@ def test_bundled_sets_always_consistent(name: str, seed: int, duration: int) -> 
     assert_consistent(model, schedules[0])
 
 
+@pytest.mark.slow
 @settings(max_examples=200, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(model=models(max_signals=6), seed=st.integers(0, 2**31), duration=st.integers(2000, 60000))
 def test_generated_sets_never_inconsistent(model: ir.Model, seed: int, duration: int) -> None:

@@ -4,6 +4,7 @@ message-building path answers, on any schedule -- consistent or not, well formed
 
 from __future__ import annotations
 
+import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
@@ -42,6 +43,7 @@ def schedules(draw: st.DrawFn, model: ir.Model) -> Schedule:
     return Schedule(DURATION, tuple(found))
 
 
+@pytest.mark.slow
 @settings(max_examples=250, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(data=st.data(), model=models(max_signals=4, max_constraints=5))
 def test_fast_path_agrees_with_the_full_check(data: st.DataObject, model: ir.Model) -> None:
@@ -51,6 +53,7 @@ def test_fast_path_agrees_with_the_full_check(data: st.DataObject, model: ir.Mod
     assert check_schedule(model, schedule) == full
 
 
+@pytest.mark.slow
 @settings(max_examples=100, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(data=st.data(), model=models(max_signals=4, max_constraints=5))
 def test_compiled_constraints_evaluate_as_the_evaluator(data: st.DataObject, model: ir.Model) -> None:

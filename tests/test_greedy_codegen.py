@@ -54,6 +54,7 @@ def _extra_exprs(ids: list[str]) -> list[ir.Expr]:
     ]
 
 
+@pytest.mark.slow
 @settings(max_examples=200, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(data=st.data(), model=models(max_signals=5, max_constraints=4))
 def test_generated_checks_give_the_closures_masks(data: st.DataObject, model: ir.Model) -> None:

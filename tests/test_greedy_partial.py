@@ -7,6 +7,7 @@
 
 from __future__ import annotations
 
+import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
@@ -55,6 +56,7 @@ def env_of(occurrences: list[tuple[str, int, int]]) -> dict[str, list[Box]]:
     return env
 
 
+@pytest.mark.slow
 @settings(max_examples=200, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(data=st.data(), model=models(max_signals=4, max_constraints=4))
 def test_complete_timelines_evaluate_exactly_as_the_evaluator(data: st.DataObject, model: ir.Model) -> None:
@@ -69,6 +71,7 @@ def test_complete_timelines_evaluate_exactly_as_the_evaluator(data: st.DataObjec
         assert compiled.node(env) == expected
 
 
+@pytest.mark.slow
 @settings(max_examples=200, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(data=st.data(), model=models(max_signals=4, max_constraints=4))
 def test_prefixes_of_satisfying_timelines_are_never_rejected(data: st.DataObject, model: ir.Model) -> None:
@@ -190,6 +193,7 @@ def _every_world(compiled: CompiledConstraint, env: dict[str, list[Box]], option
     return False
 
 
+@pytest.mark.slow
 @settings(max_examples=300, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(data=st.data(), model=models(max_signals=6, max_constraints=4))
 def test_world_shortcuts_answer_as_every_world(data: st.DataObject, model: ir.Model) -> None:
@@ -252,6 +256,7 @@ def test_folds_over_many_occurrences_are_exact(
         assert compile_expr(atom, DURATION)(env) == expected
 
 
+@pytest.mark.slow
 @settings(max_examples=200, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(data=st.data(), model=models(max_signals=4, max_constraints=4))
 def test_a_constraint_whose_gate_is_absent_is_acceptable(data: st.DataObject, model: ir.Model) -> None:

@@ -42,6 +42,7 @@ def _animate(
         return animate(timeline, model, tmp_path / "out", library)
 
 
+@pytest.mark.slow
 def test_hsmm_bow_leaf_on_the_starter_library(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
     monkeypatch.setenv("MSE_CACHE_DIR", str(tmp_path / "cache"))
     calls = _spy(monkeypatch)
@@ -55,6 +56,7 @@ def test_hsmm_bow_leaf_on_the_starter_library(tmp_path: Path, monkeypatch: pytes
     assert read_bvh(tmp_path / "out" / "timeline.bvh").duration == pytest.approx(6.0)
 
 
+@pytest.mark.slow
 def test_hsmm_walk_leaf_on_bandai(bandai_dir: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
     monkeypatch.setenv("MSE_CACHE_DIR", str(tmp_path / "cache"))
     library = load_library(bandai_dir)

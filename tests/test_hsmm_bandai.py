@@ -111,6 +111,7 @@ def test_synthesized_walk_travels_without_foot_sliding(walk_sad: HsmmModel) -> N
     assert max(slide) < 2.5
 
 
+@pytest.mark.slow
 def test_bow_model_synthesizes_in_place(small_library: MotionLibrary) -> None:
     clips = [(small_library.motion(c), c.style) for c in small_library.select(action="bow")]
     model = api.train_average(clips, "bow")

@@ -89,6 +89,7 @@ def wave_models(shared_dir: Path) -> tuple[HsmmModel, HsmmModel]:
     return average, api.adapt_model(average, [library.motion(feminine)], "feminine")
 
 
+@pytest.mark.slow
 def test_bandai_feminine_wave_returns_from_its_rise_quickly(wave_models: tuple[HsmmModel, HsmmModel]) -> None:
     average, adapted = wave_models
     assert {"second-a", "second-b"} <= set(average.units)
@@ -98,6 +99,7 @@ def test_bandai_feminine_wave_returns_from_its_rise_quickly(wave_models: tuple[H
     assert float(second.duration_means.sum()) < 15.0 < 40.0 < float(inner.duration_means.sum())
 
 
+@pytest.mark.slow
 def test_a_format_6_wave_model_still_loads_and_plays(wave_models: tuple[HsmmModel, HsmmModel], tmp_path: Path) -> None:
     average, _ = wave_models
     arrays = dict(np.load(io.BytesIO(model_bytes(average)), allow_pickle=False))

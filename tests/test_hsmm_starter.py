@@ -5,11 +5,13 @@ from __future__ import annotations
 from pathlib import Path
 
 import numpy as np
+import pytest
 
 from mse.motion.base.starter import starter_library
 from mse.motion.hsmm import leaf
 
 
+@pytest.mark.slow
 def test_starter_leaf_has_its_scheduled_duration(tmp_path: Path) -> None:
     library = starter_library()
     motion = leaf.synthesize_leaf(library, "bow", "sad", 2.0, seed=2, cache_dir=tmp_path)

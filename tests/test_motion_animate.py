@@ -50,6 +50,7 @@ def test_annotations_before_animation() -> None:
     }
 
 
+@pytest.mark.slow
 def test_animate_with_the_starter_library(tmp_path: Path) -> None:
     result = animate(_timeline(), _model(), tmp_path)
     motions = [s for s in result.signals if s.motion is not None]

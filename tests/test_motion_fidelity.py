@@ -97,6 +97,7 @@ def test_retarget_keeps_the_pose_on_another_build() -> None:
     assert measure(moved)["wrists_over_head"] == pytest.approx(1.2 * measure(clip)["wrists_over_head"], rel=0.05)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("method", ["lma-hmm", "hsmm"])
 def test_generator_interface_gives_the_exact_duration(method: str, tmp_path: object) -> None:
     generator = generator_for(method, cache_dir=None)

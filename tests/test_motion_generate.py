@@ -37,6 +37,7 @@ def _check_clip(motion: Motion, duration: float) -> None:
     assert np.allclose(lengths, lengths[:, :1], atol=1e-6)
 
 
+@pytest.mark.slow
 def test_starter_generation_has_the_scheduled_length() -> None:
     library = starter_library()
     result = generate_motion(library, "bow", "sad", duration=1.234)
@@ -142,6 +143,7 @@ def test_retimed_runs_last_as_the_neighbours_runs() -> None:
     assert out.tolist() == [0] * 5 + [1] * 5 + [2] * 5 + [3] * 3
 
 
+@pytest.mark.slow
 def test_one_shot_generation_keeps_the_neighbours_tempo() -> None:
     """A slow tired raise drawn from the normal one: with the desired path's timing (the
     paper's) the tired gesture is squeezed into the normal one's runs and its hands jerk

@@ -4,6 +4,7 @@ it tells apart the starter library's clearly different styles."""
 from __future__ import annotations
 
 import numpy as np
+import pytest
 
 from mse.motion.base.recognize import StyleRecognizer, style_descriptor
 from mse.motion.base.starter import generate_clip
@@ -16,6 +17,7 @@ def test_descriptor_is_finite_and_fixed_length() -> None:
     assert np.all(np.isfinite(short)) and np.all(np.isfinite(other))
 
 
+@pytest.mark.slow
 def test_recognizer_separates_starter_styles_on_a_held_out_performer() -> None:
     actions, styles = ("bow", "shrug"), ("sad", "angry", "proud")
     rows, labels, names = [], [], []

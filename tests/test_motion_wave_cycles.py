@@ -69,6 +69,7 @@ def _fold_0_library(shared_dir: Path, tmp_path: Path) -> MotionLibrary:
     return load_library(tmp_path)
 
 
+@pytest.mark.slow
 def test_samadani_fold_0_feminine_waves_cycle_by_their_velocity_only(shared_dir: Path, tmp_path: Path) -> None:
     library = _fold_0_library(shared_dir, tmp_path)
     poses = [pose_of(library, c) for c in library.select("wave-both-hands") if c.style == "feminine"]
@@ -79,6 +80,7 @@ def test_samadani_fold_0_feminine_waves_cycle_by_their_velocity_only(shared_dir:
     assert found is not None and found[0].cyclic
 
 
+@pytest.mark.slow
 def test_samadani_fold_0_feminine_wave_keeps_its_neighbours_tempo(shared_dir: Path, tmp_path: Path) -> None:
     """Before, the feminine neighbours' HMM was a left-to-right chain whose state means
     averaged their cycles, which never line up: 0.25 Hz against a floor of 0.27 (the real

@@ -113,6 +113,7 @@ def test_long_commands_show_their_bar_when_forced(args: list[str], label: str, t
     assert label.encode() in result.stderr
 
 
+@pytest.mark.slow
 def test_render_and_animate_show_their_bar_when_forced(tmp_path: Path) -> None:
     environment = {**os.environ, "PYTHONPATH": str(REPO_ROOT), "MSE_PROGRESS": "1"}
 

@@ -6,6 +6,7 @@ import random
 from pathlib import Path
 from xml.sax.saxutils import escape
 
+import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
@@ -74,6 +75,7 @@ def _document(constraint: str) -> str:
     )
 
 
+@pytest.mark.slow
 @settings(max_examples=300, deadline=None)
 @given(expression)
 def test_printed_expressions_reparse_to_the_same_ir(text: str) -> None:

@@ -70,6 +70,7 @@ def test_stream_lines_carry_their_timeline_and_go_to_a_file(solver: str, tmp_pat
     assert not list(tmp_path.glob(".*.tmp"))
 
 
+@pytest.mark.slow
 def test_diverse_timelines_say_how_to_reproduce_them(capsys: pytest.CaptureFixture[str]) -> None:
     assert main(["sample", "tension", "--solver", "cpsat", "--diverse", "--count", "3", "--seed", "5",
                  "--format", "jsonl", "--duration", "6"]) == 0

@@ -37,6 +37,7 @@ def test_wheel_contains_package_data(wheel: Path) -> None:
     assert len([n for n in names if n.startswith("mse/behaviour_sets/") and n.endswith(".xml")]) == 8
 
 
+@pytest.mark.slow
 def test_wheel_installs_and_runs_in_a_fresh_venv(wheel: Path, tmp_path: Path) -> None:
     venv = tmp_path / "venv"
     subprocess.run([sys.executable, "-m", "venv", str(venv)], check=True)
