@@ -9,6 +9,7 @@
 from __future__ import annotations
 
 import argparse
+import math
 import re
 import sys
 from pathlib import Path
@@ -88,6 +89,8 @@ def run(args: argparse.Namespace) -> int:
     try:
         if args.output is None and args.frames is None:
             raise argument_error("give -o FILE (.mp4 .webm .gif .png) and/or --frames DIR")
+        if not math.isfinite(args.at):  # a finite time is clamped into the timeline
+            raise argument_error(f"--at {args.at} must be a number of seconds")
         fmt = video_format(args.output) if args.output is not None else None
         if args.output is not None and fmt is None:
             message = f"cannot tell the format of {str(args.output)!r}: use .mp4, .webm, .gif or .png"
