@@ -20,6 +20,7 @@ import numpy as np
 from mse import progress
 from mse.diagnostics import Diagnostic, MseError, Span, argument_error
 from mse.export.options import ExportOptions
+from mse.extras import require
 from mse.fileio import atomic_path, staged_folder
 from mse.timeline import Timeline
 
@@ -158,7 +159,8 @@ def render_still(
 
 
 def _encode(images: Iterator[Image.Image], path: Path, fmt: str, video: VideoOptions) -> None:
-    import av
+    with require("video"):
+        import av
 
     rate = Fraction(video.fps).limit_denominator(1001)
     with av.open(str(path), mode="w", format="mp4" if fmt == "mp4" else "webm") as container:
@@ -186,7 +188,8 @@ def _encode(images: Iterator[Image.Image], path: Path, fmt: str, video: VideoOpt
 
 def _write_gif(images: Iterator[Image.Image], path: Path, fps: float, samples: Sequence[Image.Image]) -> None:
     """One palette for the whole clip (from sample frames), no dithering: small and stable."""
-    from PIL import Image
+    with require("video"):
+        from PIL import Image
 
     width, height = samples[0].size
     sheet = Image.new("RGB", (width, height * len(samples)))
