@@ -102,6 +102,13 @@ def _run_without_extras(commands: list[list[str]], cwd: Path) -> list[tuple[list
 
 
 def test_core_commands_work_without_extras_and_the_others_name_theirs(tmp_path: Path) -> None:
+    from mse.motion.base.starter import starter_library
+    from mse.motion.hsmm import api
+    from mse.motion.hsmm.io import save_model
+
+    library = starter_library()  # a small HSMM model, trained here with every package at hand
+    clips = [(library.motion(c), c.style) for c in library.select(action="bow")][:3]
+    save_model(tmp_path / "bow.avg", api.train_average(clips, "bow", api.Options(states=3)))
     anger = str(ROOT / "behaviour_sets" / "anger.xml")
     works = [
         ["compile", anger],
@@ -124,6 +131,7 @@ def test_core_commands_work_without_extras_and_the_others_name_theirs(tmp_path: 
         "motion": [
             ["animate", "t.json", "-o", "motion"],
             ["sample", "embarrassment", "--seed", "1", "--animate", "motion2", "-o", "e.json"],
+            ["style", "synth", "bow.avg", "-o", "bow.bvh"],
         ],
         "learn": [["learn", "t.json"]],
     }
@@ -137,7 +145,7 @@ def test_core_commands_work_without_extras_and_the_others_name_theirs(tmp_path: 
         assert (code, out) == (1, ""), argv
         assert err.splitlines()[-1] == f"error: mse {argv[0]} needs the '{extra}' extra: pip install 'mse[{extra}]'"
     # nothing half-written by the refused commands
-    assert sorted(p.name for p in tmp_path.iterdir() if p.name != "cache") == ["t.json"]
+    assert sorted(p.name for p in tmp_path.iterdir() if p.name != "cache") == ["bow.avg", "t.json"]
 
 
 def test_import_and_sampling_load_no_optional_package() -> None:
