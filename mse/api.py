@@ -19,7 +19,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from mse import progress
-from mse.diagnostics import Diagnostic, MseError, Span, has_errors
+from mse.diagnostics import Diagnostic, MseError, Span, argument_error, has_errors
 from mse.ir.evaluate import Violation, check_schedule
 from mse.ir.model import Model
 from mse.resources import bundled_names, bundled_path
@@ -219,7 +219,7 @@ def _code_prefixes(prefixes: str | Sequence[str], option: str) -> tuple[str, ...
     if unknown:
         names = ", ".join(repr(p) for p in unknown)
         message = f"{option} {names} matches no rule code (codes: {', '.join(CODES)})"
-        raise MseError([Diagnostic("E100", message, Span("<arguments>"))])
+        raise argument_error(message)
     return cleaned
 
 
@@ -250,7 +250,7 @@ def lint(
     []
     >>> mse.lint(["embarrassment"], select=["W9"])
     Traceback (most recent call last):
-    mse.diagnostics.MseError: <arguments>: E100 select 'W9' matches no rule code (codes: ...)
+    mse.diagnostics.MseError: <arguments>: E130 select 'W9' matches no rule code (codes: ...)
     """
     from mse.ir.lint import STATIC_RULES, lint_model, unknown_motion_actions
     from mse.limits import solve_duration_problem
@@ -261,10 +261,10 @@ def lint(
     entries = [paths] if isinstance(paths, str | Path) else list(paths)
     problem = solve_duration_problem(duration)
     if problem is not None:
-        raise MseError([Diagnostic("E100", f"lint duration {problem}", Span("<arguments>"))])
+        raise argument_error(f"lint duration {problem}")
     if deep_budget is not None and not 0 < deep_budget <= 86400:  # also refuses nan
         message = f"deep budget {deep_budget:g} s is not in (0, 86400] s (no limit: --deep-budget 0, or None in Python)"
-        raise MseError([Diagnostic("E100", message, Span("<arguments>"))])
+        raise argument_error(message)
     rules = (*STATIC_RULES, unknown_motion_actions(STARTER_ACTIONS))
     found: list[Diagnostic] = []
     libraries = None

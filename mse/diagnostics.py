@@ -1,9 +1,9 @@
 """Diagnostics: small immutable records with a code and a source position.
 
 Every layer reports problems as :class:`Diagnostic` records; front-ends (the CLI, an
-editor, CI) decide how to render them.  Codes: ``E1xx`` syntax, ``E2xx`` semantics,
-``W3xx`` static lint, ``E4xx``/``W4xx`` solver-backed lint, ``W5xx`` import/conversion notes,
-``W6xx`` export notes.
+editor, CI) decide how to render them.  Codes: ``E1xx`` unreadable input (``E130``: a bad
+argument or option value), ``E2xx`` semantics, ``W3xx`` static lint, ``E4xx``/``W4xx``
+solver-backed lint, ``W5xx`` import/conversion notes, ``W6xx`` export notes.
 """
 
 from __future__ import annotations
@@ -48,6 +48,8 @@ CODES: dict[str, str] = {
     "E112": "invalid number",
     "E120": "annotation file cannot be read (ELAN, CSV/TSV)",
     "E121": "invalid annotation",
+    # E130: the command line or a library call asked for something invalid
+    "E130": "invalid argument or option value",
     # E2xx: well-formed but meaningless
     "E201": "duplicate signal id",
     "E202": "duplicate constraint id",
@@ -127,6 +129,18 @@ class MseError(Exception):
     def __init__(self, diagnostics: Iterable[Diagnostic]) -> None:
         self.diagnostics: tuple[Diagnostic, ...] = tuple(sorted(diagnostics, key=Diagnostic.sort_key))
         super().__init__("\n".join(d.render() for d in self.diagnostics))
+
+
+#: Where argument errors are located: no file, the command's options (or the arguments of a
+#: library call); the message names the option.
+ARGUMENTS = "<arguments>"
+
+
+def argument_error(*messages: str) -> MseError:
+    """E130 at ``<arguments>``, one diagnostic per message: an option value (or a library
+    argument) that is invalid in itself or with the others.  Each message names the option,
+    e.g. ``--pin 'x' must look like SIGNAL@START-STOP``."""
+    return MseError([Diagnostic("E130", message, Span(ARGUMENTS)) for message in messages])
 
 
 def has_errors(diagnostics: Iterable[Diagnostic]) -> bool:

@@ -20,7 +20,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from mse import progress
-from mse.diagnostics import Diagnostic, MseError, Span
+from mse.diagnostics import MseError, argument_error
 from mse.ir.model import Model
 from mse.ir.schedule import Schedule, to_seconds
 from mse.resources import bundled_path
@@ -97,14 +97,14 @@ def _pins_option(value: object) -> tuple[Pin, ...]:
     for pin in pins:
         if not isinstance(pin, Pin):
             message = f"pinned takes Pin(signal, start, stop) values, not {pin!r}"
-            raise MseError([Diagnostic("E100", message, Span("<arguments>"))])
+            raise argument_error(message)
         if not pin.start < pin.stop:
             relation = "=" if pin.start == pin.stop else ">"
             message = (
                 f"pin {pin.signal}@{pin.start:g}-{pin.stop:g}: start {pin.start:g} {relation} stop {pin.stop:g} "
                 "(give SIGNAL@START-STOP with START < STOP)"
             )
-            raise MseError([Diagnostic("E100", message, Span("<arguments>"))])
+            raise argument_error(message)
     return pins
 
 
@@ -113,7 +113,7 @@ def _request(duration: float, seed: int | None, count: int, **options: object) -
 
     problem = time_problem(float(duration), minimum=MIN_DURATION_SECONDS)
     if problem is not None:
-        raise MseError([Diagnostic("E100", f"duration {duration!r} {problem}", Span("<arguments>"))])
+        raise argument_error(f"duration {duration!r} {problem}")
     if seed is None:
         seed = random.SystemRandom().randrange(2**31)
     for key in ("require", "forbid"):

@@ -19,6 +19,7 @@ LAYERS: dict[str, int] = {
     "mse.input_files": 0,
     "mse.limits": 0,
     "mse.progress": 0,
+    "mse.extras": 0,
     "mse.syntax": 1,
     "mse.ir": 2,
     "mse.solve": 3,
@@ -32,7 +33,7 @@ LAYERS: dict[str, int] = {
     "mse.cli": 7,
     "mse.__main__": 7,
 }
-HEAVY = ("ortools", "hmmlearn", "scipy", "sklearn", "matplotlib", "selenium", "constraint")
+HEAVY = ("ortools", "hmmlearn", "scipy", "sklearn", "matplotlib", "selenium", "constraint", "av", "aggdraw", "PIL")
 
 
 def _layer(module: str) -> int | None:

@@ -192,7 +192,7 @@ def test_face_library_errors(tmp_path: Path) -> None:
 def test_unknown_format_is_a_diagnostic() -> None:
     with pytest.raises(MseError) as error:
         render(generic_timeline(), "pdf")
-    assert error.value.diagnostics[0].code == "E100"
+    assert error.value.diagnostics[0].code == "E130"
     assert "pdf" in error.value.diagnostics[0].message
 
 

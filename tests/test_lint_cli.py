@@ -188,4 +188,4 @@ def test_a_set_without_timeline_is_a_lint_error_at_file_line(
 def test_a_bad_deep_budget_is_a_usage_error(budget: str, capsys: pytest.CaptureFixture[str]) -> None:
     assert main(["lint", "relief", "--deep-budget", budget]) == 2
     err = capsys.readouterr().err
-    assert err.startswith("<arguments>: E100 deep budget") and "Traceback" not in err
+    assert err.startswith("<arguments>: E130 deep budget") and "Traceback" not in err

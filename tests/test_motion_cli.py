@@ -62,5 +62,6 @@ def test_animate_bundled_expression(tmp_path: Path) -> None:
     assert (out / "timeline.bvh").is_file() and (out / "lma.json").is_file()
 
 
-def test_animate_bad_style_option(tmp_path: Path) -> None:
-    assert _run(["animate", "x.json", "-o", str(tmp_path), "--style", "nonsense"]) == 2
+def test_animate_bad_style_option(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    assert _run(["animate", "x.json", "-o", str(tmp_path), "--style", "nonsense"]) == 1
+    assert capsys.readouterr().err == "<arguments>: E130 --style expects EMOTION=STYLE, got 'nonsense'\n"

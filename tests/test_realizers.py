@@ -81,7 +81,7 @@ def test_profiles_and_defaults() -> None:
     for fmt, realizer in (("greta-bml", "asap"), ("greta-bml", "generic"), ("bml", "smartbody")):
         with pytest.raises(MseError) as error:
             realizer_for(fmt, realizer)
-        assert error.value.diagnostics[0].code == "E100"
+        assert error.value.diagnostics[0].code == "E130"
 
 
 def test_cli_offers_every_profile() -> None:
@@ -131,9 +131,10 @@ def test_lint_reports_unresolvable_lexemes_at_the_signal(tmp_path: Path, tiny_li
 def test_lint_needs_a_library_of_a_known_realizer(tmp_path: Path) -> None:
     source = tmp_path / "probe.xml"
     source.write_text(SET, encoding="utf-8")
-    for realizer, library in (("greta", None), ("asap", tmp_path), ("greta", tmp_path / "absent")):
+    cases = (("greta", None, "E130"), ("asap", tmp_path, "E130"), ("greta", tmp_path / "absent", "E100"))
+    for realizer, library, code in cases:  # a missing option or a realizer without libraries; a missing folder
         (error,) = [d for d in lint([source], realizer=realizer, library_dir=library) if d.is_error]
-        assert error.code == "E100"
+        assert error.code == code
 
 
 def test_lint_cli(tmp_path: Path, tiny_library: Path) -> None:
@@ -153,7 +154,7 @@ def test_lint_cli(tmp_path: Path, tiny_library: Path) -> None:
     )
     assert strict.returncode == 1
     missing = subprocess.run([*run, "--realizer", "greta"], capture_output=True, text=True)
-    assert missing.returncode == 1 and "E100 --realizer greta needs --library-dir" in missing.stdout
+    assert missing.returncode == 1 and "<arguments>: E130 --realizer greta needs --library-dir" in missing.stdout
 
 
 def test_generic_and_asap_write_bml_core_that_asap_plays() -> None:
@@ -226,7 +227,7 @@ def test_export_cli_prints_w601(tmp_path: Path) -> None:
         capture_output=True,
         text=True,
     )
-    assert bad.returncode == 1 and "E100" in bad.stderr and not bad.stdout
+    assert bad.returncode == 1 and "<arguments>: E130 --format greta-bml" in bad.stderr and not bad.stdout
 
 
 def test_did_you_mean_stays_within_a_family() -> None:

@@ -122,11 +122,11 @@ def test_bad_requests_are_diagnostics_and_write_nothing(
     bad_table = tmp_path / "bad.toml"
     bad_table.write_text("[smile]\nau = { AU12 = 'lots' }\n", encoding="utf-8")
     cases = [
-        (["-o", str(tmp_path / "x.avi")], "E100"),
-        (["-o", str(tmp_path / "x.mp4"), "--size", "321x180"], "E100"),
-        (["-o", str(tmp_path / "x.mp4"), "--fps", "0"], "E100"),
+        (["-o", str(tmp_path / "x.avi")], "E130"),
+        (["-o", str(tmp_path / "x.mp4"), "--size", "321x180"], "E130"),
+        (["-o", str(tmp_path / "x.mp4"), "--fps", "0"], "E130"),
         (["-o", str(existing), "--lexicon", str(bad_table)], "E214"),
-        ([], "E100"),
+        ([], "E130"),
     ]
     for extra, code in cases:
         assert _render(str(timeline_file), *extra) == 1

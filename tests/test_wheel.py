@@ -37,6 +37,21 @@ def test_wheel_contains_package_data(wheel: Path) -> None:
     assert len([n for n in names if n.startswith("mse/behaviour_sets/") and n.endswith(".xml")]) == 8
 
 
+def test_wheel_keeps_the_optional_parts_optional(wheel: Path) -> None:
+    """pip install mse: compile, lint, sample, export; [motion], [video], [learn] bring the rest."""
+    from email.parser import Parser
+
+    from mse.extras import EXTRAS
+
+    with zipfile.ZipFile(wheel) as archive:
+        (name,) = [n for n in archive.namelist() if n.endswith(".dist-info/METADATA")]
+        fields = Parser().parsestr(archive.read(name).decode("utf-8"))
+    assert set(EXTRAS) <= set(fields.get_all("Provides-Extra") or [])
+    unconditional = {r.split(">")[0].split("[")[0].strip().lower() for r in fields.get_all("Requires-Dist") or []
+                     if "extra ==" not in r}
+    assert unconditional == {"lxml", "lark", "numpy", "ortools", "python-constraint2", "tqdm"}
+
+
 @pytest.mark.slow
 def test_wheel_installs_and_runs_in_a_fresh_venv(wheel: Path, tmp_path: Path) -> None:
     venv = tmp_path / "venv"

@@ -57,12 +57,17 @@ def main(argv: Sequence[str] | None = None) -> int:
         parser.print_help(sys.stderr)
         return 2
     from mse import progress
+    from mse.extras import MissingExtra
     from mse.fileio import Terminated
 
     # Long work shows a bar on a terminal (never when piped, never under --quiet).
     progress.enable(not getattr(args, "quiet", False))
     try:
         return int(handler(args))
+    except MissingExtra as missing:  # an optional part that is not installed (mse/extras.py)
+        print(f"error: mse {args.command} needs the {missing.extra!r} extra: pip install 'mse[{missing.extra}]'",
+              file=sys.stderr)
+        return 1
     except KeyboardInterrupt:
         return 130
     except Terminated as signal_received:  # temporary files were removed on the way out

@@ -49,14 +49,13 @@ def register(subparsers: Any) -> None:
 def run(args: argparse.Namespace) -> int:
     from mse.api import load
     from mse.cli.common import print_error, read_timelines
-    from mse.diagnostics import MseError
+    from mse.diagnostics import MseError, argument_error
 
     overrides = {}
     for item in args.style:
         emotion, _, style = item.partition("=")
         if not emotion or not style:
-            print(f"mse animate: --style expects EMOTION=STYLE, got {item!r}", file=sys.stderr)
-            return 2
+            return print_error(argument_error(f"--style expects EMOTION=STYLE, got {item!r}"))
         overrides[emotion] = style
     try:
         timelines = read_timelines(args.timeline)
@@ -115,7 +114,7 @@ def _check_signals(timeline: Timeline, model: Model, where: str) -> None:
 
 def _check_style_overrides(items: list[tuple[Timeline, Model]], library: Any, overrides: dict[str, str]) -> None:
     """An override for an emotion nothing knows is a typo (``--style angr=sad``): refuse it."""
-    from mse.diagnostics import Diagnostic, MseError, Span
+    from mse.diagnostics import argument_error
     from mse.motion.base.library import EMOTION_STYLES
 
     known = {name.lower() for name in EMOTION_STYLES}
@@ -127,7 +126,7 @@ def _check_style_overrides(items: list[tuple[Timeline, Model]], library: Any, ov
     unknown = sorted(e for e in overrides if e.lower().removeprefix("emotion-") not in known)
     if unknown:
         message = f"--style: unknown emotion(s) {', '.join(map(repr, unknown))}; known: {', '.join(sorted(known))}"
-        raise MseError([Diagnostic("E100", message, Span("<arguments>"))])
+        raise argument_error(message)
 
 
 def animate_timelines(

@@ -134,7 +134,7 @@ def run(args: argparse.Namespace) -> int:
 
 def _format_from_output(output: str | None) -> str:
     """The export format named by the output file's extension (``t.svg`` -> svg)."""
-    from mse.diagnostics import Diagnostic, MseError, Span
+    from mse.diagnostics import argument_error
     from mse.export import SUFFIXES
 
     by_suffix = {suffix: name for name, suffix in SUFFIXES.items()}
@@ -145,7 +145,7 @@ def _format_from_output(output: str | None) -> str:
     known = ", ".join(f"{s} ({n})" for s, n in by_suffix.items())
     what = f"from {output!r}" if output else "without -o"
     message = f"cannot tell the format {what}: give --format, or -o a file ending in {known}"
-    raise MseError([Diagnostic("E100", message, Span("<arguments>"))])
+    raise argument_error(message)
 
 
 def report_unmapped_faces(timelines: list[Timeline], options: ExportOptions, fmt: str | None = None) -> None:
@@ -184,12 +184,12 @@ def report_unmapped_faces(timelines: list[Timeline], options: ExportOptions, fmt
 def _videos(timelines: list[Any], fmt: str, output: str | None, to_folder: bool, where: str, options: Any) -> int:
     """Video formats are written by ``mse.export.video`` straight to their files."""
     from mse.cli.cmd_render import print_notes
-    from mse.diagnostics import Diagnostic, MseError, Span
+    from mse.diagnostics import Diagnostic, Span, argument_error
     from mse.export import SUFFIXES
     from mse.export.video import write_video
 
     if output is None:
-        raise MseError([Diagnostic("E100", f"--format {fmt} writes a file: give -o FILE", Span("<arguments>"))])
+        raise argument_error(f"--format {fmt} writes a file: give -o FILE")
     stem = Path(where).stem if where != "<stdin>" else "timeline"
     targets = (
         [Path(output) / f"{stem}-{n}{SUFFIXES[fmt]}" for n in range(1, len(timelines) + 1)]

@@ -36,18 +36,19 @@ def register(subparsers: Any) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from mse.diagnostics import MseError
+    from mse.cli.common import print_diagnostics
+    from mse.diagnostics import MseError, argument_error
     from mse.fileio import staged_folder, write_atomic
     from mse.syntax.greta import import_greta_legacy_report, import_greta_report
 
     files: list[str] = list(args.files)
+    usage = None
     if args.legacy is not None and files:
-        print("mse import-greta: give either LEXICON CONSTRAINT or --legacy EXAMPLE, not both",
-              file=sys.stderr)
-        return 2
-    if args.legacy is None and len(files) != 2:
-        print("mse import-greta: expected LEXICON CONSTRAINT (or --legacy EXAMPLE)",
-              file=sys.stderr)
+        usage = "give either LEXICON CONSTRAINT or --legacy EXAMPLE, not both"
+    elif args.legacy is None and len(files) != 2:
+        usage = "expected LEXICON CONSTRAINT (or --legacy EXAMPLE)"
+    if usage is not None:  # a usage error: exit 2, as argparse's own
+        print_diagnostics(argument_error(usage).diagnostics)
         return 2
     try:
         report = (import_greta_legacy_report(args.legacy) if args.legacy is not None

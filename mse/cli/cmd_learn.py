@@ -82,7 +82,7 @@ def _default_name(inputs: list[str]) -> str:
 
 def run(args: argparse.Namespace) -> int:
     from mse.cli.common import emit, print_diagnostics, print_error
-    from mse.diagnostics import Diagnostic, MseError, Span
+    from mse.diagnostics import MseError, argument_error
     from mse.learn import LearnOptions, learn
 
     try:
@@ -94,7 +94,7 @@ def run(args: argparse.Namespace) -> int:
         if not 0 < args.significance <= 1:
             problems.append("--significance must be in (0, 1]")
         if problems:
-            raise MseError([Diagnostic("E100", p, Span("<arguments>")) for p in problems])
+            raise argument_error(*problems)
         options = LearnOptions(
             name=args.name or _default_name(args.inputs),
             confidence=args.confidence,

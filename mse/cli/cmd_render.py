@@ -9,6 +9,7 @@
 from __future__ import annotations
 
 import argparse
+import math
 import re
 import sys
 from pathlib import Path
@@ -79,7 +80,7 @@ def print_notes(notes: tuple[str, ...] | list[str], where: str) -> None:
 
 def run(args: argparse.Namespace) -> int:
     from mse.cli.common import print_error, read_timelines
-    from mse.diagnostics import Diagnostic, MseError, Span
+    from mse.diagnostics import Diagnostic, MseError, Span, argument_error
     from mse.export import ExportOptions
     from mse.export.video import VideoOptions, render_still, write_frames, write_video
     from mse.fileio import write_atomic
@@ -87,13 +88,13 @@ def run(args: argparse.Namespace) -> int:
     where = "<stdin>" if args.timeline == "-" else args.timeline
     try:
         if args.output is None and args.frames is None:
-            raise MseError(
-                [Diagnostic("E100", "give -o FILE (.mp4 .webm .gif .png) and/or --frames DIR", Span("<arguments>"))]
-            )
+            raise argument_error("give -o FILE (.mp4 .webm .gif .png) and/or --frames DIR")
+        if not math.isfinite(args.at):  # a finite time is clamped into the timeline
+            raise argument_error(f"--at {args.at} must be a number of seconds")
         fmt = video_format(args.output) if args.output is not None else None
         if args.output is not None and fmt is None:
             message = f"cannot tell the format of {str(args.output)!r}: use .mp4, .webm, .gif or .png"
-            raise MseError([Diagnostic("E100", message, Span("<arguments>"))])
+            raise argument_error(message)
         timelines = read_timelines(args.timeline)
         if not timelines:
             raise MseError([Diagnostic("E212", "no timeline in the input", Span(where))])

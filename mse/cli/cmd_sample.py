@@ -12,7 +12,7 @@ import time
 from typing import Any
 
 from mse.cli.common import add_quiet, emit, print_diagnostics, print_error, read_stdin_bytes
-from mse.diagnostics import Diagnostic, MseError, Span
+from mse.diagnostics import Diagnostic, MseError, Span, argument_error
 from mse.limits import MAX_SECONDS, solve_duration_problem
 
 BASE_FORMATS = ("table", "json", "jsonl")
@@ -163,8 +163,7 @@ def _pins(values: list[str]) -> tuple[Any, ...]:
     for value in values:
         match = _PIN.fullmatch(value)
         if not match:
-            message = f"--pin {value!r} must look like SIGNAL@START-STOP, e.g. smile@4.0-6.0"
-            raise MseError([Diagnostic("E100", message, Span("<arguments>"))])
+            raise argument_error(f"--pin {value!r} must look like SIGNAL@START-STOP, e.g. smile@4.0-6.0")
         start, stop = float(match.group(2)), float(match.group(3))
         if not (start <= MAX_SECONDS and stop <= MAX_SECONDS):
             message = f"--pin {value!r}: times must be at most {MAX_SECONDS:g} s"
@@ -206,7 +205,7 @@ def _validate(args: argparse.Namespace) -> None:
     if args.stream and args.format not in (None, "jsonl", "json"):
         problems.append("--stream prints JSON lines; drop --format")
     if problems:
-        raise MseError([Diagnostic("E100", p, Span("<arguments>")) for p in problems])
+        raise argument_error(*problems)
 
 
 def run(args: argparse.Namespace) -> int:

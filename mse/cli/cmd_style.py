@@ -17,7 +17,7 @@ from collections.abc import Callable
 from typing import Any
 
 from mse.cli.common import add_quiet, print_error
-from mse.diagnostics import Diagnostic, MseError, Span
+from mse.diagnostics import Diagnostic, MseError, Span, argument_error
 from mse.fileio import refuse_inputs
 from mse.limits import MAX_MOTION_SECONDS, MAX_STEPS
 
@@ -136,11 +136,11 @@ def run_train(args: argparse.Namespace) -> int:
     from mse.motion.hsmm.leaf import train_from_library
 
     if args.states < 1:
-        return _fail(args.library, "--states must be at least 1")
+        return print_error(argument_error("--states must be at least 1"))
     if args.takes < 0:
-        return _fail(args.library, "--takes must be 0 (all) or more")
+        return print_error(argument_error("--takes must be 0 (all) or more"))
     if args.takes and args.style is None:
-        return _fail(args.library, "--takes goes with --style")
+        return print_error(argument_error("--takes goes with --style"))
 
     def step() -> str:
         options = Options(states=args.states, blocks=args.blocks)
@@ -162,7 +162,7 @@ def run_adapt(args: argparse.Namespace) -> int:
     from mse.motion.hsmm.leaf import adapt_from_library
 
     if args.takes < 0:
-        return _fail(args.library, "--takes must be 0 (all) or more")
+        return print_error(argument_error("--takes must be 0 (all) or more"))
     try:
         refuse_inputs(args.output, [args.model])
     except MseError as error:
@@ -193,7 +193,7 @@ def run_synth(args: argparse.Namespace) -> int:
     if args.steps is not None and args.steps > MAX_STEPS:
         problem = f"--steps must be between 1 and {MAX_STEPS}"
     if problem:
-        return _fail(args.model, problem)
+        return print_error(argument_error(problem))
     try:
         refuse_inputs(args.output, [args.model])
     except MseError as error:

@@ -15,7 +15,7 @@ from collections.abc import Iterable, Iterator
 from typing import Any
 
 from mse.cli.common import print_diagnostics
-from mse.diagnostics import Diagnostic, MseError, Span
+from mse.diagnostics import Diagnostic, MseError, Span, argument_error
 
 
 class Output:
@@ -105,7 +105,7 @@ def write_video_file(timelines: list[Any], fmt: str, args: argparse.Namespace) -
 
     if not args.output or args.output == "-" or len(timelines) > 1:
         message = f"--format {fmt} writes one timeline to a file: give -o FILE, no --count"
-        raise MseError([Diagnostic("E100", message, Span("<arguments>"))])
+        raise argument_error(message)
     where = args.source or timelines[0].expression or "<sample>"
     try:
         report = write_video(timelines[0], Path(args.output), fmt, export_options(args))
@@ -150,8 +150,7 @@ def render_timelines(timelines: list[Any], fmt: str, args: argparse.Namespace, *
 
     options = export_options(args)
     if len(timelines) > 1:
-        raise MseError([Diagnostic("E100", f"--format {fmt} exports one timeline; drop --count or give -o FOLDER/",
-                                   Span("<arguments>"))])
+        raise argument_error(f"--format {fmt} exports one timeline; drop --count or give -o FOLDER/")
     from mse.cli.cmd_export import report_unmapped_faces
 
     report_unmapped_faces(timelines, options, fmt)

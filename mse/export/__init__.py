@@ -10,7 +10,7 @@ import importlib
 from collections.abc import Callable
 from typing import cast
 
-from mse.diagnostics import Diagnostic, MseError, Span
+from mse.diagnostics import Diagnostic, MseError, Span, argument_error
 from mse.export.options import ExportOptions
 from mse.timeline import Timeline
 
@@ -39,11 +39,11 @@ SUFFIXES.update({"mp4": ".mp4", "webm": ".webm", "gif": ".gif"})
 
 
 def renderer(fmt: str) -> Renderer:
-    """The function that writes ``fmt``; unknown names raise MseError (E100)."""
+    """The function that writes ``fmt``; unknown names raise MseError (E130)."""
     entry = _REGISTRY.get(fmt)
     if entry is None:
         known = ", ".join(FORMAT_NAMES)
-        raise MseError([Diagnostic("E100", f"unknown export format {fmt!r} (known: {known})", Span("<export>"))])
+        raise argument_error(f"unknown export format {fmt!r} (known: {known})")
     module = importlib.import_module(entry[0])
     return cast(Renderer, getattr(module, entry[1]))
 

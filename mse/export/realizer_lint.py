@@ -10,7 +10,7 @@ from __future__ import annotations
 from collections.abc import Iterator
 from pathlib import Path
 
-from mse.diagnostics import Diagnostic, MseError, Span
+from mse.diagnostics import Diagnostic, argument_error
 from mse.export.lexemes import modality_of, split_lexeme
 from mse.export.realizer_libraries import GretaLibraries
 from mse.export.realizers import Realized, check_realizer, greta_libraries, realize_greta
@@ -28,15 +28,15 @@ _LOOKUP = {
 
 
 def realizer_libraries_for_lint(realizer: str, library_dir: Path | None) -> GretaLibraries:
-    """The libraries ``realizer`` is linted against (E100 when there are none to read)."""
+    """The libraries ``realizer`` is linted against (E130 when there are none to read)."""
     check_realizer(realizer)
     if realizer != "greta":
         message = f"--realizer {realizer}: mse reads no libraries of this realizer (its parser accepts any lexeme)"
-        raise MseError([Diagnostic("E100", message + "; lint against --realizer greta", Span("<arguments>"))])
+        raise argument_error(message + "; lint against --realizer greta")
     libraries = greta_libraries(library_dir)
     if libraries is None:
         message = "--realizer greta needs --library-dir: the folder of Greta's facelibrary.xml, HeadGestures.xml, "
-        raise MseError([Diagnostic("E100", message + "TorsoGestures.xml and gestuary", Span("<arguments>"))])
+        raise argument_error(message + "TorsoGestures.xml and gestuary")
     return libraries
 
 

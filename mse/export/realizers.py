@@ -25,7 +25,7 @@ from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
-from mse.diagnostics import Diagnostic, MseError, Span
+from mse.diagnostics import argument_error
 from mse.export.lexemes import Lexeme
 from mse.export.realizer_libraries import ActionUnit, GretaLibraries, load_greta_libraries
 
@@ -72,7 +72,7 @@ class LexemeTable:
 
 @functools.cache
 def lexeme_table(realizer: str) -> LexemeTable:
-    """The shipped mapping table of ``realizer`` (E100 for an unknown realizer)."""
+    """The shipped mapping table of ``realizer`` (E130 for an unknown realizer)."""
     check_realizer(realizer)
     path = _TABLE_DIR / _TABLE_FILES[realizer]
     raw = tomllib.loads(path.read_text(encoding="utf-8"))
@@ -89,18 +89,18 @@ def lexeme_table(realizer: str) -> LexemeTable:
 def check_realizer(realizer: str) -> str:
     if realizer not in REALIZERS:
         known = ", ".join(REALIZERS)
-        raise MseError([Diagnostic("E100", f"unknown realizer {realizer!r} (known: {known})", Span("<export>"))])
+        raise argument_error(f"unknown realizer {realizer!r} (known: {known})")
     return realizer
 
 
 def realizer_for(fmt: str, realizer: str | None) -> str:
     """The profile ``fmt`` is written with: the one asked for, else the format's default.
 
-    ``greta-bml`` is Greta's own dialect: only the ``greta`` profile writes it (E100)."""
+    ``greta-bml`` is Greta's own dialect: only the ``greta`` profile writes it (E130)."""
     chosen = check_realizer(realizer) if realizer is not None else DEFAULT_REALIZER.get(fmt, "generic")
     if fmt == "greta-bml" and chosen != "greta":
         message = f"--format greta-bml is Greta's dialect; --realizer {chosen} writes --format bml"
-        raise MseError([Diagnostic("E100", message, Span("<export>"))])
+        raise argument_error(message)
     return chosen
 
 

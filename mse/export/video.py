@@ -18,8 +18,9 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from mse import progress
-from mse.diagnostics import Diagnostic, MseError, Span
+from mse.diagnostics import Diagnostic, MseError, Span, argument_error
 from mse.export.options import ExportOptions
+from mse.extras import require
 from mse.fileio import atomic_path, staged_folder
 from mse.timeline import Timeline
 
@@ -61,18 +62,18 @@ def _error(code: str, message: str, where: str) -> MseError:
 def check_options(video: VideoOptions, fmt: str | None = None) -> None:
     width, height = video.size
     if not (16 <= width <= 7680 and 16 <= height <= 4320) or width * height > MAX_PIXELS:
-        raise _error("E100", f"frame size {width}x{height} must be between 16x16 and 3840x2160 pixels", "<arguments>")
+        raise argument_error(f"frame size {width}x{height} must be between 16x16 and 3840x2160 pixels")
     if fmt in ("mp4", "webm") and (width % 2 or height % 2):
-        raise _error("E100", f"{fmt} needs an even frame size (got {width}x{height})", "<arguments>")
+        raise argument_error(f"{fmt} needs an even frame size (got {width}x{height})")
     if not 1.0 <= video.fps <= 120.0:
-        raise _error("E100", f"frame rate {video.fps:g} must be between 1 and 120", "<arguments>")
+        raise argument_error(f"frame rate {video.fps:g} must be between 1 and 120")
 
 
 def frame_times(duration: float, fps: float) -> np.ndarray:
     """The time shown by each frame: ``i / fps`` for ``i < round(duration * fps)``."""
     count = max(1, round(duration * fps))
     if count > MAX_FRAMES:
-        raise _error("E100", f"{count} frames is too many (at most {MAX_FRAMES}); lower --fps", "<arguments>")
+        raise argument_error(f"{count} frames is too many (at most {MAX_FRAMES}); lower --fps")
     return np.arange(count) / fps
 
 
@@ -109,7 +110,7 @@ def write_video(
 ) -> RenderReport:
     """Render ``timeline`` to ``path`` as ``fmt`` (mp4, webm, gif)."""
     if fmt not in VIDEO_FORMATS:
-        raise _error("E100", f"unknown video format {fmt!r} (known: {', '.join(VIDEO_FORMATS)})", "<export>")
+        raise argument_error(f"unknown video format {fmt!r} (known: {', '.join(VIDEO_FORMATS)})")
     check_options(video, fmt)
     times = frame_times(timeline.duration, video.fps)
     frames = painter(timeline, options, video, clips)
@@ -158,7 +159,8 @@ def render_still(
 
 
 def _encode(images: Iterator[Image.Image], path: Path, fmt: str, video: VideoOptions) -> None:
-    import av
+    with require("video"):
+        import av
 
     rate = Fraction(video.fps).limit_denominator(1001)
     with av.open(str(path), mode="w", format="mp4" if fmt == "mp4" else "webm") as container:
@@ -186,7 +188,8 @@ def _encode(images: Iterator[Image.Image], path: Path, fmt: str, video: VideoOpt
 
 def _write_gif(images: Iterator[Image.Image], path: Path, fps: float, samples: Sequence[Image.Image]) -> None:
     """One palette for the whole clip (from sample frames), no dithering: small and stable."""
-    from PIL import Image
+    with require("video"):
+        from PIL import Image
 
     width, height = samples[0].size
     sheet = Image.new("RGB", (width, height * len(samples)))

@@ -12,7 +12,8 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field, replace
 
-from mse.diagnostics import Diagnostic, MseError, Span
+from mse.diagnostics import Diagnostic, Span, argument_error
+from mse.extras import require
 from mse.ir import model as ir
 from mse.ir.evaluate import check_schedule
 from mse.ir.schedule import Occurrence, Schedule, to_seconds
@@ -90,7 +91,9 @@ def exclusive_modalities(corpus: Corpus, confidence: float) -> dict[str, str]:
 
 def learn_corpus(corpus: Corpus, options: LearnOptions = DEFAULT_OPTIONS) -> LearnResult:
     if not 0 < options.confidence <= 1:
-        raise MseError([Diagnostic("E100", "--confidence must be in (0, 1]", Span("<arguments>"))])
+        raise argument_error("--confidence must be in (0, 1]")
+    with require("learn"):  # the binomial tail of the mined rules (mine.py): said before any work, not midway
+        import scipy.stats  # noqa: F401
     arrays = corpus_arrays(corpus)
     learned = learn_signals(corpus, arrays, options.confidence)
     exclusive = exclusive_modalities(corpus, options.confidence)

@@ -27,6 +27,7 @@ from itertools import combinations
 
 import numpy as np
 
+from mse.extras import require
 from mse.ir import model as ir
 from mse.ir.schedule import to_ticks
 from mse.learn.corpus import Corpus
@@ -122,7 +123,8 @@ def _tail(holds: int, support: int, baseline: float) -> float:
         return 0.0
     if holds == support:  # the usual case at confidence 1: no need for scipy
         return float(baseline**support)
-    from scipy.stats import binom
+    with require("learn"):
+        from scipy.stats import binom
 
     return float(binom.sf(holds - 1, support, baseline))
 

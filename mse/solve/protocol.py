@@ -12,7 +12,7 @@ from collections.abc import Iterator
 from dataclasses import dataclass, field
 from typing import Protocol
 
-from mse.diagnostics import Diagnostic, MseError, Span
+from mse.diagnostics import Diagnostic, MseError, argument_error
 from mse.ir.model import Model
 from mse.ir.schedule import Occurrence, Schedule
 
@@ -111,9 +111,7 @@ BACKENDS: dict[str, str] = {
 def get_solver(name: str) -> Solver:
     target = BACKENDS.get(name)
     if target is None:
-        raise MseError(
-            [Diagnostic("E100", f"unknown solver {name!r} (known: {', '.join(BACKENDS)})", Span("<arguments>"))]
-        )
+        raise argument_error(f"unknown solver {name!r} (known: {', '.join(BACKENDS)})")
     module_name, class_name = target.split(":")
     module = importlib.import_module(module_name)
     solver: Solver = getattr(module, class_name)()
@@ -125,11 +123,7 @@ def check_supported(solver: Solver, request: SolveRequest) -> None:
     if unsupported:
         hint = " (use --solver cpsat)" if solver.name != "cpsat" else ""
         message = f"solver {solver.name!r} does not support {', '.join(unsupported)}{hint}"
-        raise MseError([Diagnostic("E100", message, Span("<arguments>"))])
-
-
-def _argument_error(message: str) -> MseError:
-    return MseError([Diagnostic("E100", message, Span("<arguments>"))])
+        raise argument_error(message)
 
 
 def check_request(model: Model, request: SolveRequest) -> None:
@@ -138,13 +132,13 @@ def check_request(model: Model, request: SolveRequest) -> None:
     named = [p.signal for p in request.pinned] + list(request.require) + list(request.forbid)
     for name in named:
         if name not in known:
-            raise _argument_error(f"unknown signal {name!r} in {model.name!r} (known: {', '.join(known)})")
+            raise argument_error(f"unknown signal {name!r} in {model.name!r} (known: {', '.join(known)})")
     for pin in request.pinned:
         if not 0 <= pin.start < pin.stop <= request.duration:
-            raise _argument_error(
+            raise argument_error(
                 f"pin {pin.signal}@{pin.start:g}-{pin.stop:g} is not inside [0, {request.duration:g}] s")
     if request.objective is not None and request.objective not in (
         "likely", "random", "most-signals", "fewest-signals"):
-        raise _argument_error(f"unknown objective {request.objective!r}")
+        raise argument_error(f"unknown objective {request.objective!r}")
     if request.duration <= 0:
-        raise _argument_error("the duration must be positive")
+        raise argument_error("the duration must be positive")

@@ -23,6 +23,7 @@ from mse.export.face.rig import Rig, default_rig
 from mse.export.face.track import Track, key_weight
 from mse.export.options import ExportOptions
 from mse.export.svg import BAR_HEIGHT, LANE_COLOURS, OTHER_COLOUR, Layout, layout
+from mse.extras import require
 from mse.timeline import Timeline
 
 if TYPE_CHECKING:
@@ -46,7 +47,8 @@ class FrameLayout:
 
 
 def _font(size: int) -> ImageFont.FreeTypeFont | ImageFont.ImageFont:
-    from PIL import ImageFont
+    with require("video"):
+        from PIL import ImageFont
 
     try:  # the viewer's font when the system has it ...
         return ImageFont.truetype("DejaVuSans.ttf", size)
@@ -83,7 +85,8 @@ class StripPainter:
     """The timeline strip: drawn once at the layout's scale, then cropped per frame."""
 
     def __init__(self, timeline: Timeline, width: int, max_height: int) -> None:
-        from PIL import Image, ImageDraw
+        with require("video"):
+            from PIL import Image, ImageDraw
 
         self.timeline = timeline
         self.geometry: Layout = layout(timeline, title=False)
@@ -121,7 +124,8 @@ class StripPainter:
 
     def paint(self, frame: Image.Image, top: int, time: float) -> None:
         """Paste the visible part at ``top``, outline the active bars, draw the playhead."""
-        from PIL import ImageDraw
+        with require("video"):
+            from PIL import ImageDraw
 
         g = self.geometry
         z = self.zoom
@@ -146,7 +150,8 @@ class StripPainter:
 
 
 def _lanczos() -> Any:
-    from PIL import Image
+    with require("video"):
+        from PIL import Image
 
     return Image.Resampling.LANCZOS
 
@@ -160,7 +165,8 @@ class BodyPainter:
         self.data = payload(clips, fps)
 
     def paint(self, frame: Image.Image, box: tuple[int, int, int, int], time: float) -> str:
-        import aggdraw
+        with require("video"):
+            import aggdraw
 
         data = self.data
         clips = data["clips"]
@@ -212,7 +218,8 @@ class FramePainter:
         rig: Rig | None = None,
         strip: bool = True,
     ) -> None:
-        from PIL import Image, ImageDraw
+        with require("video"):
+            from PIL import Image, ImageDraw
 
         self.timeline = timeline
         self.track = track
@@ -239,7 +246,8 @@ class FramePainter:
         self._last: tuple[np.ndarray, Image.Image] | None = None
 
     def paint(self, time: float, values: np.ndarray | None = None) -> Image.Image:
-        from PIL import ImageDraw
+        with require("video"):
+            from PIL import ImageDraw
 
         frame = self.base.copy()
         if values is None:

@@ -12,6 +12,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from mse.export.face.rig import FloatArray, Rig, pose_points, shape_paths
+from mse.extras import require
 
 if TYPE_CHECKING:
     from PIL import Image
@@ -26,7 +27,8 @@ def face_scale(rig: Rig, size: tuple[int, int]) -> tuple[float, float, float]:
 
 def face_image(rig: Rig, values: FloatArray, size: tuple[int, int]) -> Image.Image:
     """A new RGB image of ``size`` with the face for channel ``values``."""
-    from PIL import Image
+    with require("video"):
+        from PIL import Image
 
     image = Image.new("RGB", size, rig.background)
     draw_face(image, rig, values, (0, 0, size[0], size[1]))
@@ -38,7 +40,8 @@ def draw_face(image: Image.Image, rig: Rig, values: FloatArray, box: tuple[int, 
 
     aggdraw copies the whole image in and out: draw into a small image (:func:`face_image`)
     and paste it when the frame is large."""
-    import aggdraw
+    with require("video"):
+        import aggdraw
 
     left, top, right, bottom = box
     scale, dx, dy = face_scale(rig, (right - left, bottom - top))

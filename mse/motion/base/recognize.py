@@ -25,6 +25,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from mse.extras import require
 from mse.motion.base.bodyparts import body_map
 from mse.motion.base.bvh import Motion
 from mse.motion.base.filters import zero_phase_lowpass
@@ -142,8 +143,9 @@ class StyleRecognizer:
         c: float | None = None,
     ) -> StyleRecognizer:
         """Train on real clips; ``c=None`` picks C from :data:`C_GRID` by stratified 4-fold CV."""
-        from sklearn.linear_model import LogisticRegression
-        from sklearn.model_selection import StratifiedKFold, cross_val_score
+        with require("motion"):
+            from sklearn.linear_model import LogisticRegression
+            from sklearn.model_selection import StratifiedKFold, cross_val_score
 
         counts = {a: list(actions).count(a) for a in set(actions)}
         kept = [i for i, a in enumerate(actions) if counts[a] >= MIN_ACTION_CLIPS]

@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from mse.extras import require
 from mse.motion.hsmm.features import WINDOW_REACH, WINDOWS, FloatArray, observations
 
 BANDS = 2 * WINDOW_REACH + 1
@@ -60,7 +61,8 @@ def window_transpose(streams: FloatArray) -> FloatArray:
 
 def mlpg(means: FloatArray, variances: FloatArray) -> FloatArray:
     """Static trajectory (T, D) from per-frame observation means and variances (T, 3D)."""
-    from scipy.linalg import solveh_banded
+    with require("motion"):
+        from scipy.linalg import solveh_banded
 
     means = np.asarray(means, dtype=np.float64)
     variances = np.asarray(variances, dtype=np.float64)

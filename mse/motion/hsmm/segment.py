@@ -16,6 +16,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from mse.extras import require
 from mse.motion.hsmm.features import FloatArray
 
 #: Actions modelled as cycles of steps (Bandai dataset 1 contents).
@@ -81,7 +82,8 @@ def hand_sway(positions: FloatArray, hands: tuple[int, int], chest: int, frame_t
 
 def step_boundaries(separation: FloatArray, min_gap: int) -> list[int]:
     """Frames of alternating extrema of the foot separation (heel strikes)."""
-    from scipy.signal import find_peaks
+    with require("motion"):
+        from scipy.signal import find_peaks
 
     x = np.asarray(separation, dtype=np.float64)
     if x.size < 3:

@@ -47,6 +47,7 @@ from dataclasses import dataclass
 import numpy as np
 import numpy.typing as npt
 
+from mse.extras import require
 from mse.motion.base.bvh import Motion, Skeleton
 from mse.motion.base.filters import zero_phase_lowpass
 from mse.motion.base.kinematics import FloatArray, matrix_to_euler, mean_rotation, rotation_exp, rotation_log
@@ -213,7 +214,8 @@ def _segment_means(sequences: Sequence[FloatArray], states: int) -> FloatArray:
 
 def _kmeans_means(sequences: Sequence[FloatArray], states: int, seed: int) -> FloatArray:
     """k-means centres of the pooled frames, ordered by their mean relative time."""
-    from sklearn.cluster import KMeans
+    with require("motion"):
+        from sklearn.cluster import KMeans
 
     pooled = np.vstack(sequences)
     times = np.concatenate([np.linspace(0.0, 1.0, len(s)) for s in sequences])
@@ -225,7 +227,8 @@ def _kmeans_means(sequences: Sequence[FloatArray], states: int, seed: int) -> Fl
 
 
 def _fit(sequences: Sequence[FloatArray], states: int, cyclic: bool, n_iter: int, seed: int) -> object:
-    from hmmlearn.hmm import GaussianHMM
+    with require("motion"):
+        from hmmlearn.hmm import GaussianHMM
 
     pooled = np.vstack(sequences)
     model = GaussianHMM(

@@ -23,6 +23,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from mse.extras import require
 from mse.motion.base.kinematics import FloatArray
 from mse.motion.base.library import Clip, MotionLibrary
 from mse.motion.base.lma import FEATURE_NAMES, lma_features
@@ -88,9 +89,10 @@ class Saliency:
 
 def fit_rmlr(raw: FloatArray, labels: Sequence[str], *, seed: int = 0) -> Saliency:
     """Elastic-net multinomial logistic regression with a cheap (α, λ) cross-validation."""
-    import sklearn
-    from sklearn.linear_model import LogisticRegression
-    from sklearn.model_selection import StratifiedKFold, cross_val_score
+    with require("motion"):
+        import sklearn
+        from sklearn.linear_model import LogisticRegression
+        from sklearn.model_selection import StratifiedKFold, cross_val_score
 
     count = len(FEATURE_NAMES)
     raw = np.asarray(raw, dtype=np.float64).reshape(-1, count)

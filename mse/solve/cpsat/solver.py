@@ -30,7 +30,7 @@ import random
 import time
 from collections.abc import Iterator, Mapping, Sequence
 
-from mse.diagnostics import Diagnostic, MseError, Span
+from mse.diagnostics import Diagnostic, argument_error
 from mse.ir import model as ir
 from mse.ir.evaluate import check_schedule
 from mse.ir.schedule import Occurrence, Schedule, to_ticks
@@ -89,16 +89,12 @@ class CpSatSolver:
 def _validate(model: ir.Model, request: SolveRequest) -> None:
     check_request(model, request)
     if request.mode not in ("consistent", "constraint-less"):
-        raise _argument_error(f"unknown mode {request.mode!r} (known: consistent, constraint-less)")
+        raise argument_error(f"unknown mode {request.mode!r} (known: consistent, constraint-less)")
     if request.mode == "constraint-less" and not model.constraints:
-        raise _argument_error(f"{model.name!r} has no constraints, so no timeline can violate one "
-                              "(--mode constraint-less needs a behaviour set with constraints)")
+        raise argument_error(f"{model.name!r} has no constraints, so no timeline can violate one "
+                             "(--mode constraint-less needs a behaviour set with constraints)")
     if request.diverse and to_ticks(request.duration) > SINGLE_FRAME:
-        raise _argument_error(f"--diverse works on timelines of at most {SINGLE_FRAME // 1000} s")
-
-
-def _argument_error(message: str) -> MseError:
-    return MseError([Diagnostic("E100", message, Span("<arguments>"))])
+        raise argument_error(f"--diverse works on timelines of at most {SINGLE_FRAME // 1000} s")
 
 
 def _verified(model: ir.Model, schedule: Schedule, request: SolveRequest) -> Schedule:

@@ -17,7 +17,7 @@ import random
 import time
 from collections.abc import Callable, Iterator, Mapping, Sequence
 
-from mse.diagnostics import Diagnostic, MseError, Span
+from mse.diagnostics import Diagnostic, Span, argument_error
 from mse.ir import model as ir
 from mse.ir.evaluate import check_schedule, constraint_status
 from mse.ir.schedule import Occurrence, Schedule, to_ticks
@@ -34,10 +34,6 @@ Value = tuple[tuple[int, int], ...]
 
 class _OutOfTime(Exception):
     pass
-
-
-def _refuse(message: str) -> MseError:
-    return MseError([Diagnostic("E100", message, Span("<arguments>"))])
 
 
 def grid_values(signal: ir.Signal, duration: int, step: int) -> list[Value]:
@@ -59,8 +55,8 @@ def grid_values(signal: ir.Signal, duration: int, step: int) -> list[Value]:
                 value = (*prefix, (start, start + length))
                 values.append(value)
                 if len(values) > MAX_DOMAIN:
-                    raise _refuse(f"signal {signal.id!r} has more than {MAX_DOMAIN} placements on "
-                                  "this grid: use a coarser --grid or --solver cpsat")
+                    raise argument_error(f"signal {signal.id!r} has more than {MAX_DOMAIN} placements on "
+                                         "this grid: use a coarser --grid or --solver cpsat")
                 extend(value, start + length)
 
     extend((), 0)
@@ -72,13 +68,13 @@ class _Search:
 
     def __init__(self, model: ir.Model, request: SolveRequest) -> None:
         if len(model.signals) > MAX_SIGNALS:
-            raise _refuse(f"the csp solver handles at most {MAX_SIGNALS} signals and {model.name!r} "
-                          f"has {len(model.signals)}: use --solver cpsat")
+            raise argument_error(f"the csp solver handles at most {MAX_SIGNALS} signals and {model.name!r} "
+                                 f"has {len(model.signals)}: use --solver cpsat")
         self.model = model
         self.duration = to_ticks(request.duration)
         self.step = to_ticks(request.grid)
         if self.step <= 0 or self.duration <= 0:
-            raise _refuse("the grid step and the duration must be positive")
+            raise argument_error("the grid step and the duration must be positive")
         self.deadline = time.monotonic() + request.time_limit
         self.constraints = request.mode != "constraint-less"
         self.domains = {s.id: grid_values(s, self.duration, self.step) for s in model.signals}
@@ -89,8 +85,8 @@ class _Search:
         for pin in request.pinned:
             wanted = (to_ticks(pin.start), to_ticks(pin.stop))
             if wanted[0] % self.step or wanted[1] % self.step:
-                raise _refuse(f"pin {pin.signal}@{pin.start:g}-{pin.stop:g} is not on the "
-                              f"{request.grid:g} s grid")
+                raise argument_error(f"pin {pin.signal}@{pin.start:g}-{pin.stop:g} is not on the "
+                                     f"{request.grid:g} s grid")
             self.domains[pin.signal] = [v for v in self.domains[pin.signal] if wanted in v]
 
     def _check(self, test: Callable[..., bool]) -> Callable[..., bool]:

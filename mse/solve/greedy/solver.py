@@ -16,7 +16,7 @@ import random
 from collections import Counter
 from collections.abc import Iterator
 
-from mse.diagnostics import Diagnostic, MseError, Span
+from mse.diagnostics import Diagnostic, Span, argument_error
 from mse.ir import model as ir
 from mse.ir.evaluate import check_schedule
 from mse.ir.schedule import Occurrence, Schedule, to_ticks
@@ -27,30 +27,27 @@ from mse.solve.greedy.walk import OutOfBudget, walk, walk_steps
 from mse.solve.protocol import NoSolution, SolveRequest, derive_seed
 
 
-def _error(message: str) -> MseError:
-    return MseError([Diagnostic("E100", message, Span("<arguments>"))])
-
-
 def validate(model: ir.Model, request: SolveRequest) -> None:
     if not request.duration > 0 or to_ticks(request.duration) < 1:
-        raise _error(f"duration must be a positive number of seconds, not {request.duration!r}")
+        raise argument_error(f"duration must be a positive number of seconds, not {request.duration!r}")
     if request.slot is not None and not request.slot > 0:
-        raise _error(f"slot must be a positive number of seconds, not {request.slot!r}")
+        raise argument_error(f"slot must be a positive number of seconds, not {request.slot!r}")
     if request.count < 1:
-        raise _error(f"count must be at least 1, not {request.count}")
+        raise argument_error(f"count must be at least 1, not {request.count}")
     if request.max_restarts < 0:
-        raise _error(f"max_restarts must be at least 0, not {request.max_restarts}")
+        raise argument_error(f"max_restarts must be at least 0, not {request.max_restarts}")
     if request.mode not in ("consistent", "constraint-less"):
-        raise _error(f"unknown mode {request.mode!r} (known: consistent, constraint-less)")
+        raise argument_error(f"unknown mode {request.mode!r} (known: consistent, constraint-less)")
     unknown = sorted({*request.require, *request.forbid} - set(model.signal_by_id))
     if unknown:
         known = ", ".join(s.id for s in model.signals)
-        raise _error(f"unknown signal(s) {', '.join(unknown)} in require/forbid for {model.name!r} (known: {known})")
+        raise argument_error(
+            f"unknown signal(s) {', '.join(unknown)} in require/forbid for {model.name!r} (known: {known})")
     both = sorted(set(request.require) & set(request.forbid))
     if both:
-        raise _error(f"signal(s) {', '.join(both)} both required and forbidden")
+        raise argument_error(f"signal(s) {', '.join(both)} both required and forbidden")
     if request.mode == "constraint-less" and not model.constraints:
-        raise _error(
+        raise argument_error(
             f"{model.name!r} has no constraints, so no timeline can violate one "
             "(--mode constraint-less needs a behaviour set with constraints)"
         )
