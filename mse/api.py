@@ -297,6 +297,9 @@ def lint(
                 from mse.solve.cpsat.deep_lint import deep_lint
 
                 found.extend(deep_lint(model, duration, budget=deep_budget))
+                from mse.solve.void_relations import sampled_void_relations
+
+                found.extend(sampled_void_relations(model, duration))
 
     def wanted(diagnostic: Diagnostic) -> bool:
         if diagnostic.is_error:

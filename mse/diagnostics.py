@@ -16,6 +16,9 @@ from dataclasses import dataclass
 class Severity(enum.Enum):
     ERROR = "error"
     WARNING = "warning"
+    #: A fact worth knowing that may well be what the author meant (N codes): shown, never
+    #: counted by ``--strict``.
+    NOTE = "note"
 
 
 @dataclass(frozen=True, slots=True)
@@ -88,6 +91,8 @@ CODES: dict[str, str] = {
     "W404": "redundant constraint",
     "W405": "signal forced by the constraints",
     "W406": "probability profile contradicted by the constraints",
+    # N4xx: solver-backed notes
+    "N407": "relation void in most sampled timelines that show one of its signals",
     # W5xx: import and conversion
     "W501": "Greta name mismatch resolved",
     "W502": "Greta construct approximated",
@@ -108,7 +113,9 @@ class Diagnostic:
 
     @property
     def severity(self) -> Severity:
-        return Severity.ERROR if self.code.startswith("E") else Severity.WARNING
+        if self.code.startswith("E"):
+            return Severity.ERROR
+        return Severity.NOTE if self.code.startswith("N") else Severity.WARNING
 
     @property
     def is_error(self) -> bool:

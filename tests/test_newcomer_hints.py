@@ -1,0 +1,91 @@
+"""What a new user trips over (issue 36): XML escaping hints, misspelt attributes, relations
+that are void most of the time (N407), and anger's guarded head thrust."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import pytest
+
+import mse.api
+from mse.cli import main
+from mse.diagnostics import Diagnostic, Severity, Span
+from mse.solve.void_relations import void_relations
+
+SET = """<expression name="x">
+  <signals>
+    <signal id="a" modality="face" lexeme="faceexp=smile" {attributes} min_duration="1" max_duration="2"/>
+    <signal id="b" modality="head" lexeme="head=nod" min_duration="1" max_duration="2"/>
+  </signals>
+  <constraints>
+    <constraint id="c1">{constraint}</constraint>
+  </constraints>
+</expression>
+"""
+
+
+def _write(tmp_path: Path, constraint: str = "exists(a)", attributes: str = "") -> Path:
+    path = tmp_path / "x.xml"
+    path.write_text(SET.format(constraint=constraint, attributes=attributes), encoding="utf-8")
+    return path
+
+
+def test_raw_less_than_in_a_constraint_says_how_to_escape(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    path = _write(tmp_path, "start(a) <= 2")
+    assert main(["compile", str(path)]) == 1
+    err = capsys.readouterr().err
+    assert f"{path}:7:" in err and "E101" in err and "'&lt;'" in err
+
+
+def test_raw_ampersand_says_how_to_escape(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    path = _write(tmp_path, "exists(a) & exists(b)")
+    assert main(["compile", str(path)]) == 1
+    assert "'&amp;'" in capsys.readouterr().err
+
+
+def test_misspelt_attribute_gets_did_you_mean_at_its_column(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    path = _write(tmp_path, attributes='probabilty_start="0.5"')
+    assert main(["compile", str(path)]) == 1
+    err = capsys.readouterr().err
+    column = SET.splitlines()[2].index("{attributes}") + 1
+    assert f"{path}:3:{column}: E102" in err  # the attribute's column, not the element's
+    assert "did you mean 'probability_start'?" in err
+
+
+def test_void_relation_is_a_note_from_measured_timelines() -> None:
+    """The rule counts sampled timelines: a relation unknown in most of those that show one of
+    its signals is reported with the numbers; excludes is left alone."""
+    from mse.ir.schedule import Occurrence, Schedule
+
+    text = SET.format(constraint="includes(b, a)", attributes="").encode()
+    model, _ = mse.api.compile_source("x.xml", text)
+    assert model is not None
+    only_a = Schedule.of(10_000, [Occurrence(0, 1000, "a")])
+    found = void_relations(model, [only_a] * 30, 10.0)
+    assert [d.code for d in found] == ["N407"]
+    assert "30 of 30" in found[0].message and "exists(b) and includes(b, a)" in found[0].message
+    assert found[0].severity is Severity.NOTE
+    both = Schedule.of(10_000, [Occurrence(0, 1000, "a"), Occurrence(0, 2000, "b")])
+    assert void_relations(model, [both] * 30, 10.0) == []
+    excludes, _ = mse.api.compile_source("x.xml", SET.format(constraint="excludes(b, a)", attributes="").encode())
+    assert excludes is not None and void_relations(excludes, [only_a] * 30, 10.0) == []
+
+
+def test_notes_do_not_fail_strict_and_render_as_sarif_notes() -> None:
+    from mse.cli.lint_formats import as_github, as_sarif
+
+    note = Diagnostic("N407", "void", Span("x.xml", 3, 5))
+    assert json.loads(as_sarif([note]))["runs"][0]["results"][0]["level"] == "note"
+    assert as_github([note]).startswith("::notice ")
+    notes = [d for d in mse.api.lint(["tension"]) if d.code == "N407"]
+    assert notes, "tension's shoulders_hold_fist is void in most timelines"
+    assert main(["lint", "--strict", "tension"]) == 0
+
+
+def test_anger_head_thrust_needs_the_lean() -> None:
+    model = mse.api.load("anger")
+    timelines = [mse.api.sample(model, 10, seed=seed) for seed in range(60)]
+    with_thrust = [t for t in timelines if any(s.id == "head_forward" for s in t.signals)]
+    assert with_thrust, "head_forward never sampled"
+    assert all(any(s.id == "lean_forward" for s in t.signals) for t in with_thrust)
