@@ -71,7 +71,11 @@ CODES: dict[str, str] = {
     # W3xx: static lint
     "W300": "no behaviour-set file found",
     "W301": "inactive signal (both probabilities are 0)",
-    "W302": "signal shorter than the sampler's time slot",
+    # W302 (a signal shorter than the sampler's time slot) is retired: the walk places and
+    # times short signals at their profile's rate whatever --slot is (measured 0.39-0.39
+    # occurrences of a 0.5/0.5 0.2-0.4 s signal at slots 1, 0.2 and 0.05 s); kept so that
+    # --select/--ignore W302 in a user's CI still names a code.
+    "W302": "retired (never reported): signal shorter than the sampler's time slot",
     "W303": "relation of a signal with itself",
     "W304": "constraint whose trigger signals can never occur",
     "W305": "duplicate constraint",

@@ -89,3 +89,38 @@ def test_anger_head_thrust_needs_the_lean() -> None:
     with_thrust = [t for t in timelines if any(s.id == "head_forward" for s in t.signals)]
     assert with_thrust, "head_forward never sampled"
     assert all(any(s.id == "lean_forward" for s in t.signals) for t in with_thrust)
+
+
+BLINKS = """<expression name="blinks">
+  <signals>
+    <signal id="blink" modality="face" lexeme="faceexp=blink" min_duration="0.2" max_duration="0.4"
+            probability_start="0.5" probability_end="0.5"/>
+    <signal id="nod" modality="head" lexeme="head=nod" min_duration="1" max_duration="3"/>
+  </signals>
+</expression>
+"""
+
+
+def test_short_signals_are_not_warned_and_keep_their_rate_at_any_slot() -> None:
+    """W302 is retired: a 0.2-0.4 s signal occurs at its profile's rate (0.5) whatever the
+    sampler's slot, so there is no consequence to warn about."""
+    model, _ = mse.api.compile_source("blinks.xml", BLINKS.encode())
+    assert model is not None
+    from mse.ir.lint import lint_model
+    from mse.sampling import iter_timelines
+
+    assert [d.code for d in lint_model(model)] == []
+    rates = []
+    for slot in (None, 0.2):
+        timelines = list(iter_timelines(model, 10, count=400, seed=5, slot=slot))
+        rates.append(sum(any(s.id == "blink" for s in t.signals) for t in timelines) / len(timelines))
+    assert all(abs(rate - 0.5) < 0.12 for rate in rates), rates
+
+
+def test_sample_reports_a_proven_conflict_with_lint_s_code(capsys: pytest.CaptureFixture[str]) -> None:
+    conflict = Path(__file__).parent / "fixtures" / "solvers" / "conflict.xml"
+    for solver in ("cpsat", "greedy"):
+        assert main(["sample", str(conflict), "--duration", "2", "--solver", solver]) == 2
+        assert " E401 " in capsys.readouterr().err
+    assert main(["lint", str(conflict), "--duration", "2"]) == 1
+    assert " E401 " in capsys.readouterr().out
