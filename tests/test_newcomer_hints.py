@@ -124,3 +124,50 @@ def test_sample_reports_a_proven_conflict_with_lint_s_code(capsys: pytest.Captur
         assert " E401 " in capsys.readouterr().err
     assert main(["lint", str(conflict), "--duration", "2"]) == 1
     assert " E401 " in capsys.readouterr().out
+
+
+def test_animate_refuses_a_folder_with_another_run_s_files(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    out = tmp_path / "motion"
+    assert main(["sample", "embarrassment", "--seed", "224", "--animate", str(out), "-o", str(tmp_path / "e.json")]) == 0
+    before = sorted(p.name for p in out.iterdir())
+    capsys.readouterr()
+    assert main(["sample", "relief", "--seed", "1", "--animate", str(out), "-o", str(tmp_path / "r.json")]) == 1
+    err = capsys.readouterr().err
+    assert f"{out}" in err and "E105" in err and "new or empty" in err
+    assert sorted(p.name for p in out.iterdir()) == before
+    assert not (tmp_path / "r.json").exists()
+
+
+OWN_SET = """<expression name="surprise">
+  <description>A user's own surprise.</description>
+  <signals>
+    <signal id="brows_up" modality="face" lexeme="faceexp=raise_brows" min_duration="0.5" max_duration="2"
+            probability_start="0.9" probability_end="0.1"/>
+  </signals>
+</expression>
+"""
+
+
+def test_own_sets_by_name_through_mse_path(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    mine = tmp_path / "sets"
+    mine.mkdir()
+    (mine / "surprise.xml").write_text(OWN_SET, encoding="utf-8")
+    monkeypatch.delenv("MSE_PATH", raising=False)
+    assert main(["sample", "suprise"]) == 1
+    assert "$MSE_PATH" in capsys.readouterr().err
+    monkeypatch.setenv("MSE_PATH", f"{tmp_path / 'missing'}:{mine}")
+    assert main(["sample", "surprise", "--seed", "1", "--format", "json"]) == 0
+    assert json.loads(capsys.readouterr().out)["expression"] == "surprise"
+    assert main(["sample", "suprise"]) == 1
+    assert "did you mean 'surprise'?" in capsys.readouterr().err
+    assert main(["list"]) == 0
+    listed = capsys.readouterr().out
+    assert f"[{mine}]" in listed and "anger" in listed
+    assert main(["lint", "--no-deep", "surprise"]) == 0
+
+
+def test_lint_offers_only_the_realizer_it_can_check(capsys: pytest.CaptureFixture[str]) -> None:
+    assert main(["lint", "anger", "--realizer", "generic"]) == 2
+    assert "choose from 'greta'" in capsys.readouterr().err

@@ -46,8 +46,9 @@ def register(subparsers: Any) -> None:
     )
     parser.add_argument(
         "--realizer",
-        choices=("generic", "greta", "asap"),
-        help="also report signals this realizer cannot resolve in its libraries (W308; needs --library-dir)",
+        choices=("greta",),
+        help="also report signals this realizer cannot resolve in its libraries (W308; needs --library-dir); "
+        "only Greta resolves lexemes through libraries (AsapRealizer and the generic BML accept any lexeme)",
     )
     parser.add_argument(
         "--library-dir", metavar="DIR", help="the realizer's libraries (Greta's BehaviorLexicon folder)"
