@@ -99,7 +99,8 @@ def resolve_path(path_or_name: str | Path) -> Path:
     names = list(named_sets())
     guess = difflib.get_close_matches(str(path_or_name), names, n=1)
     hint = f" (did you mean {guess[0]!r}?)" if guess else ""
-    where = "in $MSE_PATH or bundled" if os.environ.get(SEARCH_PATH_VARIABLE) else "bundled (add folders with $MSE_PATH)"
+    searched = os.environ.get(SEARCH_PATH_VARIABLE)
+    where = "in $MSE_PATH or bundled" if searched else "bundled (add folders with $MSE_PATH)"
     message = f"no such file or named expression{hint}; {where}: {', '.join(names)}"
     raise MseError([Diagnostic("E100", message, Span(str(path_or_name)))])
 
