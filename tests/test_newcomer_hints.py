@@ -172,3 +172,46 @@ def test_own_sets_by_name_through_mse_path(
 def test_lint_offers_only_the_realizer_it_can_check(capsys: pytest.CaptureFixture[str]) -> None:
     assert main(["lint", "anger", "--realizer", "generic"]) == 2
     assert "choose from 'greta'" in capsys.readouterr().err
+
+
+def test_streamed_lines_are_read_back_as_timelines(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    from mse.timeline import loads_many
+
+    lines = tmp_path / "l.jsonl"
+    assert main(["sample", "relief", "--stream", "--count", "2", "--seed", "1", "-o", str(lines)]) == 0
+    streamed = loads_many(lines.read_text(encoding="utf-8"), path=str(lines))
+    assert [(t.expression, t.seed, t.duration) for t in streamed] == [("relief", 1, 10.0), ("relief", 2, 10.0)]
+    for timeline in streamed:
+        alone = tmp_path / f"{timeline.seed}.json"
+        assert main(["sample", "relief", "--seed", str(timeline.seed), "-o", str(alone)]) == 0
+        expected = loads_many(alone.read_text(encoding="utf-8"))[0]
+        assert sorted(s.to_json()["start"] for s in timeline.signals) == sorted(
+            s.to_json()["start"] for s in expected.signals
+        )
+    assert main(["check", "relief", str(lines)]) == 0
+    assert main(["export", str(lines), "--format", "svg", "-o", f"{tmp_path / 'svgs'}/"]) == 0
+    assert len(list((tmp_path / "svgs").glob("*.svg"))) == 2
+    capsys.readouterr()
+
+
+def test_sample_output_suffix_decides_or_must_agree(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    svg = tmp_path / "a.svg"
+    assert main(["sample", "anger", "--seed", "1", "-o", str(svg)]) == 0
+    assert svg.read_text(encoding="utf-8").lstrip().startswith("<")
+    for bad in (["-o", str(tmp_path / "b.svg"), "--format", "json"], ["-o", str(tmp_path / "c.xml")],
+                ["--stream", "-o", str(tmp_path / "d.bml")]):
+        assert main(["sample", "anger", "--seed", "1", *bad]) == 1
+        assert "E100" in capsys.readouterr().err
+    assert not any(tmp_path.glob("[bcd].*"))
+    assert main(["sample", "anger", "--seed", "1", "--count", "2", "-o", str(tmp_path / "e.jsonl")]) == 0
+    assert len((tmp_path / "e.jsonl").read_text(encoding="utf-8").splitlines()) == 2
+
+
+def test_sample_video_takes_render_s_options(tmp_path: Path) -> None:
+    av = pytest.importorskip("av")
+    clip = tmp_path / "a.mp4"
+    assert main(["sample", "anger", "--seed", "1", "--duration", "2", "-o", str(clip),
+                 "--size", "320x180", "--fps", "10", "--no-strip"]) == 0
+    with av.open(str(clip)) as container:
+        stream = container.streams.video[0]
+        assert (stream.width, stream.height, stream.frames) == (320, 180, 20)
