@@ -104,6 +104,7 @@ CODES: dict[str, str] = {
     # W6xx: export
     "W601": "behaviour left out of the export (the realizer cannot play it)",
     "W602": "lexeme not drawn by the face player",
+    "W603": "BML behaviour written with a lexeme outside BML 1.0's core sets",
 }
 
 

@@ -215,3 +215,27 @@ def test_sample_video_takes_render_s_options(tmp_path: Path) -> None:
     with av.open(str(clip)) as container:
         stream = container.streams.video[0]
         assert (stream.width, stream.height, stream.frames) == (320, 180, 20)
+
+
+def test_bml_face_falls_back_to_core_lexemes_and_says_what_is_not_core() -> None:
+    from lxml import etree
+
+    from mse.export import export_notes
+    from mse.export.bml import CORE_FACE_LEXEMES, render_bml
+    from mse.export.options import ExportOptions
+    from mse.timeline import Timeline, TimelineSignal
+
+    timeline = Timeline("x", 5.0, (
+        TimelineSignal("exhale", "face", "faceexp=mouth_open_exhale", 0.5, 2.0),
+        TimelineSignal("blink", "face", "faceexp=blinking", 2.5, 2.8),
+        TimelineSignal("jerk", "head", "head=jerk_back", 1.0, 2.0),
+        TimelineSignal("arms", "gesture", "gesture=arms_raised", 1.0, 3.0),
+    ), "greedy", 1)
+    root = etree.fromstring(render_bml(timeline, ExportOptions()).encode())
+    faces = {node.get("id"): (node.get("lexeme"), node.get("amount")) for node in root.iter("{*}faceLexeme")}
+    assert faces == {"exhale": ("OPEN_LIPS", "0.8"), "blink": ("CLOSE_EYES", "1")}
+    assert all(lexeme in CORE_FACE_LEXEMES for lexeme, _ in faces.values())
+    notes = export_notes(timeline, "bml", ExportOptions(), "x.json")
+    assert [d.code for d in notes] == ["W603", "W603"]
+    text = " ".join(d.message for d in notes)
+    assert "'JERK_BACK'" in text and "'ARMS_RAISED'" in text and "(jerk)" in text
