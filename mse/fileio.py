@@ -264,14 +264,18 @@ def _umask() -> int:
 
 
 @contextlib.contextmanager
-def staged_folder(out: PathLike, *, inputs: Sequence[PathLike] = ()) -> Iterator[Path]:
+def staged_folder(out: PathLike, *, inputs: Sequence[PathLike] = (), empty: bool = False) -> Iterator[Path]:
     """A temporary folder beside ``out`` to write a set of files into; on success its files
     move into ``out`` (created if missing), on any error or signal it is removed and ``out``
-    is left as it was.  ``out`` must not be a file nor an input of the command."""
+    is left as it was.  ``out`` must not be a file nor an input of the command; with
+    ``empty``, it must also be new or empty (a set of files that belong together, such as
+    one timeline's motion clips, must not mix with another run's)."""
     name = os.fspath(out)
     target = Path(name)
     if target.exists() and not target.is_dir():
         raise _write_error(name, "cannot write output: exists and is not a folder")
+    if empty and target.is_dir() and any(target.iterdir()):
+        raise _write_error(name, "the output folder must be new or empty (its files would mix with this run's)")
     for source in inputs:
         source_name = os.fspath(source)
         with contextlib.suppress(OSError):

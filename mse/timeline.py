@@ -204,9 +204,30 @@ def from_schedule(
     return Timeline(expression, to_seconds(schedule.duration), signals, solver, seed)
 
 
+#: What each signal line of ``mse sample --stream`` adds to the signal: its timeline's key.
+_STREAM_KEYS = ("expression", "seed", "duration")
+
+
+def _stream_key(obj: Any) -> tuple[object, ...] | None:
+    """The timeline a ``--stream`` signal line belongs to, or None for any other object."""
+    if not isinstance(obj, dict) or "signals" in obj or not {"id", "start", "stop", *_STREAM_KEYS} <= obj.keys():
+        return None
+    return tuple(json.dumps(obj[key]) for key in _STREAM_KEYS)
+
+
+def _assembled(lines: list[tuple[int, Any]], path: str) -> Timeline:
+    """One timeline from consecutive ``--stream`` signal lines of the same timeline."""
+    first = lines[0][1]
+    signals = [{k: v for k, v in obj.items() if k not in _STREAM_KEYS} for _, obj in lines]
+    document = {"format": FORMAT, **{key: first[key] for key in _STREAM_KEYS}, "signals": signals}
+    return Timeline.from_json(document, path=path, index=lines[0][0], label="streamed timeline: ")
+
+
 def loads_many(text: str, *, path: str = "<timeline>") -> list[Timeline]:
     """Read one timeline, a JSON array of them, or JSON lines (lines end at "\n" only:
-    U+2028 or U+0085 inside a string are not line ends)."""
+    U+2028 or U+0085 inside a string are not line ends).  The signal lines of
+    ``mse sample --stream`` are assembled: consecutive lines of one expression, seed and
+    duration make one timeline."""
     from mse.fileio import parse_json
 
     if not text.strip():
@@ -218,17 +239,29 @@ def loads_many(text: str, *, path: str = "<timeline>") -> list[Timeline]:
         if sum(1 for line in lines if line.strip()) < 2:
             raise whole_error from None
         timelines: list[Timeline] = []
+        streamed: list[tuple[int, Any]] = []
         for number, line in enumerate(lines):
             if not line.strip():
                 continue
             try:
                 decoded_line = parse_json(line, path, code="E212", line=number + 1)
             except MseError:
-                if not timelines:  # one document over several lines: its own error is the one
+                if not timelines and not streamed:  # one document over several lines: its own error
                     raise whole_error from None
                 raise
-            timelines.append(Timeline.from_json(decoded_line, path=path, index=number))
+            key = _stream_key(decoded_line)
+            if streamed and key != _stream_key(streamed[0][1]):
+                timelines.append(_assembled(streamed, path))
+                streamed = []
+            if key is not None:
+                streamed.append((number, decoded_line))
+            else:
+                timelines.append(Timeline.from_json(decoded_line, path=path, index=number))
+        if streamed:
+            timelines.append(_assembled(streamed, path))
         return timelines
+    if _stream_key(decoded) is not None:  # a stream of one signal
+        return [_assembled([(0, decoded)], path)]
     if isinstance(decoded, list):
         return [Timeline.from_json(item, path=path, label=f"timeline [{n}]: ") for n, item in enumerate(decoded)]
     return [Timeline.from_json(decoded, path=path)]

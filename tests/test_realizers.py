@@ -85,7 +85,7 @@ def test_profiles_and_defaults() -> None:
 
 
 def test_cli_offers_every_profile() -> None:
-    for command in ("sample", "export", "lint"):
+    for command in ("sample", "export"):  # lint checks libraries, which only Greta has: --realizer greta
         done = subprocess.run(
             [sys.executable, "-m", "mse", command, "--help"], capture_output=True, text=True, check=True
         )
@@ -205,7 +205,8 @@ def test_greta_profile_leaves_out_torsos_greta_lacks(tiny_library: Path) -> None
         n.message.split("'")[1]
         for n in export_notes(t, "bml", ExportOptions(realizer="greta", library_dir=tiny_library))
     ] == ["a", "c"]
-    assert export_notes(t, "bml") == []  # the generic profile writes every posture
+    # the generic profile writes every posture, saying which lexemes BML 1.0 leaves to the realizer
+    assert {d.code for d in export_notes(t, "bml")} <= {"W603"}
 
 
 def test_greta_profile_uses_the_library_for_gaze_and_bare_gestures(tiny_library: Path) -> None:

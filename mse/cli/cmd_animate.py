@@ -151,7 +151,7 @@ def animate_timelines(
         _check_style_overrides(items, library, overrides)
     animated_all = []
     summaries = []
-    with warnings.catch_warnings(record=True) as caught, staged_folder(out, inputs=inputs) as staging:
+    with warnings.catch_warnings(record=True) as caught, staged_folder(out, inputs=inputs, empty=True) as staging:
         warnings.simplefilter("always")
         for index, (timeline, model) in enumerate(items):
             relative = Path() if len(items) == 1 else Path(f"{index + 1:03d}")

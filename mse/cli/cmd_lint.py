@@ -7,6 +7,7 @@ import sys
 from typing import Any
 
 from mse.cli.common import add_quiet, emit, print_diagnostics
+from mse.diagnostics import Severity
 
 FORMATS = ("text", "json", "github", "sarif")
 
@@ -19,7 +20,7 @@ def register(subparsers: Any) -> None:
     parser = subparsers.add_parser(
         "lint",
         help="lint behaviour sets (files, folders or bundled names)",
-        description="Report errors (E) and warnings (W) of behaviour-set files, the solver-backed "
+        description="Report errors (E), warnings (W) and notes (N) of behaviour-set files, the solver-backed "
         "W4xx rules included unless --no-deep. A folder without any *.xml is a W300 warning. Exit 1 "
         "on errors, or on warnings with --strict; 2 when --select/--ignore names no rule code.",
     )
@@ -33,7 +34,7 @@ def register(subparsers: Any) -> None:
     )
     parser.add_argument("--select", type=_codes, default=[], help="only these code prefixes, e.g. W30,W401")
     parser.add_argument("--ignore", type=_codes, default=[], help="skip these code prefixes")
-    parser.add_argument("--strict", action="store_true", help="warnings make the exit code 1")
+    parser.add_argument("--strict", action="store_true", help="warnings (not notes) make the exit code 1")
     parser.add_argument("--no-deep", dest="deep", action="store_false", help="skip the solver-backed rules (W4xx)")
     parser.add_argument(
         "--duration", type=float, default=10.0, help="timeline duration for the solver-backed rules (default 10 s)"
@@ -45,8 +46,9 @@ def register(subparsers: Any) -> None:
     )
     parser.add_argument(
         "--realizer",
-        choices=("generic", "greta", "asap"),
-        help="also report signals this realizer cannot resolve in its libraries (W308; needs --library-dir)",
+        choices=("greta",),
+        help="also report signals this realizer cannot resolve in its libraries (W308; needs --library-dir); "
+        "only Greta resolves lexemes through libraries (AsapRealizer and the generic BML accept any lexeme)",
     )
     parser.add_argument(
         "--library-dir", metavar="DIR", help="the realizer's libraries (Greta's BehaviorLexicon folder)"
@@ -84,9 +86,11 @@ def run(args: argparse.Namespace) -> int:
     except MseError as error:  # -o cannot be written (E105)
         return print_error(error)
     errors = sum(d.is_error for d in diagnostics)
-    warnings = len(diagnostics) - errors
+    notes = sum(d.severity is Severity.NOTE for d in diagnostics)
+    warnings = len(diagnostics) - errors - notes
     if args.format == "text":
-        print(f"{errors} error(s), {warnings} warning(s)", file=sys.stderr)
+        tail = f", {notes} note(s)" if notes else ""
+        print(f"{errors} error(s), {warnings} warning(s){tail}", file=sys.stderr)
     return 1 if errors or (args.strict and warnings) else 0
 
 

@@ -13,6 +13,7 @@ import math
 import re
 import sys
 from pathlib import Path
+from typing import Any
 
 from mse.cli.common import add_quiet
 
@@ -40,6 +41,20 @@ def add_face_arguments(parser: argparse.ArgumentParser | argparse._ArgumentGroup
     parser.add_argument("--head-library", type=Path, metavar="FILE", help="Greta HeadGestures.xml for head lexemes")
 
 
+def add_video_arguments(parser: argparse.ArgumentParser | argparse._ArgumentGroup) -> None:
+    """Frame size, rate and strip of a video (shared by render and ``sample --format mp4``)."""
+    parser.add_argument("--size", type=_size, default=(960, 540), metavar="WxH", help="frame size (default 960x540)")
+    parser.add_argument("--fps", type=float, default=25.0, help="frames per second (default 25)")
+    parser.add_argument("--no-strip", action="store_true", help="leave out the timeline strip")
+
+
+def video_options(args: argparse.Namespace) -> Any:
+    """The VideoOptions of :func:`add_video_arguments`' values."""
+    from mse.export.video import VideoOptions
+
+    return VideoOptions(size=args.size, fps=args.fps, strip=not args.no_strip)
+
+
 def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     p = subparsers.add_parser(
         "render",
@@ -50,10 +65,8 @@ def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) ->
     p.add_argument("timeline", help="timeline JSON file ('-' reads standard input; the first timeline is used)")
     p.add_argument("-o", "--output", type=Path, help="clip.mp4, clip.webm, clip.gif, or frame.png (one frame)")
     p.add_argument("--frames", type=Path, metavar="DIR", help="write every frame as PNG into DIR (new or empty)")
-    p.add_argument("--size", type=_size, default=(960, 540), metavar="WxH", help="frame size (default 960x540)")
-    p.add_argument("--fps", type=float, default=25.0, help="frames per second (default 25)")
+    add_video_arguments(p)
     p.add_argument("--at", type=float, default=0.0, metavar="SECONDS", help="time of the frame for a .png output")
-    p.add_argument("--no-strip", action="store_true", help="leave out the timeline strip")
     add_quiet(p)
     p.add_argument("--face-library", type=Path, metavar="FILE", help="Greta facelibrary.xml for face and gaze lexemes")
     add_face_arguments(p)
@@ -82,7 +95,7 @@ def run(args: argparse.Namespace) -> int:
     from mse.cli.common import print_error, read_timelines
     from mse.diagnostics import Diagnostic, MseError, Span, argument_error
     from mse.export import ExportOptions
-    from mse.export.video import VideoOptions, render_still, write_frames, write_video
+    from mse.export.video import render_still, write_frames, write_video
     from mse.fileio import write_atomic
 
     where = "<stdin>" if args.timeline == "-" else args.timeline
@@ -110,7 +123,7 @@ def run(args: argparse.Namespace) -> int:
             lexicon=tuple(args.lexicon),
             motion_base_dir=base_dir,
         )
-        video = VideoOptions(size=args.size, fps=args.fps, strip=not args.no_strip)
+        video = video_options(args)
         notes: tuple[str, ...] = ()
         if args.frames is not None:
             notes = write_frames(timeline, args.frames, options, video).notes

@@ -20,6 +20,7 @@ EXPORT_FORMATS = ("bml", "greta-bml", "svg", "html", "eaf")
 DEFAULT_OBJECTIVE = "profile"  # as mse.api.DEFAULT_OBJECTIVE (not imported: the CLI starts light)
 REALIZERS = ("generic", "greta", "asap")  # mse.export.realizers.REALIZERS (not imported: start-up time)
 VIDEO_FORMATS = ("mp4", "webm", "gif")
+SAMPLE_FORMATS = BASE_FORMATS + EXPORT_FORMATS + VIDEO_FORMATS
 _PIN = re.compile(r"([A-Za-z_][A-Za-z0-9_]*)@([0-9]{1,12}(?:\.[0-9]{1,12})?)-([0-9]{1,12}(?:\.[0-9]{1,12})?)")
 
 
@@ -41,7 +42,9 @@ def register(subparsers: Any) -> None:
     parser.add_argument("--seed", type=int, help="random seed (default: fresh; recorded in the output)")
     parser.add_argument("-n", "--count", type=int, help="number of timelines (seeds seed, seed+1, ...)")
     parser.add_argument(
-        "--format", choices=BASE_FORMATS + EXPORT_FORMATS + VIDEO_FORMATS, help="table on a terminal, else json"
+        "--format", choices=SAMPLE_FORMATS,
+        help="table on a terminal, else json; without it, -o's suffix decides (.json .jsonl .bml .svg .html .eaf .mp4 "
+        ".webm .gif)"
     )
     parser.add_argument("-o", "--output", help="write to this file (atomically) instead of stdout; with --count and "
                         "an export format, a folder (ending in '/') receives one file per timeline")
@@ -94,9 +97,10 @@ def register(subparsers: Any) -> None:
         help="BML for this realizer (default: generic for bml, greta for greta-bml)",
     )
     out.add_argument("--library-dir", metavar="DIR", help="the realizer's libraries (Greta's BehaviorLexicon folder)")
-    from mse.cli.cmd_render import add_face_arguments
+    from mse.cli.cmd_render import add_face_arguments, add_video_arguments
 
     add_face_arguments(out)
+    add_video_arguments(parser.add_argument_group("video (--format mp4, webm, gif: as mse render)"))
     parser.set_defaults(handler=run)
 
 
@@ -206,6 +210,10 @@ def _validate(args: argparse.Namespace) -> None:
         problems.append("--stream prints JSON lines; drop --format")
     if problems:
         raise argument_error(*problems)
+    from mse.cli.output_format import output_format
+
+    # before any solving: -o's suffix must agree with what is written (--stream writes JSON lines)
+    output_format(args.format, args.output, ("json", "jsonl") if args.stream else SAMPLE_FORMATS)
 
 
 def run(args: argparse.Namespace) -> int:
@@ -260,9 +268,11 @@ def _stream(model: Any, args: argparse.Namespace) -> int:
 
 def _sample(model: Any, args: argparse.Namespace) -> int:
     from mse.api import iter_timelines, sample
+    from mse.cli.output_format import output_format
     from mse.cli.sample_output import is_folder, output_to, render_timelines, write_folder, write_many, write_video_file
 
-    fmt = args.format or ("table" if sys.stdout.isatty() and not args.output else "json")
+    given = output_format(args.format, args.output, SAMPLE_FORMATS)
+    fmt = given or ("table" if sys.stdout.isatty() and not args.output else "json")
     if args.count is not None and not args.animate and fmt in BASE_FORMATS:
         timelines_stream = iter_timelines(model, args.duration, seed=args.seed, count=args.count,
                                           solver=args.solver, mode=args.mode, **_options(args))

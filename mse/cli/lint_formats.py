@@ -6,7 +6,7 @@ import json
 from collections.abc import Callable, Sequence
 
 from mse import __version__
-from mse.diagnostics import CODES, Diagnostic
+from mse.diagnostics import CODES, Diagnostic, Span
 
 
 def as_text(diagnostics: Sequence[Diagnostic]) -> str:
@@ -38,7 +38,7 @@ def _escape_github(text: str, *, property_value: bool = False) -> str:
 def as_github(diagnostics: Sequence[Diagnostic]) -> str:
     lines = []
     for d in diagnostics:
-        level = "error" if d.is_error else "warning"
+        level = {"error": "error", "warning": "warning", "note": "notice"}[d.severity.value]
         props = f"file={_escape_github(d.span.path, property_value=True)}"
         if d.span.line > 0:
             props += f",line={d.span.line},col={max(d.span.col, 1)}"
@@ -74,7 +74,7 @@ def as_sarif(diagnostics: Sequence[Diagnostic]) -> str:
         {
             "id": code,
             "shortDescription": {"text": CODES.get(code, code)},
-            "defaultConfiguration": {"level": "error" if code.startswith("E") else "warning"},
+            "defaultConfiguration": {"level": Diagnostic(code, "", Span("")).severity.value},
         }
         for code in used
     ]
@@ -87,7 +87,7 @@ def as_sarif(diagnostics: Sequence[Diagnostic]) -> str:
             {
                 "ruleId": d.code,
                 "ruleIndex": used.index(d.code),
-                "level": "error" if d.is_error else "warning",
+                "level": d.severity.value,
                 "message": {"text": d.message},
                 "locations": [{"physicalLocation": location}],
             }

@@ -100,7 +100,7 @@ def write_folder(timelines: list[Any], fmt: str, args: argparse.Namespace) -> in
 def write_video_file(timelines: list[Any], fmt: str, args: argparse.Namespace) -> int:
     from pathlib import Path
 
-    from mse.cli.cmd_render import print_notes
+    from mse.cli.cmd_render import print_notes, video_options
     from mse.export.video import write_video
 
     if not args.output or args.output == "-" or len(timelines) > 1:
@@ -108,7 +108,7 @@ def write_video_file(timelines: list[Any], fmt: str, args: argparse.Namespace) -
         raise argument_error(message)
     where = args.source or timelines[0].expression or "<sample>"
     try:
-        report = write_video(timelines[0], Path(args.output), fmt, export_options(args))
+        report = write_video(timelines[0], Path(args.output), fmt, export_options(args), video_options(args))
     except OSError as error:
         reason = error.strerror or str(error)
         raise MseError([Diagnostic("E100", f"cannot write output: {reason}", Span(args.output))]) from None

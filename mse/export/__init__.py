@@ -70,7 +70,9 @@ def export_notes(
     from mse.export.realizers import realizer_for
 
     if realizer_for(fmt, options.realizer) != "greta":
-        return []
+        from mse.export.bml import core_lexeme_notes
+
+        return core_lexeme_notes(timeline, options, where)
     from mse.export.greta_bml import greta_notes
 
     return greta_notes(timeline, options, where)

@@ -11,9 +11,17 @@ from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
 
+from mse.diagnostics import Diagnostic, Span
 from mse.export.behaviours import Behaviour, block_id, composition, plan_behaviours, provenance, timing
 from mse.export.greta_bml import greta_elements
-from mse.export.lexemes import ActionUnit, FaceLibrary, format_seconds, load_face_library, upper_token
+from mse.export.lexemes import (
+    ActionUnit,
+    FaceLibrary,
+    format_seconds,
+    load_face_library,
+    split_lexeme,
+    upper_token,
+)
 from mse.export.options import ExportOptions
 from mse.export.realizers import lexeme_table, realize_gaze, realizer_for
 from mse.export.xmltext import Comment, Element, document, element
@@ -40,6 +48,16 @@ AU_LEXEMES: Mapping[int, str] = {
     43: "CLOSE_EYES",
     45: "CLOSE_EYES",
 }
+
+#: The lexemes BML 1.0 defines for ``<faceLexeme>`` and ``<head>`` (the standard's core
+#: sets); other names are open-set items only a realizer with them in its own lexicon plays.
+CORE_FACE_LEXEMES = frozenset({
+    "OBLIQUE_BROWS", "RAISE_BROWS", "RAISE_LEFT_BROW", "RAISE_RIGHT_BROW", "LOWER_BROWS", "LOWER_LEFT_BROW",
+    "LOWER_RIGHT_BROW", "LOWER_MOUTH_CORNERS", "LOWER_LEFT_MOUTH_CORNER", "LOWER_RIGHT_MOUTH_CORNER",
+    "RAISE_MOUTH_CORNERS", "RAISE_RIGHT_MOUTH_CORNER", "RAISE_LEFT_MOUTH_CORNER", "OPEN_MOUTH", "OPEN_LIPS",
+    "WIDEN_EYES", "CLOSE_EYES",
+})
+CORE_HEAD_LEXEMES = frozenset({"NOD", "SHAKE"})
 
 _GAZE_ANGLE_DEGREES = 20.0
 #: ``<pose part>`` for a torso or posture signal: BML 1.0 requires a part (AsapRealizer rejects a
@@ -73,8 +91,23 @@ def head_lexeme(realizer: str, name: str) -> str:
     return upper_token(name.lower().removeprefix("head_") or name)
 
 
+def face_player_units(lexeme_text: str) -> tuple[ActionUnit, ...] | None:
+    """The action units the face player shows for a lexeme (its bundled table and rules), so
+    that a face the realizer table lacks still gets a core lexeme (None: no units known)."""
+    from mse.export.face.lexicon import bundled_table, rule_action
+
+    lexeme = split_lexeme(lexeme_text)
+    action = bundled_table().get(lexeme.reference.lower()) or bundled_table().get(lexeme.name.lower())
+    action = action or rule_action(lexeme, "face")
+    if action is None or not action.units:
+        return None
+    return tuple(ActionUnit(number, intensity, side) for number, intensity, side in action.units)
+
+
 def _face(b: Behaviour, realizer: str, library: FaceLibrary | None, extensions: bool) -> list[Element]:
     units = library.resolve(b.lexeme) if library is not None else None
+    if units is None and lexeme_table(realizer).lookup("face", b.lexeme.name) is None:
+        units = face_player_units(b.lexeme.reference)
     if extensions and units:
         # One ext:faceFacs per action unit; ids stay unique with an _auN suffix.
         return [
@@ -134,6 +167,39 @@ def _behaviour_elements(
     if b.modality == "speech" and b.lexeme.name:
         return [element("speech", timing(b), element("text", {}, b.lexeme.name))]
     return [Comment(f"{b.id}: modality {b.modality or '?'!r} has no BML 1.0 behaviour")]
+
+
+def core_lexeme_notes(timeline: Timeline, options: ExportOptions, where: str) -> list[Diagnostic]:
+    """W603 once per lexeme the generic or asap BML writes outside BML 1.0's core sets (read
+    back from the written block: what a realizer receives)."""
+    from lxml import etree
+
+    written = render_bml(timeline, options)
+    root = etree.fromstring(written.encode("utf-8"), etree.XMLParser(resolve_entities=False, no_network=True))
+    seen: dict[tuple[str, str], list[str]] = {}
+    for node in root.iter():
+        tag = etree.QName(node).localname if isinstance(node.tag, str) else ""
+        lexeme = node.get("lexeme")
+        if lexeme is None or tag not in ("faceLexeme", "head", "gesture", "pose"):
+            continue
+        if (tag == "faceLexeme" and lexeme in CORE_FACE_LEXEMES) or (tag == "head" and lexeme in CORE_HEAD_LEXEMES):
+            continue
+        parent = node.getparent()
+        owner = node.get("id") or (parent.get("id") if parent is not None else None)
+        seen.setdefault((tag, lexeme), []).append(str(owner or "?"))
+    notes = []
+    for (tag, lexeme), ids in seen.items():
+        core = {"faceLexeme": "core: its 17 face lexemes", "head": "core: NOD and SHAKE"}.get(
+            tag, f"it leaves {tag} lexemes to each realizer"
+        )
+        occurrences = ", ".join(ids[:3]) + (", …" if len(ids) > 3 else "")
+        notes.append(Diagnostic(
+            "W603",
+            f"<{tag} lexeme={lexeme!r}> ({occurrences}) is not a BML 1.0 lexeme ({core}): a realizer plays it "
+            "only if its own lexicon has it (docs/export.md)",
+            Span(where),
+        ))
+    return notes
 
 
 def sync_constraints(written: Sequence[Element | Comment | str]) -> list[Element]:

@@ -12,9 +12,6 @@ from mse.diagnostics import Diagnostic
 from mse.ir import model as ir
 from mse.ir.printer import expr_text
 
-#: The greedy sampler's default time slot (seconds); see docs/sampler.md.
-SAMPLER_SLOT_SECONDS = 1.0
-
 #: Lexeme classes (the part before '=') and the modality each one belongs to.
 LEXEME_CLASS_MODALITY: dict[str, str] = {
     "faceexp": "face",
@@ -46,17 +43,6 @@ def inactive_signals(model: ir.Model) -> Iterator[Diagnostic]:
         if signal.probability_start == 0 and signal.probability_end == 0:
             yield Diagnostic(
                 "W301", f"signal {signal.id!r} is inactive: probability_start and probability_end are 0", signal.span
-            )
-
-
-def short_signals(model: ir.Model) -> Iterator[Diagnostic]:
-    for signal in model.signals:
-        if signal.max_duration is not None and signal.max_duration < SAMPLER_SLOT_SECONDS:
-            yield Diagnostic(
-                "W302",
-                f"signal {signal.id!r} lasts at most {signal.max_duration:g} s, shorter than the sampler's "
-                f"{SAMPLER_SLOT_SECONDS:g} s time slot (sample with a smaller --slot)",
-                signal.span,
             )
 
 
@@ -203,7 +189,6 @@ def unknown_motion_actions(known: Collection[str]) -> Rule:
 
 STATIC_RULES: tuple[Rule, ...] = (
     inactive_signals,
-    short_signals,
     self_relations,
     unreachable_constraints,
     duplicate_constraints,

@@ -10,6 +10,7 @@ only scanned, linearly, for positions.  All problems of a file are returned toge
 
 from __future__ import annotations
 
+import difflib
 import functools
 import re
 from pathlib import Path
@@ -33,6 +34,30 @@ MAX_CONSTRAINT_TEXT_PER_FILE = MAX_CONSTRAINT_TEXT
 @functools.cache
 def _schema() -> etree.XMLSchema:
     return etree.XMLSchema(etree.parse(str(grammar_dir() / "mse.xsd")))
+
+
+_XS = "{http://www.w3.org/2001/XMLSchema}"
+_REFUSED_ATTRIBUTE = re.compile(r"^Element '([^']+)', attribute '([^']+)': The attribute '[^']+' is not allowed")
+
+
+@functools.cache
+def _schema_attributes() -> dict[str, tuple[str, ...]]:
+    """Element name -> the attributes the schema declares on it (for did-you-mean hints)."""
+    declared: dict[str, tuple[str, ...]] = {}
+    for element in etree.parse(str(grammar_dir() / "mse.xsd")).iter(f"{_XS}element"):
+        complex_type = element.find(f"{_XS}complexType")
+        if complex_type is None or element.get("name") is None:
+            continue
+        names = tuple(str(a.get("name")) for a in complex_type.findall(f"{_XS}attribute") if a.get("name"))
+        declared[str(element.get("name"))] = names
+    return declared
+
+
+def _attribute_hint(element: str, attribute: str) -> str:
+    """' (did you mean 'x'?)' for a misspelt attribute the schema refuses on ``element``."""
+    allowed = _schema_attributes().get(element, ())
+    guess = difflib.get_close_matches(attribute, allowed, n=1, cutoff=0.6)
+    return f" (did you mean {guess[0]!r}?)" if guess else ""
 
 
 def read_bytes(path: str | Path) -> tuple[bytes | None, list[Diagnostic]]:
@@ -95,6 +120,12 @@ def _schema_diagnostics(root: etree._Element, locator: _Locator, path: str) -> l
             else Span(path, entry.line, max(entry.column, 1))
         )
         message = re.sub(r"^Element '([^']+)'(, attribute '([^']+)')?: ", _schema_prefix, entry.message)
+        refused = re.match(_REFUSED_ATTRIBUTE, entry.message)
+        if refused is not None:
+            attribute = refused.group(2)
+            message += _attribute_hint(refused.group(1), attribute)
+            if found_element is not None:  # point at the attribute itself, not its element
+                span = locator.attributes(found_element).get(attribute, ast.Attribute("", span)).span
         found.append(Diagnostic("E102", message, span))
     return found
 

@@ -77,6 +77,16 @@ def _entity_problem(root: etree._Element, source: SourceText) -> Diagnostic | No
     return None
 
 
+def _escape_hint(message: str, data: bytes, line: int, column: int) -> str:
+    """How to write the character that broke the parse, when it is a bare ``<`` or ``&`` in
+    text (constraints use both: ``start(a) <= 2``, ``a and b`` is fine but ``&&`` is not)."""
+    if "StartTag: invalid element name" in message:
+        return "; a '<' inside text must be written '&lt;' (e.g. start(a) &lt;= 2)"
+    if "EntityRef: expecting ';'" in message or "xmlParseEntityRef: no name" in message:
+        return "; a '&' inside text must be written '&amp;'"
+    return ""
+
+
 def parse_xml(
     data: bytes, path: str, *, max_elements: int = MAX_XML_ELEMENTS
 ) -> tuple[etree._Element | None, SourceText, list[Diagnostic]]:
@@ -97,7 +107,8 @@ def parse_xml(
             source = SourceText(path, decode_text(data))
             where = source.find("<!ENTITY") or Span(path, line, column)
             return None, source, [Diagnostic("E103", "entity declarations are refused (entity expansion bomb)", where)]
-        return None, SourceText(path, ""), [Diagnostic("E101", message.strip(), Span(path, line, column))]
+        message = message.strip() + _escape_hint(message, data, line, column)
+        return None, SourceText(path, ""), [Diagnostic("E101", message, Span(path, line, column))]
     count = root.xpath("count(//*)")
     if isinstance(count, float) and count > max_elements:
         line = root.sourceline if isinstance(root.sourceline, int) else 1

@@ -51,6 +51,9 @@ class Action:
     repeat: tuple[float, float] | None = None  # (every, length) seconds
     oscillate: tuple[float, str] | None = None  # (period, "sine" | "bump")
     unsupported: tuple[int, ...] = ()  # action units the rig cannot show
+    #: The FACS units the targets come from (number, intensity 0-1, side), when the source
+    #: names units: BML without a face library falls back to core lexemes through them.
+    units: tuple[tuple[int, float, str], ...] = ()
 
 
 def unit_targets(number: int, side: str, intensity: float) -> tuple[list[tuple[str, float]], bool]:

@@ -41,7 +41,8 @@ def _actions_from_units(units: Iterable[ActionUnit], source: str) -> Action:
         targets += found
         if not drawn:
             missing.append(unit.number)
-    return Action(tuple(targets), source, unsupported=tuple(sorted(set(missing))))
+    facs = tuple((unit.number, unit.intensity, unit.side) for unit in units)
+    return Action(tuple(targets), source, unsupported=tuple(sorted(set(missing))), units=facs)
 
 
 # -- tables -------------------------------------------------------------------------------
@@ -64,12 +65,15 @@ def action_from_entry(entry: Mapping[str, Any], source: str, where: str) -> Acti
         raise _fail(where, f"unknown key(s) {', '.join(unknown)} (known: {', '.join(sorted(_KNOWN_KEYS))})")
     targets: list[tuple[str, float]] = []
     missing: list[int] = []
+    units: list[tuple[int, float, str]] = []
     for key, value in dict(entry.get("au", {})).items():
         match = _AU_KEY.match(key)
         if match is None:
             raise _fail(where, f"au key {key!r} must look like AU12, AU12L or AU12R")
         side = {"L": "LEFT", "R": "RIGHT"}.get(match.group(2).upper(), "BOTH")
-        found, drawn = unit_targets(int(match.group(1)), side, _number(value, where, f"au.{key}"))
+        intensity = _number(value, where, f"au.{key}")
+        units.append((int(match.group(1)), intensity, side))
+        found, drawn = unit_targets(int(match.group(1)), side, intensity)
         targets += found
         if not drawn:
             missing.append(int(match.group(1)))
@@ -99,7 +103,9 @@ def action_from_entry(entry: Mapping[str, Any], source: str, where: str) -> Acti
     for value in (attack, release):
         if value is not None and value < 0:
             raise _fail(where, "attack and release must not be negative")
-    return Action(tuple(targets), source, attack, release, repeat, oscillate, tuple(sorted(set(missing))))
+    return Action(
+        tuple(targets), source, attack, release, repeat, oscillate, tuple(sorted(set(missing))), tuple(units)
+    )
 
 
 def parse_table(text: str, source: str, where: str) -> dict[str, Action]:
@@ -158,7 +164,8 @@ def rule_action(lexeme: Lexeme, modality: str) -> Action | None:
     if match is not None:
         side = {"L": "LEFT", "R": "RIGHT"}.get(match.group(2).upper(), "BOTH")
         found, drawn = unit_targets(int(match.group(1)), side, 1.0)
-        return Action(tuple(found), "FACS name", unsupported=() if drawn else (int(match.group(1)),))
+        unsupported = () if drawn else (int(match.group(1)),)
+        return Action(tuple(found), "FACS name", unsupported=unsupported, units=((int(match.group(1)), 1.0, side),))
     direction = _direction(lexeme.name)
     if direction is None:
         return None

@@ -332,15 +332,16 @@ def _proven_infeasible(model: ir.Model, request: SolveRequest) -> NoSolution:
         return NoSolution([Diagnostic("W401", message, whole_set_span(model))], proven=True, reason=message)
     if not request.options.get("explain", True):  # the caller only needs the verdict
         message = f"no timeline of {request.duration:g} s exists"
-        return NoSolution([Diagnostic("W401", message, whole_set_span(model))], proven=True, reason=message)
+        return NoSolution([Diagnostic("E401", message, whole_set_span(model))], proven=True, reason=message)
     explanation = explain(
         model, request.duration, pinned=request.pinned, require=request.require,
         forbid=request.forbid, time_limit=min(request.time_limit, 5.0),
     )
     if explanation is None:  # the explainer ran out of time before its own proof
         message = f"no timeline of {request.duration:g} s exists"
-        return NoSolution([Diagnostic("W401", message, whole_set_span(model))], proven=True, reason=message)
-    return NoSolution(explanation.diagnostics(model), proven=True, reason=explanation.render())
+        return NoSolution([Diagnostic("E401", message, whole_set_span(model))], proven=True, reason=message)
+    # proven: the same finding and code as ``mse lint`` (E401); W401 is for "not found, not proven"
+    return NoSolution(explanation.diagnostics(model, "E401"), proven=True, reason=explanation.render())
 
 
 def enumerate_schedules(
