@@ -147,12 +147,12 @@ def test_lint_options_are_usage_errors(capsys: pytest.CaptureFixture[str]) -> No
 
 
 def test_lint_reports_option_errors_in_json_and_sarif(capsys: pytest.CaptureFixture[str]) -> None:
-    run = ["lint", "--no-deep", str(MINIMAL), "--realizer", "asap"]
+    run = ["lint", "--no-deep", str(MINIMAL), "--realizer", "greta"]
     assert main([*run, "--format", "json"]) == 1
     records = json.loads(capsys.readouterr().out)
     [record] = [r for r in records if r["code"] == "E130"]
     assert record["path"] == "<arguments>" and record["severity"] == "error"
-    assert record["message"].startswith("--realizer asap: mse reads no libraries")
+    assert record["message"].startswith("--realizer greta needs --library-dir")
     assert main([*run, "--format", "sarif"]) == 1
     sarif = json.loads(capsys.readouterr().out)["runs"][0]
     rules = {rule["id"]: rule for rule in sarif["tool"]["driver"]["rules"]}
