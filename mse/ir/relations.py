@@ -36,6 +36,7 @@ TOLERANCE = None
 Joined = Literal["and", "or"]
 Side = Literal["left", "right"]
 _End = TypeVar("_End")
+_Made = TypeVar("_Made")
 
 
 @dataclass(frozen=True, slots=True)
@@ -101,13 +102,18 @@ class Meaning(Generic[_End]):
         conjunction = (self.joined == "and") != negated
         return f" {'and' if conjunction else 'or'} ".join(parts)
 
-    def __str__(self) -> str:
-        def text(bound: Bound[_End]) -> str:
-            if bound.slack is None:
-                return f"|{bound.lower} - {bound.upper}| <= tolerance"
-            return f"{bound.lower} {'<' if bound.slack == STRICT else '<='} {bound.upper}"
+    def text(self, name: Callable[[_End], str] = str) -> str:
+        """As docs/semantics.md writes it: "`a.start ≤ b.start` and `b.stop ≤ a.stop`"."""
 
-        return f" {self.joined} ".join(text(b) for b in self.bounds)
+        def one(bound: Bound[_End]) -> str:
+            x, y = name(bound.lower), name(bound.upper)
+            if bound.slack is None:
+                return f"`{x} − {y} ≤ tol`"
+            if bound.slack in (LOOSE, STRICT):
+                return f"`{x} {'<' if bound.slack == STRICT else '≤'} {y}`"
+            return f"`{x} − {y} ≤ {bound.slack} ms`"
+
+        return f" {self.joined} ".join(one(b) for b in self.bounds)
 
 
 RelationMeaning = Meaning[Endpoint]
@@ -174,6 +180,19 @@ def known_time(term: ir.Term, duration: int) -> int:
     raise TypeError(f"{term!r} names a signal: its time is an occurrence's")
 
 
+class PerEntry(dict[str, _Made]):
+    """Something made from each entry of a table (a compiled check, a fold), on first use:
+    an entry added to the table later, as tests/test_relations.py does, is made too."""
+
+    def __init__(self, make: Callable[[str], _Made]) -> None:
+        super().__init__()
+        self._make = make
+
+    def __missing__(self, key: str) -> _Made:
+        made = self[key] = self._make(key)
+        return made
+
+
 def compiled(parameters: str, body: str) -> Callable[..., Any]:
     """``lambda parameters: body`` made once, for hot paths: a meaning's :meth:`Meaning.source`
     runs as plain comparisons instead of interpreting the table per call.  ``body`` is
@@ -202,8 +221,7 @@ def compare_test(op: str) -> Callable[[int, int, int], bool]:
 
 
 def describe() -> Iterator[str]:
-    """One line per relation and comparison (docs/semantics.md lists the same)."""
+    """One line per relation, as the table of docs/semantics.md lists it (checked by
+    tests/test_relations.py)."""
     for kind, meaning in RELATIONS.items():
-        yield f"{kind}(a, b): {meaning}"
-    for op, compare in COMPARISONS.items():
-        yield f"x {op} y: {str(compare).replace('left', 'x').replace('right', 'y')}"
+        yield f"| `{kind}(a, b)` | {meaning.text()} |"

@@ -18,6 +18,7 @@ from mse.ir.relations import (
     EDGE_INDEX,
     RELATIONS,
     Endpoint,
+    PerEntry,
     compiled,
     endpoint_of,
     is_conjunction,
@@ -86,10 +87,9 @@ def _compare_source(op: str, x: tuple[str, str], y: tuple[str, str]) -> str:
 
 
 #: op -> mask of ``a op b`` for a in [alo, ahi], b in [blo, bhi]
-COMPARE_MASKS: dict[str, Callable[[int, int, int, int, int], int]] = {
-    op: compiled("alo, ahi, blo, bhi, tolerance", _compare_source(op, ("alo", "ahi"), ("blo", "bhi")))
-    for op in COMPARISONS
-}
+COMPARE_MASKS: PerEntry[Callable[[int, int, int, int, int], int]] = PerEntry(
+    lambda op: compiled("alo, ahi, blo, bhi, tolerance", _compare_source(op, ("alo", "ahi"), ("blo", "bhi")))
+)
 
 
 def compare_mask(op: str, alo: int, ahi: int, blo: int, bhi: int, tolerance: int = 0) -> int:
@@ -110,9 +110,9 @@ def relation_mask_source(kind: str, a: str = "a", b: str = "b") -> str:
 
 
 #: kind -> truth values of ``kind(a, b)`` for one occurrence box of each signal
-RELATION_MASKS: dict[str, Callable[[Box, Box], int]] = {
-    kind: compiled("a, b", relation_mask_source(kind)) for kind in RELATIONS
-}
+RELATION_MASKS: PerEntry[Callable[[Box, Box], int]] = PerEntry(
+    lambda kind: compiled("a, b", relation_mask_source(kind))
+)
 
 
 def relation_mask(kind: str, a: Box, b: Box) -> int:
@@ -207,7 +207,7 @@ def _fold(kind: str) -> Callable[[Sequence[Box], Sequence[Box]], int]:
 
 
 #: kind -> truth values of ``kind`` over every pair of the boxes of two signals
-RELATION_FOLDS: dict[str, Callable[[Sequence[Box], Sequence[Box]], int]] = {kind: _fold(kind) for kind in RELATIONS}
+RELATION_FOLDS: PerEntry[Callable[[Sequence[Box], Sequence[Box]], int]] = PerEntry(_fold)
 
 
 def fold_relation(kind: str, left: Sequence[Box], right: Sequence[Box]) -> int:
@@ -226,9 +226,9 @@ def _fold_compare_source(op: str) -> str:
 
 
 #: op -> truth values of ``x op y`` for every x and y (see :func:`fold_compare`)
-COMPARE_FOLDS: dict[str, Callable[[tuple[int, int, int, int], tuple[int, int, int, int], int], int]] = {
-    op: compiled("a, b, tolerance", _fold_compare_source(op)) for op in COMPARISONS
-}
+COMPARE_FOLDS: PerEntry[Callable[[tuple[int, int, int, int], tuple[int, int, int, int], int], int]] = PerEntry(
+    lambda op: compiled("a, b, tolerance", _fold_compare_source(op))
+)
 
 
 def fold_compare(op: str, left: tuple[int, int, int, int], right: tuple[int, int, int, int], tolerance: int) -> int:
