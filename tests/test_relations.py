@@ -37,8 +37,8 @@ from mse.learn.stats import corpus_arrays
 from mse.solve.cpsat.solver import CpSatSolver
 from mse.solve.greedy import GreedySolver
 from mse.solve.greedy.edges import _comparisons, start_bounds_of
-from mse.solve.greedy.partial import CompiledConstraint, F, N, T, _generated, compile_expr, relation_mask
 from mse.solve.greedy.masks import fold_relation
+from mse.solve.greedy.partial import CompiledConstraint, F, N, T, _generated, compile_expr, relation_mask
 from mse.solve.protocol import SolveRequest
 
 DOCS = Path(__file__).resolve().parent.parent / "docs" / "semantics.md"
@@ -189,7 +189,7 @@ def test_the_walk_masks_folds_and_generated_checks_read_it(added: tuple[str, ...
 
 @pytest.mark.parametrize("solver", [GreedySolver, CpSatSolver])
 def test_the_solvers_sample_it(added: tuple[str, ...], solver: type) -> None:
-    for expr in _exprs(added)[:2] + [ir.And((ir.Exists("a"), ir.Exists("b"), _exprs(added)[3]))]:
+    for expr in [*_exprs(added)[:2], ir.And((ir.Exists("a"), ir.Exists("b"), _exprs(added)[3]))]:
         model = _model(expr)
         schedules = solver().solve(model, SolveRequest(duration=10, seed=3, count=3))
         for schedule in schedules:
