@@ -232,3 +232,11 @@ def test_every_pair_of_ends_is_one_bound_away() -> None:
     for meaning in RELATIONS.values():
         for bound in meaning.bounds:
             assert bound.lower != bound.upper
+
+
+def test_every_relation_is_one_the_rolling_horizon_can_summarise() -> None:
+    """mse/solve/cpsat/horizon.py keeps a signal's first and last committed occurrence only:
+    enough for a conjunction of bounds (the extremes decide it) and for "no overlap" (a new
+    occurrence can only overlap the last).  A relation of another shape needs more there."""
+    for meaning in RELATIONS.values():
+        assert is_conjunction(meaning) or is_disjointness(meaning)

@@ -52,8 +52,8 @@ class Endpoint:
 
 @dataclass(frozen=True, slots=True)
 class Bound(Generic[_End]):
-    """``lower - upper <= slack``: ``lower <= upper`` (slack 0), ``lower < upper`` (-1) or
-    ``|...|`` within the atom's tolerance (slack None)."""
+    """``lower - upper <= slack``: ``lower <= upper`` (slack 0), ``lower < upper`` (-1), or
+    ``lower - upper <= tolerance`` with the atom's own tolerance (slack None)."""
 
     lower: _End
     upper: _End
