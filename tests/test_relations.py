@@ -206,6 +206,12 @@ def test_the_edges_and_start_bounds_read_it(added: tuple[str, ...]) -> None:
     # b.start >= a.stop and b.start <= a.stop
     assert {(s.other, s.box_index, s.delta, s.upper) for s in start_bounds_of(b, [constraint], 10_000)} == {
         ("a", 2, 0, False), ("a", 2, 0, True)}
+    # test_leads(a, b) once b is placed (and started no later than a): a must stop first
+    leads = CompiledConstraint(ir.Constraint("c2", ir.Relation(LEADS, "a", "b")), 10_000)  # type: ignore[arg-type]
+    a = SimpleNamespace(id="a", shortest=100, longest=1000)
+    assert [(s.other, s.box_index, s.delta, s.upper) for s in start_bounds_of(a, [leads], 10_000)] == [
+        ("b", 2, -101, True)]
+    assert start_bounds_of(b, [leads], 10_000) == ()  # either bound may hold
 
 
 def test_the_miner_finds_it(added: tuple[str, ...], tmp_path: Path) -> None:

@@ -10,7 +10,7 @@ from collections.abc import Sequence
 from typing import NamedTuple, Protocol
 
 from mse.ir import model as ir
-from mse.ir.relations import COMPARISONS, RELATIONS, Endpoint, known_time
+from mse.ir.relations import COMPARISONS, RELATIONS, Bound, Endpoint, known_time
 from mse.solve.greedy.partial import CompiledConstraint
 
 
@@ -106,6 +106,14 @@ def _bound(me: SignalLengths, mine: ir.SignalTime, other: ir.Term, limit: int, u
     return StartBound(name, index, base - limit - (0 if mine.edge == "start" else me.longest), False)
 
 
+def _before_partner_start(bound: Bound[Endpoint], mine: str) -> bool:
+    """``my edge - partner's start <= slack`` cannot hold once the partner started no later
+    than me: my stop is after my start, so only ``my start = partner's start`` may."""
+    if bound.lower.side != mine or bound.upper.edge != "start" or bound.slack is None:
+        return False
+    return bound.slack < 0 or (bound.lower.edge == "stop" and bound.slack <= 0)
+
+
 def _relation_bounds(atom: ir.Relation, me: SignalLengths) -> list[StartBound]:
     """Bounds on start(me) from a relation with a placed partner.  Placed occurrences start
     no later than any new one (starts never decrease): of a disjunction, the bounds that
@@ -117,17 +125,14 @@ def _relation_bounds(atom: ir.Relation, me: SignalLengths) -> list[StartBound]:
         return []
     meaning = RELATIONS[atom.kind]
     mine = "left" if atom.left == me.id else "right"
-    possible = []
-    for bound in meaning.bounds:
-        if bound.upper.side == mine and bound.lower.side == mine:
-            continue
-        # my stop <= the partner's start <= my start, or my start < the partner's start: impossible
-        if (meaning.joined == "or" and bound.lower.side == mine and bound.upper.edge == "start"
-                and (bound.lower.edge == "stop" or (bound.slack is not None and bound.slack < 0))):
-            continue
-        possible.append(bound)
-    if meaning.joined == "or" and len(meaning.bounds) > 1 and len(possible) != 1:
-        return []
+    between = [b for b in meaning.bounds if (b.lower.side == mine) != (b.upper.side == mine)]
+    possible = between
+    if meaning.joined == "or" and len(meaning.bounds) > 1:
+        if len(between) < len(meaning.bounds):  # a bound within one signal may hold instead
+            return []
+        possible = [b for b in between if not _before_partner_start(b, mine)]
+        if len(possible) != 1:
+            return []
     found = []
     for bound in possible:
         upper = bound.lower.side == mine
