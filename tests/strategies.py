@@ -22,11 +22,13 @@ from collections.abc import Sequence
 from hypothesis import strategies as st
 
 from mse.ir import model as ir
+from mse.ir import relations
 from mse.ir.printer import expr_text
 
 MODALITIES = ("face", "head", "gaze", "gesture", "torso")
-RELATIONS: tuple[ir.RelationKind, ...] = ("includes", "excludes", "precedes", "rightincludes")
-COMPARE_OPS: tuple[ir.CompareOp, ...] = ("<", ">", "=", "<=", ">=")
+#: every relation and comparison of the one table (mse.ir.relations)
+RELATIONS: tuple[ir.RelationKind, ...] = tuple(relations.RELATIONS)  # type: ignore[arg-type]
+COMPARE_OPS: tuple[ir.CompareOp, ...] = tuple(relations.COMPARISONS)  # type: ignore[arg-type]
 
 #: Constraint styles (pass a subset as ``styles=`` to restrict generation).
 ALL_STYLES = (

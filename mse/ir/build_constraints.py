@@ -11,6 +11,7 @@ from collections.abc import Callable
 from mse.diagnostics import Span
 from mse.ir import model as ir
 from mse.ir.build_checker import BuildChecker
+from mse.ir.relations import RELATIONS
 from mse.limits import time_problem
 from mse.syntax import ast
 
@@ -99,13 +100,8 @@ class ConstraintResolver:
 
     def _relation(self, node: ast.ExprNode) -> ir.Expr:
         assert isinstance(node, ast.RelationNode)
-        kind: ir.RelationKind = {
-            "includes": "includes",
-            "excludes": "excludes",
-            "precedes": "precedes",
-            "rightincludes": "rightincludes",
-        }[node.kind]  # type: ignore[assignment]
-        return ir.Relation(kind, self.signal(node.left), self.signal(node.right), node.span)
+        assert node.kind in RELATIONS  # the grammar spells only relations of the table
+        return ir.Relation(node.kind, self.signal(node.left), self.signal(node.right), node.span)  # type: ignore[arg-type]
 
     def _compare(self, node: ast.ExprNode) -> ir.Expr:
         assert isinstance(node, ast.CompareNode)

@@ -11,6 +11,7 @@ from typing import Any
 
 from mse.diagnostics import Span
 from mse.ir import model as ir
+from mse.ir.relations import COMPARISONS, RELATIONS
 from mse.ir.schedule import to_ticks
 
 
@@ -47,17 +48,15 @@ def _term(node: dict[str, Any]) -> ir.Term:
     raise DecodeError(f"not a term: {node!r}")
 
 
-_RELATIONS = ("includes", "excludes", "precedes", "rightincludes")
-_COMPARATORS = ("<", ">", "=", "<=", ">=")
 
 
 def decode_expr(node: dict[str, Any], span: Span) -> ir.Expr:
     op = node.get("op")
     if op == "exists":
         return ir.Exists(str(node["signal"]), span)
-    if op in _RELATIONS:
+    if op in RELATIONS:
         return ir.Relation(op, str(node["left"]), str(node["right"]), span)
-    if op in _COMPARATORS:
+    if op in COMPARISONS:
         tolerance = to_ticks(float(node.get("tolerance", 0)))
         return ir.Compare(op, _term(node["left"]), _term(node["right"]), tolerance, span)
     args = [decode_expr(child, span) for child in node.get("args", [])]

@@ -11,6 +11,7 @@ from collections.abc import Callable, Collection, Iterable, Iterator
 from mse.diagnostics import Diagnostic
 from mse.ir import model as ir
 from mse.ir.printer import expr_text
+from mse.ir.relations import RELATIONS, is_symmetric
 
 #: Lexeme classes (the part before '=') and the modality each one belongs to.
 LEXEME_CLASS_MODALITY: dict[str, str] = {
@@ -94,8 +95,8 @@ def normalise(expr: ir.Expr) -> ir.Expr:
     if isinstance(expr, ir.And | ir.Or):
         normalised = {expr_text(n): n for n in (normalise(o) for o in expr.operands)}
         return type(expr)(tuple(normalised[text] for text in sorted(normalised)))
-    if isinstance(expr, ir.Relation) and expr.kind == "excludes" and expr.left > expr.right:
-        return ir.Relation("excludes", expr.right, expr.left)
+    if isinstance(expr, ir.Relation) and is_symmetric(RELATIONS[expr.kind]) and expr.left > expr.right:
+        return ir.Relation(expr.kind, expr.right, expr.left)
     if isinstance(expr, ir.Compare):
         flipped = {">": "<", ">=": "<="}
         if expr.op in flipped:

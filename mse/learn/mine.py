@@ -14,9 +14,10 @@ b occurs).  Its **support** is the number of sequences where it is tested, its
   about as often across sequences, so it is dropped; ``start(gaze) >= stop(mouth) - 0.5``,
   where the gaze waits for the mouth, is not.
 
-Relations hold for every combination of occurrences (docs/semantics.md), which for all the
-relations and comparisons mined here depends only on the first/last start and stop of
-each signal (``excludes`` between repeated signals is checked pair by pair).
+Every relation of the table (mse.ir.relations) is mined.  Relations hold for every
+combination of occurrences (docs/semantics.md), which for a conjunction of bounds (and for
+the comparisons mined here) depends only on the first/last start and stop of each signal; a
+disjunction (``excludes``) between repeated signals is checked pair by pair.
 """
 
 from __future__ import annotations
@@ -29,6 +30,7 @@ import numpy as np
 
 from mse.extras import require
 from mse.ir import model as ir
+from mse.ir.relations import RELATIONS, STRICT, Bound, Endpoint, interval_test, is_conjunction, is_symmetric
 from mse.ir.schedule import to_ticks
 from mse.learn.corpus import Corpus
 from mse.learn.signals import ceil_to, floor_to
@@ -41,9 +43,12 @@ BASELINE_SHIFTS = 7
 #: Extreme observations whose mean spacing estimates how far a true limit lies beyond them.
 SPACING_COUNT = 5
 
-#: Order in which redundant rules are looked for (first = dropped first when implied).
+#: Order in which redundant rules are looked for (first = dropped first when implied); a
+#: relation not listed ranks with ``precedes``.
 RANK = {"needs": 0, "either": 1, "apart": 2, "excludes": 3, "bound": 4, "equal": 5, "rightincludes": 6,
         "includes": 7, "precedes": 8, "exists": 9}
+#: How a mined relation's rule is named (``{left}_{kind}_{right}`` when not listed).
+RULE_NAMES = {"precedes": "{left}_before_{right}", "excludes": "{left}_apart_from_{right}"}
 
 
 @dataclass(frozen=True)
@@ -84,7 +89,7 @@ class Rule:
 
     @property
     def rank(self) -> int:
-        return RANK[self.kind]
+        return RANK.get(self.kind, RANK["precedes"])
 
     def evidence(self) -> str:
         text = (f"support {self.support}, confidence {self.confidence:.3f} "
@@ -232,16 +237,19 @@ class Miner:
             baseline = float(holds(ca, cb).mean()) if ca is not None and cb is not None else 1.0
             return self._accept(kind, name, expr, tested, observed, baseline, note, bound)
 
-        for left, right in ((a, b), (b, a)):
-            swapped = left != a
-            consider("precedes", f"{left}_before_{right}", ir.Relation("precedes", left, right),
-                     _flip(_precedes, swapped))
-            consider("includes", f"{left}_includes_{right}", ir.Relation("includes", left, right),
-                     _flip(_includes, swapped))
-            consider("rightincludes", f"{left}_rightincludes_{right}", ir.Relation("rightincludes", left, right),
-                     _flip(_rightincludes, swapped))
-        consider("excludes", f"{a}_apart_from_{b}", ir.Relation("excludes", a, b), _excludes,
-                 exact=self._excludes_exact(a, b, both))
+        def relation(kind: str, left: str, right: str) -> None:
+            name = RULE_NAMES.get(kind, "{left}_{kind}_{right}").format(left=left, kind=kind, right=right)
+            holds = _flip(_relation_holds(kind), left != a)
+            exact = None if is_conjunction(RELATIONS[kind]) else self._exact(kind, left, right, both)
+            consider(kind, name, ir.Relation(kind, left, right), holds, exact=exact)  # type: ignore[arg-type]
+
+        for left, right in ((a, b), (b, a)):  # each order of the pair, then the symmetric relations
+            for kind, meaning in RELATIONS.items():
+                if not is_symmetric(meaning):
+                    relation(kind, left, right)
+        for kind, meaning in RELATIONS.items():
+            if is_symmetric(meaning):
+                relation(kind, a, b)
         for x_edge in ("start", "stop"):
             for y_edge in ("start", "stop"):
                 self._bounds(a, b, x_edge, y_edge, ra, rb, consider)
@@ -289,12 +297,13 @@ class Miner:
         left, right = np.concatenate(lefts), np.concatenate(rights)
         return (left, right) if len(left) else None
 
-    def _excludes_exact(self, a: str, b: str, both: Ints) -> Bools:
-        sequences = self.corpus.sequences
+    def _exact(self, kind: str, a: str, b: str, both: Ints) -> Bools:
+        """``kind(a, b)`` in each sequence of ``both``, pair by pair."""
+        sequences, holds = self.corpus.sequences, interval_test(kind)
         result = np.empty(len(both), dtype=bool)
         for position, index in enumerate(both):
             occurrences = sequences[int(index)].occurrences
-            result[position] = all(x[1] <= y[0] or y[1] <= x[0] for x in occurrences[a] for y in occurrences[b])
+            result[position] = all(holds(x, y) for x in occurrences[a] for y in occurrences[b])
         return result
 
 
@@ -311,21 +320,28 @@ def _flip(holds: Holds, swapped: bool) -> Holds:
     return (lambda x, y: holds(y, x)) if swapped else holds
 
 
-def _precedes(a: Rows, b: Rows) -> Bools:
-    return a[3] <= b[0]
+def _relation_holds(kind: str) -> Holds:
+    """``kind`` for every pair, judged on the extreme values of each sequence: each bound
+    ``x <= y`` as max x <= min y (exact for a conjunction; for a disjunction the corpus
+    itself is checked pair by pair, :meth:`Miner._exact`)."""
+    meaning = RELATIONS[kind]
 
+    def bound_holds(bound: Bound[Endpoint], a: Rows, b: Rows) -> Bools:
+        rows = {"left": a, "right": b}
+        x = _edge(rows[bound.lower.side], bound.lower.edge, "max")
+        y = _edge(rows[bound.upper.side], bound.upper.edge, "min")
+        if bound.slack == STRICT:
+            return x < y
+        return x - y <= bound.limit(0) if bound.slack else x <= y
 
-def _includes(a: Rows, b: Rows) -> Bools:
-    return (a[1] <= b[0]) & (b[3] <= a[2])
+    def holds(a: Rows, b: Rows) -> Bools:
+        results = [bound_holds(bound, a, b) for bound in meaning.bounds]
+        combined = results[0]
+        for result in results[1:]:
+            combined = (combined & result) if meaning.joined == "and" else (combined | result)
+        return combined
 
-
-def _rightincludes(a: Rows, b: Rows) -> Bools:
-    return (a[1] <= b[2]) & (b[3] <= a[2])
-
-
-def _excludes(a: Rows, b: Rows) -> Bools:
-    # Extremes only (exact for single occurrences; the corpus itself is checked pair by pair).
-    return (a[3] <= b[0]) | (b[3] <= a[0])
+    return holds
 
 
 def _lower(x_edge: str, y_edge: str, offset: float) -> Holds:

@@ -5,7 +5,8 @@ atom is unknown when a signal it names does not occur; otherwise it holds iff it
 holds for every assignment of one occurrence to each signal it names.  Connectives are
 strong Kleene.  A constraint is *ignored* when it has trigger signals (those of its
 relational atoms) and none of them occurs; otherwise it is violated iff it is false.
-All times are integer milliseconds, so comparisons are exact.
+All times are integer milliseconds, so comparisons are exact.  What each relation and
+comparison means is the one table of :mod:`mse.ir.relations`.
 
 The package's parts: :mod:`.semantics` (the law: truth values, atoms, connectives, constraints),
 this module (whole timelines: their violations, with messages) and :mod:`.fast` (recognising a

@@ -9,7 +9,8 @@ import weakref
 from collections.abc import Callable, Mapping, Sequence
 
 from mse.ir import model as ir
-from mse.ir.evaluate.semantics import Truth, compare_holds, evaluate_atom, kleene_and, kleene_not, kleene_or
+from mse.ir.evaluate.semantics import Truth, evaluate_atom, kleene_and, kleene_not, kleene_or
+from mse.ir.relations import EDGE_INDEX, compare_test, interval_test, known_time
 from mse.ir.schedule import Schedule, to_ticks
 
 # -- the fast path: recognising a consistent schedule without building messages ---------------
@@ -21,16 +22,9 @@ from mse.ir.schedule import Schedule, to_ticks
 _Pool = Sequence[tuple[int, int]]
 _Node = Callable[[Mapping[str, _Pool], int], Truth]
 
-_RELATIONS: dict[str, Callable[[tuple[int, int], tuple[int, int]], bool]] = {
-    "includes": lambda a, b: a[0] <= b[0] and b[1] <= a[1],
-    "excludes": lambda a, b: a[1] <= b[0] or b[1] <= a[0],
-    "precedes": lambda a, b: a[1] <= b[0],
-    "rightincludes": lambda a, b: a[0] <= b[1] <= a[1],
-}
-
 
 def _compile_relation(atom: ir.Relation) -> _Node:
-    holds, left, right = _RELATIONS[atom.kind], atom.left, atom.right
+    holds, left, right = interval_test(atom.kind), atom.left, atom.right
     if left == right:  # one occurrence stands for both names
 
         def same(intervals: Mapping[str, _Pool], _duration: int) -> Truth:
@@ -55,20 +49,16 @@ def _compile_relation(atom: ir.Relation) -> _Node:
 def _reader(term: ir.Term) -> Callable[[tuple[int, int], int], int]:
     """The value of ``term`` given the chosen interval of its signal and the duration."""
     if isinstance(term, ir.SignalTime):
-        index, offset = (0 if term.edge == "start" else 1), term.offset
+        index, offset = EDGE_INDEX[term.edge], term.offset
         return lambda interval, _duration: interval[index] + offset
-    if isinstance(term, ir.DurationTime):
-        after = term.offset
-        return lambda _interval, duration: duration + after
-    value = term.value
-    return lambda _interval, _duration: value
+    return lambda _interval, duration: known_time(term, duration)
 
 
 def _compile_compare(atom: ir.Compare) -> _Node:
     names = tuple(dict.fromkeys(ir.atom_signals(atom)))  # the left term's signal first
     if not names:
         return lambda intervals, duration: evaluate_atom(atom, intervals, duration)
-    op, tolerance, left, right = atom.op, atom.tolerance, _reader(atom.left), _reader(atom.right)
+    holds, tolerance, left, right = compare_test(atom.op), atom.tolerance, _reader(atom.left), _reader(atom.right)
     if len(names) == 1:  # a signal against a constant, or against itself
         name = names[0]
 
@@ -76,7 +66,7 @@ def _compile_compare(atom: ir.Compare) -> _Node:
             pool = intervals.get(name)
             if not pool:
                 return None
-            return all(compare_holds(op, left(a, duration), right(a, duration), tolerance) for a in pool)
+            return all(holds(left(a, duration), right(a, duration), tolerance) for a in pool)
 
         return one
     a_name, b_name = names
@@ -88,7 +78,7 @@ def _compile_compare(atom: ir.Compare) -> _Node:
         for a in lefts:
             value = left(a, duration)
             for b in rights:
-                if not compare_holds(op, value, right(b, duration), tolerance):
+                if not holds(value, right(b, duration), tolerance):
                     return False
         return True
 

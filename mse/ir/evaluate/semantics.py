@@ -10,41 +10,29 @@ import itertools
 from collections.abc import Mapping, Sequence
 
 from mse.ir import model as ir
+from mse.ir.relations import COMPARISONS, EDGE_INDEX, RELATIONS, known_time
 
 Truth = bool | None
 Intervals = Mapping[str, Sequence[tuple[int, int]]]
 
 
 # -- atoms ------------------------------------------------------------------------------------
-def _relation_holds(kind: str, a: tuple[int, int], b: tuple[int, int]) -> bool:
-    if kind == "includes":
-        return a[0] <= b[0] and b[1] <= a[1]
-    if kind == "excludes":
-        return a[1] <= b[0] or b[1] <= a[0]
-    if kind == "precedes":
-        return a[1] <= b[0]
-    return a[0] <= b[1] <= a[1]  # rightincludes
+def relation_holds(kind: str, a: tuple[int, int], b: tuple[int, int]) -> bool:
+    """``kind(a, b)`` for one interval of each signal (the table of mse.ir.relations)."""
+    intervals = {"left": a, "right": b}
+    return RELATIONS[kind].holds(lambda end: intervals[end.side][EDGE_INDEX[end.edge]])
 
 
 def _term_value(term: ir.Term, chosen: Mapping[str, tuple[int, int]], duration: int) -> int:
     if isinstance(term, ir.SignalTime):
-        interval = chosen[term.signal]
-        return (interval[0] if term.edge == "start" else interval[1]) + term.offset
-    if isinstance(term, ir.DurationTime):
-        return duration + term.offset
-    return term.value
+        return chosen[term.signal][EDGE_INDEX[term.edge]] + term.offset
+    return known_time(term, duration)
 
 
 def compare_holds(op: str, left: int, right: int, tolerance: int = 0) -> bool:
-    if op == "<":
-        return left < right
-    if op == ">":
-        return left > right
-    if op == "<=":
-        return left <= right
-    if op == ">=":
-        return left >= right
-    return abs(left - right) <= tolerance
+    """``left op right`` (the table of mse.ir.relations)."""
+    values = {"left": left, "right": right}
+    return COMPARISONS[op].holds(values.__getitem__, tolerance)
 
 
 def evaluate_atom(atom: ir.Atom, intervals: Intervals, duration: int) -> Truth:
@@ -57,7 +45,7 @@ def evaluate_atom(atom: ir.Atom, intervals: Intervals, duration: int) -> Truth:
     for combination in itertools.product(*pools):
         chosen = dict(zip(names, combination, strict=True))
         if isinstance(atom, ir.Relation):
-            holds = _relation_holds(atom.kind, chosen[atom.left], chosen[atom.right])
+            holds = relation_holds(atom.kind, chosen[atom.left], chosen[atom.right])
         else:
             left = _term_value(atom.left, chosen, duration)
             right = _term_value(atom.right, chosen, duration)

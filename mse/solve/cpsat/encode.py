@@ -26,6 +26,7 @@ from typing import TYPE_CHECKING, Any
 
 from mse.diagnostics import Span
 from mse.ir import model as ir
+from mse.ir.relations import COMPARISONS, RELATIONS, Endpoint, known_time
 from mse.ir.schedule import to_ticks
 from mse.solve.bounds import length_bounds
 from mse.solve.cpsat.encoding import Edge, Encoding, Frame, Item, ItemKind, Lit, Slot, Time, lnot, time_of_edge, var
@@ -258,31 +259,25 @@ class _Builder:
         if isinstance(term, ir.SignalTime):
             slot = chosen[term.signal]
             return time_of_edge(slot.start if term.edge == "start" else slot.stop, term.offset)
-        if isinstance(term, ir.DurationTime):
-            return Time(None, self.duration + term.offset)
-        return Time(None, term.value)
+        return Time(None, known_time(term, self.duration))
 
     def holds(self, atom: ir.Relation | ir.Compare, chosen: Mapping[str, Slot]) -> Lit:
+        """The literal of the atom's meaning (mse.ir.relations) for one slot of each signal:
+        one ``x - y <= k`` literal per bound, in the table's order, joined by and/or."""
         if isinstance(atom, ir.Relation):
-            a, b = chosen[atom.left], chosen[atom.right]
-            sa, ea, sb, eb = (time_of_edge(v) for v in (a.start, a.stop, b.start, b.stop))
-            if atom.kind == "includes":
-                return self.land([self.le(sa, sb), self.le(eb, ea)])
-            if atom.kind == "excludes":
-                return self.lor([self.le(ea, sb), self.le(eb, sa)])
-            if atom.kind == "precedes":
-                return self.le(ea, sb)
-            return self.land([self.le(sa, eb), self.le(eb, ea)])
-        left, right = self.time(atom.left, chosen), self.time(atom.right, chosen)
-        if atom.op == "<":
-            return self.le(left, right, -1)
-        if atom.op == "<=":
-            return self.le(left, right)
-        if atom.op == ">":
-            return self.le(right, left, -1)
-        if atom.op == ">=":
-            return self.le(right, left)
-        return self.land([self.le(left, right, atom.tolerance), self.le(right, left, atom.tolerance)])
+            slots = {"left": chosen[atom.left], "right": chosen[atom.right]}
+
+            def edge(end: Endpoint) -> Time:
+                slot = slots[end.side]
+                return time_of_edge(slot.start if end.edge == "start" else slot.stop)
+
+            relation = RELATIONS[atom.kind]
+            literals = [self.le(edge(b.lower), edge(b.upper), b.limit(0)) for b in relation.bounds]
+            return self.land(literals) if relation.joined == "and" else self.lor(literals)
+        terms = {"left": self.time(atom.left, chosen), "right": self.time(atom.right, chosen)}
+        compare = COMPARISONS[atom.op]
+        literals = [self.le(terms[b.lower], terms[b.upper], b.limit(atom.tolerance)) for b in compare.bounds]
+        return self.land(literals) if compare.joined == "and" else self.lor(literals)
 
     def atom(self, atom: ir.Atom) -> tuple[Lit, Lit]:
         cached = self._atom_cache.get(atom)

@@ -11,12 +11,18 @@ from __future__ import annotations
 from collections.abc import Callable, Mapping, Sequence
 
 from mse.ir import model as ir
+from mse.ir.relations import known_time
 from mse.solve.greedy.codegen import generate
 from mse.solve.greedy.masks import (
     AND_TABLE,
+    COMPARE_FOLDS,
+    COMPARE_MASKS,
+    HIGH,
     IMPLIES_TABLE,
+    LOW,
     NOT_TABLE,
     OR_TABLE,
+    RELATION_FOLDS,
     RELATION_MASKS,
     Box,
     Env,
@@ -24,10 +30,7 @@ from mse.solve.greedy.masks import (
     N,
     Node,
     T,
-    compare_mask,
     edge_span,
-    fold_compare,
-    fold_relation,
     for_each_pair,
     mask_and,
     mask_or,
@@ -35,43 +38,33 @@ from mse.solve.greedy.masks import (
 
 
 # -- compiling expressions to closures -----------------------------------------------------------
-def _term_range(term: ir.Term, box: Box | None, duration: int) -> tuple[int, int]:
-    if isinstance(term, ir.SignalTime):
-        assert box is not None
-        if term.edge == "start":
-            return box[0] + term.offset, box[1] + term.offset
-        return box[2] + term.offset, box[3] + term.offset
-    value = duration + term.offset if isinstance(term, ir.DurationTime) else term.value
-    return value, value
-
-
 def _edge_indices(term: ir.Term) -> tuple[int, int, int]:
     """Box indices of the low and high value of a signal edge, and its offset."""
     assert isinstance(term, ir.SignalTime)
-    return (0, 1, term.offset) if term.edge == "start" else (2, 3, term.offset)
+    return LOW[term.edge], HIGH[term.edge], term.offset
 
 
 def _compile_compare(atom: ir.Compare, duration: int) -> Node:
     left_signal = atom.left.signal if isinstance(atom.left, ir.SignalTime) else None
     right_signal = atom.right.signal if isinstance(atom.right, ir.SignalTime) else None
-    op, tolerance, left, right = atom.op, atom.tolerance, atom.left, atom.right
+    tolerance, left, right = atom.tolerance, atom.left, atom.right
+    compare_mask, fold_compare = COMPARE_MASKS[atom.op], COMPARE_FOLDS[atom.op]
 
     if left_signal is None and right_signal is None:
-        alo, ahi = _term_range(left, None, duration)
-        blo, bhi = _term_range(right, None, duration)
-        constant = compare_mask(op, alo, ahi, blo, bhi, tolerance)
+        a, b = known_time(left, duration), known_time(right, duration)
+        constant = compare_mask(a, a, b, b, tolerance)
         return lambda env: constant
     if left_signal is None or right_signal is None:
         name = left_signal or right_signal
         assert name is not None
         on_left = left_signal is not None
         low, high, offset = _edge_indices(left if on_left else right)
-        value, _ = _term_range(right if on_left else left, None, duration)
+        value = known_time(right if on_left else left, duration)
 
         def one_box(a: Box) -> int:
             if on_left:
-                return compare_mask(op, a[low] + offset, a[high] + offset, value, value, tolerance)
-            return compare_mask(op, value, value, a[low] + offset, a[high] + offset, tolerance)
+                return compare_mask(a[low] + offset, a[high] + offset, value, value, tolerance)
+            return compare_mask(value, value, a[low] + offset, a[high] + offset, tolerance)
 
         fixed = (value, value, value, value)
 
@@ -83,8 +76,8 @@ def _compile_compare(atom: ir.Compare, duration: int) -> Node:
                 return one_box(boxes[0])
             span = edge_span(boxes, low, high, offset)
             if on_left:
-                return fold_compare(op, span, fixed, tolerance)
-            return fold_compare(op, fixed, span, tolerance)
+                return fold_compare(span, fixed, tolerance)
+            return fold_compare(fixed, span, tolerance)
 
         return one
     same = left_signal == right_signal
@@ -93,7 +86,7 @@ def _compile_compare(atom: ir.Compare, duration: int) -> Node:
 
     def pair(a: Box, b: Box) -> int:
         return compare_mask(
-            op, a[a_low] + a_offset, a[a_high] + a_offset, b[b_low] + b_offset, b[b_high] + b_offset, tolerance
+            a[a_low] + a_offset, a[a_high] + a_offset, b[b_low] + b_offset, b[b_high] + b_offset, tolerance
         )
 
     def two(env: Env) -> int:
@@ -105,7 +98,7 @@ def _compile_compare(atom: ir.Compare, duration: int) -> Node:
         if same:
             return for_each_pair(pair, lefts)
         return fold_compare(
-            op, edge_span(lefts, a_low, a_high, a_offset), edge_span(rights, b_low, b_high, b_offset), tolerance
+            edge_span(lefts, a_low, a_high, a_offset), edge_span(rights, b_low, b_high, b_offset), tolerance
         )
 
     return two
@@ -113,7 +106,7 @@ def _compile_compare(atom: ir.Compare, duration: int) -> Node:
 
 def _compile_relation(atom: ir.Relation) -> Node:
     holds, left, right, same = RELATION_MASKS[atom.kind], atom.left, atom.right, atom.left == atom.right
-    kind = atom.kind
+    fold = RELATION_FOLDS[atom.kind]
 
     def node(env: Env) -> int:
         lefts, rights = env.get(left), env.get(right)
@@ -123,7 +116,7 @@ def _compile_relation(atom: ir.Relation) -> Node:
             return holds(lefts[0], lefts[0] if same else rights[0])
         if same:
             return for_each_pair(holds, lefts)
-        return fold_relation(kind, lefts, rights)
+        return fold(lefts, rights)
 
     return node
 

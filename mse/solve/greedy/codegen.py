@@ -19,16 +19,7 @@ from collections.abc import Callable, Mapping, Sequence
 from typing import Any
 
 from mse.ir import model as ir
-
-#: The inlined usual case of each relation, on one box ``a`` of the left signal and one ``b``
-#: of the right (masks.py's ``_precedes`` ... ``_rightincludes``, written out).
-_RELATION_SOURCE = {
-    "precedes": "(1 if a[2] <= b[1] else 0) | (2 if a[3] > b[0] else 0)",
-    "includes": "(1 if a[0] <= b[1] and b[2] <= a[3] else 0) | (2 if a[1] > b[0] or b[3] > a[2] else 0)",
-    "excludes": "(1 if a[2] <= b[1] or b[2] <= a[1] else 0) | (2 if a[3] > b[0] and b[3] > a[0] else 0)",
-    "rightincludes": "(1 if a[0] <= b[3] and b[2] <= a[3] else 0) | (2 if a[1] > b[2] or b[3] > a[2] else 0)",
-}
-
+from mse.solve.greedy.masks import F, N, T, relation_mask_source
 
 #: nesting of generated brackets after which a value goes through a local (Python allows 200)
 SPILL_DEPTH = 32
@@ -78,7 +69,7 @@ class _Writer:
 
     def _expression(self, expr: ir.Expr, depth: int) -> str:
         if isinstance(expr, ir.Exists):
-            return f"(1 if {self.boxes(expr.signal)} else 2)"
+            return f"({T} if {self.boxes(expr.signal)} else {F})"
         if isinstance(expr, ir.Relation):
             if expr.left == expr.right:
                 return self.fallback(expr)
@@ -87,11 +78,11 @@ class _Writer:
             general = self.statements.pop()
             self.statements.append(
                 f"if not {left} or not {right}:\n"
-                f"        {local} = 4\n"
+                f"        {local} = {N}\n"
                 f"    elif len({left}) == 1 and len({right}) == 1:\n"
                 f"        a = {left}[0]\n"
                 f"        b = {right}[0]\n"
-                f"        {local} = {_RELATION_SOURCE[expr.kind]}\n"
+                f"        {local} = {relation_mask_source(expr.kind)}\n"
                 f"    else:\n"
                 f"        {general}"
             )
@@ -130,7 +121,7 @@ def generate(
     result = writer.expression(expr)
     guard: list[str] = []
     if triggers is not None:
-        result = f"({result}) & 5"
+        result = f"({result}) & {T | N}"
     if triggers:
         names = [writer.boxes(t) for t in triggers]
         guard = [f"if not ({' or '.join(names)}):\n        return True"]

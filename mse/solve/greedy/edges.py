@@ -10,6 +10,7 @@ from collections.abc import Sequence
 from typing import NamedTuple, Protocol
 
 from mse.ir import model as ir
+from mse.ir.relations import COMPARISONS, RELATIONS, Bound, Endpoint, known_time
 from mse.solve.greedy.partial import CompiledConstraint
 
 
@@ -51,26 +52,21 @@ class StartBound(NamedTuple):
 def _term_edge(term: ir.Term, duration: int) -> tuple[str | None, str, int]:
     if isinstance(term, ir.SignalTime):
         return term.signal, term.edge, term.offset
-    if isinstance(term, ir.DurationTime):
-        return None, "", duration + term.offset
-    return None, "", term.value
+    return None, "", known_time(term, duration)
+
+
+def _signal_time(atom: ir.Relation, end: Endpoint) -> ir.SignalTime:
+    return ir.SignalTime(atom.left if end.side == "left" else atom.right, end.edge)
 
 
 def _comparisons(atom: ir.Atom, duration: int) -> list[tuple[ir.Term, ir.Term, int]]:
-    """The edge comparisons an atom is made of (relations decomposed), with tolerance."""
+    """The edge comparisons an atom is made of (relations decomposed: the bounds of their
+    meaning in mse.ir.relations, in its order), with tolerance."""
     if isinstance(atom, ir.Compare):
         return [(atom.left, atom.right, atom.tolerance)]
     if isinstance(atom, ir.Exists):
         return []
-    a_start, a_stop = ir.SignalTime(atom.left, "start"), ir.SignalTime(atom.left, "stop")
-    b_start, b_stop = ir.SignalTime(atom.right, "start"), ir.SignalTime(atom.right, "stop")
-    pairs = {
-        "includes": [(a_start, b_start), (b_stop, a_stop)],
-        "excludes": [(a_stop, b_start), (b_stop, a_start)],
-        "precedes": [(a_stop, b_start)],
-        "rightincludes": [(a_start, b_stop), (b_stop, a_stop)],
-    }[atom.kind]
-    return [(left, right, 0) for left, right in pairs]
+    return [(_signal_time(atom, b.lower), _signal_time(atom, b.upper), 0) for b in RELATIONS[atom.kind].bounds]
 
 
 def edges_of(signal_id: str, constraints: Sequence[CompiledConstraint], duration: int) -> tuple[Edge, ...]:
@@ -94,59 +90,74 @@ def _conjuncts(expr: ir.Expr) -> list[ir.Expr]:
     return [expr]
 
 
-def _relation_bounds(atom: ir.Relation, me: str, shortest: int) -> list[StartBound]:
+def _bound(me: SignalLengths, mine: ir.SignalTime, other: ir.Term, limit: int, upper: bool,
+           duration: int) -> StartBound:
+    """The bound on start(me) from ``mine - other <= limit`` (``upper``) or ``other - mine <=
+    limit``.  A bound on the stop bounds the start through the length: stop <= x gives
+    start <= x - shortest, stop >= x gives start >= x - longest."""
+    if isinstance(other, ir.SignalTime):
+        name: str | None = other.signal
+        index, base = (0 if other.edge == "start" else 2), other.offset - mine.offset
+    else:
+        name, index = None, 0
+        base = known_time(other, duration) - mine.offset
+    if upper:
+        return StartBound(name, index, base + limit - (0 if mine.edge == "start" else me.shortest), True)
+    return StartBound(name, index, base - limit - (0 if mine.edge == "start" else me.longest), False)
+
+
+def _before_partner_start(bound: Bound[Endpoint], mine: str) -> bool:
+    """``my edge - partner's start <= slack`` cannot hold once the partner started no later
+    than me: my stop is after my start, so only ``my start = partner's start`` may."""
+    if bound.lower.side != mine or bound.upper.edge != "start" or bound.slack is None:
+        return False
+    return bound.slack < 0 or (bound.lower.edge == "stop" and bound.slack <= 0)
+
+
+def _relation_bounds(atom: ir.Relation, me: SignalLengths) -> list[StartBound]:
     """Bounds on start(me) from a relation with a placed partner.  Placed occurrences start
-    no later than any new one (starts never decrease), which settles the disjunctions."""
+    no later than any new one (starts never decrease): of a disjunction, the bounds that
+    would put my start or stop before the partner's start cannot hold, and when one bound
+    is left it must.  A lower bound through my stop (start >= x - longest) is not taken
+    from relations (comparisons give it): the sampler's windows, hence its outputs for a
+    seed, stay what they were."""
     if atom.left == atom.right:
         return []
-    mine_left = atom.left == me
-    other = atom.right if mine_left else atom.left
-    start, stop = 0, 2
-    if atom.kind == "excludes":  # the partner started first: it must have stopped
-        return [StartBound(other, stop, 0, False)]
-    if atom.kind == "precedes":
-        if mine_left:  # me.stop <= other.start <= me.start: impossible
-            return [StartBound(other, start, -shortest, True)]
-        return [StartBound(other, stop, 0, False)]
-    if atom.kind == "includes":
-        if mine_left:
-            return [StartBound(other, start, 0, True)]
-        return [StartBound(other, start, 0, False), StartBound(other, stop, -shortest, True)]
-    if mine_left:  # rightincludes(me, other): me.start <= other.stop
-        return [StartBound(other, stop, 0, True)]
-    return [StartBound(other, stop, -shortest, True)]  # other.start <= me.stop <= other.stop
-
-
-_FLIP = {"<": ">", ">": "<", "<=": ">=", ">=": "<=", "=": "="}
+    meaning = RELATIONS[atom.kind]
+    mine = "left" if atom.left == me.id else "right"
+    between = [b for b in meaning.bounds if (b.lower.side == mine) != (b.upper.side == mine)]
+    possible = between
+    if meaning.joined == "or" and len(meaning.bounds) > 1:
+        if len(between) < len(meaning.bounds):  # a bound within one signal may hold instead
+            return []
+        possible = [b for b in between if not _before_partner_start(b, mine)]
+        if len(possible) != 1:
+            return []
+    found = []
+    for bound in possible:
+        upper = bound.lower.side == mine
+        my_end, other_end = (bound.lower, bound.upper) if upper else (bound.upper, bound.lower)
+        if not upper and my_end.edge == "stop":
+            continue
+        limit = bound.limit(0)
+        found.append(_bound(me, _signal_time(atom, my_end), _signal_time(atom, other_end), limit, upper, 0))
+    return found
 
 
 def _compare_bounds(atom: ir.Compare, me: SignalLengths, duration: int) -> list[StartBound]:
     """Bounds on start(me) from a comparison of one of its edges with a placed partner or a
-    constant.  A bound on the stop bounds the start through the length: stop <= x gives
-    start <= x - shortest, stop >= x gives start >= x - longest."""
-    for mine, other, op in ((atom.left, atom.right, atom.op), (atom.right, atom.left, _FLIP[atom.op])):
+    constant: each bound of the comparison's meaning (mse.ir.relations) that names my edge."""
+    for mine, side in ((atom.left, "left"), (atom.right, "right")):
         if not (isinstance(mine, ir.SignalTime) and mine.signal == me.id):
             continue
-        upper_shift, lower_shift = (0, 0) if mine.edge == "start" else (me.shortest, me.longest)
-        if isinstance(other, ir.SignalTime):
-            if other.signal == me.id:
-                return []
-            name: str | None = other.signal
-            index, base = (0 if other.edge == "start" else 2), other.offset - mine.offset
-        else:
-            name, index = None, 0
-            base = (duration + other.offset if isinstance(other, ir.DurationTime) else other.value) - mine.offset
-        if op == "<":
-            return [StartBound(name, index, base - 1 - upper_shift, True)]
-        if op == "<=":
-            return [StartBound(name, index, base - upper_shift, True)]
-        if op == ">":
-            return [StartBound(name, index, base + 1 - lower_shift, False)]
-        if op == ">=":
-            return [StartBound(name, index, base - lower_shift, False)]
-        tolerance = atom.tolerance
-        return [StartBound(name, index, base - tolerance - lower_shift, False),
-                StartBound(name, index, base + tolerance - upper_shift, True)]
+        other = atom.right if side == "left" else atom.left
+        if isinstance(other, ir.SignalTime) and other.signal == me.id:
+            return []
+        found = [
+            _bound(me, mine, other, bound.limit(atom.tolerance), bound.lower == side, duration)
+            for bound in COMPARISONS[atom.op].bounds
+        ]
+        return sorted(found, key=lambda b: b.upper)  # lower bounds first, as they always were
     return []
 
 
@@ -157,7 +168,7 @@ def start_bounds_of(
     for compiled in constraints:
         for atom in _conjuncts(compiled.constraint.expr):
             if isinstance(atom, ir.Relation) and signal.id in (atom.left, atom.right):
-                found.update(dict.fromkeys(_relation_bounds(atom, signal.id, signal.shortest)))
+                found.update(dict.fromkeys(_relation_bounds(atom, signal)))
             elif isinstance(atom, ir.Compare):
                 found.update(dict.fromkeys(_compare_bounds(atom, signal, duration)))
     return tuple(found)

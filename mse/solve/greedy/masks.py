@@ -13,6 +13,19 @@ from bisect import bisect_right
 from collections.abc import Callable, Mapping, Sequence
 from operator import itemgetter
 
+from mse.ir.relations import (
+    COMPARISONS,
+    EDGE_INDEX,
+    RELATIONS,
+    Endpoint,
+    PerEntry,
+    compiled,
+    endpoint_of,
+    is_conjunction,
+    is_disjointness,
+)
+
+#: The truth values an atom may take, as bits of a set: true, false, unknown.
 T, F, N = 1, 2, 4
 #: A possible-times box: (start_lo, start_hi, stop_lo, stop_hi) in ms.
 Box = tuple[int, int, int, int]
@@ -55,49 +68,51 @@ IMPLIES_TABLE = tuple(mask_or((mask_not(a), b)) for a in range(8) for b in range
 
 # -- interval comparisons: the truth values ``a op b`` may take for a in [alo, ahi], b in
 # [blo, bhi] ----------------------------------------------------------------------------------
+# Every atom is bounds ``x - y <= k`` (mse.ir.relations): one may hold when the smallest x
+# and the largest y satisfy it, and may fail when the largest x and the smallest y do not.
+# Each relation and comparison of the table is compiled once to one expression of these (the
+# hot path: no interpretation of the table per check).
+def mask_source(may_true: str, may_false: str) -> str:
+    """Source of the mask given the sources of "may be true" and "may be false"."""
+    return f"({T} if {may_true} else 0) | ({F} if {may_false} else 0)"
+
+
+def _compare_source(op: str, x: tuple[str, str], y: tuple[str, str]) -> str:
+    """``x op y`` for x in [x[0], x[1]] and y in [y[0], y[1]] (sources of the ends)."""
+    meaning, ends = COMPARISONS[op], {"left": x, "right": y}
+    return mask_source(
+        meaning.source(lambda t: ends[t][0], lambda t: ends[t][1]),
+        meaning.source(lambda t: ends[t][1], lambda t: ends[t][0], negated=True),
+    )
+
+
+#: op -> mask of ``a op b`` for a in [alo, ahi], b in [blo, bhi]
+COMPARE_MASKS: PerEntry[Callable[[int, int, int, int, int], int]] = PerEntry(
+    lambda op: compiled("alo, ahi, blo, bhi, tolerance", _compare_source(op, ("alo", "ahi"), ("blo", "bhi")))
+)
+
+
 def compare_mask(op: str, alo: int, ahi: int, blo: int, bhi: int, tolerance: int = 0) -> int:
-    if op == "<=":
-        return (T if alo <= bhi else 0) | (F if ahi > blo else 0)
-    if op == "<":
-        return (T if alo < bhi else 0) | (F if ahi >= blo else 0)
-    if op == ">=":
-        return (T if ahi >= blo else 0) | (F if alo < bhi else 0)
-    if op == ">":
-        return (T if ahi > blo else 0) | (F if alo <= bhi else 0)
-    low, high = alo - bhi, ahi - blo  # the range of a - b
-    may_true = low <= tolerance and high >= -tolerance
-    may_false = low < -tolerance or high > tolerance
-    return (T if may_true else 0) | (F if may_false else 0)
+    return COMPARE_MASKS[op](alo, ahi, blo, bhi, tolerance)
 
 
-def _precedes(a: Box, b: Box) -> int:
-    return (T if a[2] <= b[1] else 0) | (F if a[3] > b[0] else 0)
+#: Box indices of the smallest and the largest value of each edge.
+LOW = {edge: 2 * index for edge, index in EDGE_INDEX.items()}
+HIGH = {edge: 2 * index + 1 for edge, index in EDGE_INDEX.items()}
 
 
-# Each relation below is two interval comparisons ``x <= y`` (T if lo(x) <= hi(y), F if
-# hi(x) > lo(y)) joined by "and" (T needs both, F either) or "or" (T needs either, F both),
-# written out because this is the hot path.
-def _includes(a: Box, b: Box) -> int:
-    # start(a) <= start(b) and stop(b) <= stop(a)
-    return (T if a[0] <= b[1] and b[2] <= a[3] else 0) | (F if a[1] > b[0] or b[3] > a[2] else 0)
+def relation_mask_source(kind: str, a: str = "a", b: str = "b") -> str:
+    """Source of the mask of ``kind`` on one box ``a`` of the left signal and one ``b`` of
+    the right (codegen.py inlines it)."""
+    meaning = RELATIONS[kind]
+    low, high = endpoint_of((a, b), LOW), endpoint_of((a, b), HIGH)
+    return mask_source(meaning.source(low, high), meaning.source(high, low, negated=True))
 
 
-def _excludes(a: Box, b: Box) -> int:
-    # stop(a) <= start(b) or stop(b) <= start(a)
-    return (T if a[2] <= b[1] or b[2] <= a[1] else 0) | (F if a[3] > b[0] and b[3] > a[0] else 0)
-
-
-def _rightincludes(a: Box, b: Box) -> int:
-    # start(a) <= stop(b) and stop(b) <= stop(a)
-    return (T if a[0] <= b[3] and b[2] <= a[3] else 0) | (F if a[1] > b[2] or b[3] > a[2] else 0)
-
-
-RELATION_MASKS: dict[str, Callable[[Box, Box], int]] = {
-    "precedes": _precedes,
-    "includes": _includes,
-    "excludes": _excludes,
-    "rightincludes": _rightincludes,
-}
+#: kind -> truth values of ``kind(a, b)`` for one occurrence box of each signal
+RELATION_MASKS: PerEntry[Callable[[Box, Box], int]] = PerEntry(
+    lambda kind: compiled("a, b", relation_mask_source(kind))
+)
 
 
 def relation_mask(kind: str, a: Box, b: Box) -> int:
@@ -107,21 +122,14 @@ def relation_mask(kind: str, a: Box, b: Box) -> int:
 
 # -- folds over several occurrences ---------------------------------------------------------------
 # A relational atom over signals with several occurrences holds for every combination of them:
-# true is possible when every pair may be true, false when some pair may be false.  Each
-# relation but excludes is a conjunction of ``x <= y`` comparisons, so the fold only needs the
-# smallest and largest value of each box component; excludes is a sweep (or binary searches)
-# over both lists.  The components of a signal's boxes never decrease along its list
-# (occurrences of one signal are placed in start order and never overlap; a box still to be
-# decided comes last and starts after them), so the smallest and largest values are the
-# first and last box's.  A repetitive signal may occur hundreds of times in a long timeline:
-# this keeps a check's cost flat.
-def _spans(boxes: Sequence[Box]) -> tuple[tuple[int, int], tuple[int, int], tuple[int, int], tuple[int, int]]:
-    """(min, max) of each of the four box components: the first and the last box's, since the
-    components never decrease along the list (see above)."""
-    first, last = boxes[0], boxes[-1]
-    return (first[0], last[0]), (first[1], last[1]), (first[2], last[2]), (first[3], last[3])
-
-
+# true is possible when every pair may be true, false when some pair may be false.  A
+# relation that is a conjunction of bounds (mse.ir.relations) only needs the smallest and
+# largest value of each box component; "no overlap" (excludes) is a sweep (or binary
+# searches) over both lists; any other meaning goes pair by pair.  The components of a
+# signal's boxes never decrease along its list (occurrences of one signal are placed in start
+# order and never overlap; a box still to be decided comes last and starts after them), so
+# the smallest and largest values are the first and last box's.  A repetitive signal may
+# occur hundreds of times in a long timeline: this keeps a check's cost flat.
 def _sweep_overlaps(left: Sequence[Box], right: Sequence[Box], lo: int, hi: int) -> bool:
     """Some pair has ``left[i][hi] > right[j][lo]`` and ``right[j][hi] > left[i][lo]``; both
     lists have nondecreasing components.  A merge of the two lists, or, when one is much
@@ -148,39 +156,85 @@ def _sweep_overlaps(left: Sequence[Box], right: Sequence[Box], lo: int, hi: int)
     return False
 
 
-def fold_relation(kind: str, left: Sequence[Box], right: Sequence[Box]) -> int:
-    if kind == "excludes":
-        # T: no pair with a[2] > b[1] and b[2] > a[1]; F: some pair with a[3] > b[0] and b[3] > a[0]
-        may_true = not _sweep_overlaps(left, right, 1, 2)
-        may_false = _sweep_overlaps(left, right, 0, 3)
+def _extreme_source(indices: Mapping[str, int], extreme: str) -> Callable[[Endpoint], str]:
+    """Source of the smallest (``extreme`` "0": the first box's) or the largest ("-1": the
+    last box's) value of box component ``indices[edge]`` over the boxes of one side."""
+    return lambda end: f"{'left' if end.side == 'left' else 'right'}[{extreme}][{indices[end.edge]}]"
+
+
+def _fold_by_extremes(kind: str) -> Callable[[Sequence[Box], Sequence[Box]], int]:
+    """A conjunction of bounds holds for every pair iff it does for the extreme values:
+    may be true when the largest low x and the smallest high y satisfy each bound, may be
+    false when the largest high x and the smallest low y break one (the first and the last box: see above)."""
+    meaning = RELATIONS[kind]
+    may_true = meaning.source(_extreme_source(LOW, "-1"), _extreme_source(HIGH, "0"))
+    may_false = meaning.source(_extreme_source(HIGH, "-1"), _extreme_source(LOW, "0"), negated=True)
+    return compiled("left, right", mask_source(may_true, may_false))
+
+
+def _fold_disjoint(left: Sequence[Box], right: Sequence[Box]) -> int:
+    """"No overlap" for every pair: may be true when no pair certainly overlaps (a[stop_lo] >
+    b[start_hi] and b[stop_lo] > a[start_hi]), may be false when some pair may overlap."""
+    may_true = not _sweep_overlaps(left, right, HIGH["start"], LOW["stop"])
+    may_false = _sweep_overlaps(left, right, LOW["start"], HIGH["stop"])
+    return (T if may_true else 0) | (F if may_false else 0)
+
+
+def _fold_pairwise(kind: str) -> Callable[[Sequence[Box], Sequence[Box]], int]:
+    """Any other meaning, pair by pair: true possible when every pair may be, false when
+    some pair may be."""
+    pair = RELATION_MASKS[kind]
+
+    def fold(left: Sequence[Box], right: Sequence[Box]) -> int:
+        may_true, may_false = True, False
+        for a in left:
+            for b in right:
+                mask = pair(a, b)
+                may_true = may_true and bool(mask & T)
+                may_false = may_false or bool(mask & F)
         return (T if may_true else 0) | (F if may_false else 0)
-    a, b = _spans(left), _spans(right)
-    if kind == "precedes":  # a.stop <= b.start
-        return (T if a[2][1] <= b[1][0] else 0) | (F if a[3][1] > b[0][0] else 0)
-    if kind == "includes":  # a.start <= b.start and b.stop <= a.stop
-        return ((T if a[0][1] <= b[1][0] and b[2][1] <= a[3][0] else 0)
-                | (F if a[1][1] > b[0][0] or b[3][1] > a[2][0] else 0))
-    # rightincludes: a.start <= b.stop and b.stop <= a.stop
-    return ((T if a[0][1] <= b[3][0] and b[2][1] <= a[3][0] else 0)
-            | (F if a[1][1] > b[2][0] or b[3][1] > a[2][0] else 0))
+
+    return fold
+
+
+def _fold(kind: str) -> Callable[[Sequence[Box], Sequence[Box]], int]:
+    meaning = RELATIONS[kind]
+    if is_conjunction(meaning):
+        return _fold_by_extremes(kind)
+    if is_disjointness(meaning):
+        return _fold_disjoint
+    return _fold_pairwise(kind)
+
+
+#: kind -> truth values of ``kind`` over every pair of the boxes of two signals
+RELATION_FOLDS: PerEntry[Callable[[Sequence[Box], Sequence[Box]], int]] = PerEntry(_fold)
+
+
+def fold_relation(kind: str, left: Sequence[Box], right: Sequence[Box]) -> int:
+    return RELATION_FOLDS[kind](left, right)
+
+
+def _fold_compare_source(op: str) -> str:
+    """``x op y`` for every x of ``left`` and y of ``right``, each given as (min of the low
+    ends, max of the low ends, min of the high ends, max of the high ends)."""
+    meaning = COMPARISONS[op]
+
+    def end(index: int) -> Callable[[str], str]:
+        return lambda term: f"{'a' if term == 'left' else 'b'}[{index}]"
+
+    return mask_source(meaning.source(end(1), end(2)), meaning.source(end(3), end(0), negated=True))
+
+
+#: op -> truth values of ``x op y`` for every x and y (see :func:`fold_compare`)
+COMPARE_FOLDS: PerEntry[Callable[[tuple[int, int, int, int], tuple[int, int, int, int], int], int]] = PerEntry(
+    lambda op: compiled("a, b, tolerance", _fold_compare_source(op))
+)
 
 
 def fold_compare(op: str, left: tuple[int, int, int, int], right: tuple[int, int, int, int], tolerance: int) -> int:
     """``x op y`` for every x of ``left`` and y of ``right``, each given as (min of the low
     ends, max of the low ends, min of the high ends, max of the high ends)."""
-    a_min_lo, a_max_lo, a_min_hi, a_max_hi = left
-    b_min_lo, b_max_lo, b_min_hi, b_max_hi = right
-    if op == "<=":
-        return (T if a_max_lo <= b_min_hi else 0) | (F if a_max_hi > b_min_lo else 0)
-    if op == "<":
-        return (T if a_max_lo < b_min_hi else 0) | (F if a_max_hi >= b_min_lo else 0)
-    if op == ">=":
-        return (T if a_min_hi >= b_max_lo else 0) | (F if a_min_lo < b_max_hi else 0)
-    if op == ">":
-        return (T if a_min_hi > b_max_lo else 0) | (F if a_min_lo <= b_max_hi else 0)
-    may_true = a_max_lo - b_min_hi <= tolerance and a_min_hi - b_max_lo >= -tolerance
-    may_false = a_min_lo - b_max_hi < -tolerance or a_max_hi - b_min_lo > tolerance
-    return (T if may_true else 0) | (F if may_false else 0)
+    return COMPARE_FOLDS[op](left, right, tolerance)
 
 
 def edge_span(boxes: Sequence[Box], low: int, high: int, offset: int) -> tuple[int, int, int, int]:
