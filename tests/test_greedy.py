@@ -294,7 +294,8 @@ HEAVY = ("ortools", "hmmlearn", "scipy", "sklearn")
 def test_greedy_path_imports_nothing_heavy() -> None:
     code = (
         "import sys, json, mse.api as api\n"
-        "m = api.load('embarrassment') if api.bundled_names() else None\n"
+        "from mse.resources import bundled_names\n"
+        "m = api.load('embarrassment') if bundled_names() else None\n"
         "if m is not None: api.sample(m, 10, seed=1, count=3)\n"
         f"print(json.dumps([n for n in {HEAVY!r} if n in sys.modules]))\n"
     )

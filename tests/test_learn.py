@@ -12,6 +12,7 @@ import pytest
 
 import mse.api as api
 from mse.cli import main
+from mse.diagnostics import Severity
 from mse.ir import model as ir
 from mse.learn import LearnOptions, LearnResult, learn
 from mse.learn.implication import ImplicationChecker
@@ -55,7 +56,8 @@ def test_result_is_lint_clean_and_samplable(relief: LearnResult, tmp_path: Path)
     assert [d.render() for d in relief.diagnostics if d.code[:2] in ("W3", "W4")] == []
     path = tmp_path / "relief.xml"
     path.write_text(relief.xml, encoding="utf-8")
-    assert api.lint([path], deep=True, duration=10.0) == []
+    # notes (N407: a learned relation void in most timelines) say what the corpus shows
+    assert [d for d in api.lint([path], deep=True, duration=10.0) if d.severity is not Severity.NOTE] == []
     timeline = api.sample(relief.model, 10.0, seed=1)
     assert api.check(relief.model, timeline) == []  # type: ignore[arg-type]
 
