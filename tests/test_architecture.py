@@ -29,6 +29,7 @@ LAYERS: dict[str, int] = {
     "mse.api": 6,
     "mse.sampling": 6,
     "mse.model_cache": 6,
+    "mse.dialogue": 6,
     "mse.cli": 7,
     "mse.__main__": 7,
 }
