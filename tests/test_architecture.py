@@ -23,6 +23,7 @@ LAYERS: dict[str, int] = {
     "mse.ir": 2,
     "mse.solve": 3,
     "mse.timeline": 4,
+    "mse.envelope": 4,
     "mse.export": 5,
     "mse.motion": 5,
     "mse.learn": 5,
