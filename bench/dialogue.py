@@ -46,7 +46,8 @@ from mse.dialogue.check import check_dialogue  # noqa: E402
 from mse.resources import behaviour_sets_dir, bundled_names  # noqa: E402
 
 SHARED = Path(os.environ.get("MSE_SHARED", REPO.parent / "shared"))
-WORDS = "well I really do not know what you expected me to say about all of that now".split()
+WORDS = ("well", "I", "really", "do", "not", "know", "what", "you", "expected", "me", "to", "say", "about",
+         "all", "of", "that", "now")
 
 
 def rss_mb() -> float:
