@@ -131,7 +131,7 @@ def one_dialogue(number: int, pool: list[str], args: argparse.Namespace, folder:
     parsed = read_script(script)
     session = Session(seed=seed, base=folder)
     for name in pool:  # load every set first: loading is not growth
-        session._load(name, parsed[0].span)
+        session.load(name)
     latencies: list[float] = []
     cpu_latencies: list[float] = []
     rss_at_5 = None

@@ -193,6 +193,11 @@ class Session:
         return Span(str(self._base / "<session>") if self._base else "<session>")
 
     # -- planning -----------------------------------------------------------------------------
+    def load(self, emotion: str) -> Model:
+        """Load ``emotion``'s set now (a server does it before the dialogue: the first event
+        of an emotion then pays no loading); E217 with did-you-mean when it is unknown."""
+        return self._load(emotion, self._span()).model
+
     def _load(self, name: str, span: Span) -> _Loaded:
         loaded = self._models.get(name)
         if loaded is None:
