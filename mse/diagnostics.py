@@ -70,6 +70,7 @@ CODES: dict[str, str] = {
     "E214": "invalid lexeme table",
     "E215": "time outside the supported range",
     "E216": "a signal's length compared with something other than a number",
+    "E217": "invalid dialogue script (event, order, utterance or word timing)",
     # W3xx: static lint
     "W300": "no behaviour-set file found",
     "W301": "inactive signal (both probabilities are 0)",
