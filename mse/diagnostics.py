@@ -65,6 +65,10 @@ CODES: dict[str, str] = {
     "E214": "invalid lexeme table",
     "E215": "time outside the supported range",
     "E216": "a signal's length compared with something other than a number",
+    # E15x: dialogue inputs other tools write (FML-APML, EmotionML)
+    "E150": "FML-APML or EmotionML structure mse cannot read",
+    "E151": "time reference that names nothing, or times on different bases",
+    "E152": "invalid number or time in an FML-APML or EmotionML input",
     # W3xx: static lint
     "W300": "no behaviour-set file found",
     "W301": "inactive signal (both probabilities are 0)",
@@ -92,6 +96,16 @@ CODES: dict[str, str] = {
     "W501": "Greta name mismatch resolved",
     "W502": "Greta construct approximated",
     "W503": "annotation left out or merged",
+    "W520": "input element mse does not use (FML function, prosody, EmotionML descriptor)",
+    "W521": "input attribute mse does not use",
+    "W522": "input emotion with no behaviour set",
+    "W523": "overlapping input emotions cut (one emotion at a time)",
+    "W524": "input times estimated or shifted",
+    "W525": "several categories in one emotion (the strongest is played)",
+    "W526": "input emotion without a usable time (not placed)",
+    "W527": "FML function Greta's reader drops",
+    "W528": "input with no emotion mse can play",
+    "W529": "emotion vocabulary mse does not know (names not checked)",
     # W6xx: export
     "W601": "behaviour left out of the export (the realizer cannot play it)",
     "W602": "lexeme not drawn by the face player",

@@ -1,0 +1,56 @@
+"""Inputs the upstream already writes, read as dialogue events: FML-APML (Greta's dialogue
+side, :mod:`mse.dialogue.inputs.fml`) and W3C EmotionML (:mod:`mse.dialogue.inputs.emotionml`).
+docs/dialogue-inputs.md says what each maps to and what is reported."""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from pathlib import Path
+
+from mse.diagnostics import Diagnostic, MseError
+from mse.dialogue.inputs.common import (
+    EmotionNames,
+    InputEvent,
+    InputReading,
+    known_emotion,
+    load_emotion_names,
+    load_xml,
+    localname,
+)
+
+__all__ = ["EmotionNames", "InputEvent", "InputReading", "is_markup_input", "load_emotion_names", "read_input"]
+
+#: Root element -> format name.
+FORMATS = {"fml-apml": "fml-apml", "emotionml": "emotionml"}
+
+
+def is_markup_input(path: str | Path) -> bool:
+    """Whether ``path`` looks like an XML input rather than a JSON Lines script (its first
+    non-blank character is ``<``)."""
+    try:
+        with open(path, "rb") as stream:
+            head = stream.read(512).lstrip(b"\xef\xbb\xbf \t\r\n")
+    except OSError:
+        return False
+    return head.startswith(b"<")
+
+
+def read_input(
+    path: str | Path,
+    *,
+    names: EmotionNames | None = None,
+    known: Callable[[str], bool] = known_emotion,
+) -> InputReading:
+    """The dialogue events of an FML-APML or EmotionML file (told apart by the root element)."""
+    doc = load_xml(path, what="dialogue input")
+    root = localname(doc.root)
+    if root == "fml-apml":
+        from mse.dialogue.inputs.fml import read_fml
+
+        return read_fml(doc, names=names, known=known)
+    if root == "emotionml":
+        from mse.dialogue.inputs.emotionml import read_emotionml
+
+        return read_emotionml(doc, names=names, known=known)
+    message = f"root element <{root}> is neither <fml-apml> (FML-APML) nor <emotionml> (EmotionML)"
+    raise MseError([Diagnostic("E150", message, doc.span(doc.root))])
