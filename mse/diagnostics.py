@@ -48,6 +48,9 @@ CODES: dict[str, str] = {
     "E112": "invalid number",
     "E120": "annotation file cannot be read (ELAN, CSV/TSV)",
     "E121": "invalid annotation",
+    "E150": "FML-APML or EmotionML structure mse cannot read",
+    "E151": "time reference that names nothing, or times on different bases",
+    "E152": "invalid number or time in an FML-APML or EmotionML input",
     # E2xx: well-formed but meaningless
     "E201": "duplicate signal id",
     "E202": "duplicate constraint id",
@@ -65,10 +68,7 @@ CODES: dict[str, str] = {
     "E214": "invalid lexeme table",
     "E215": "time outside the supported range",
     "E216": "a signal's length compared with something other than a number",
-    # E15x: dialogue inputs other tools write (FML-APML, EmotionML)
-    "E150": "FML-APML or EmotionML structure mse cannot read",
-    "E151": "time reference that names nothing, or times on different bases",
-    "E152": "invalid number or time in an FML-APML or EmotionML input",
+    "E217": "invalid dialogue script (event, order, utterance or word timing)",
     # W3xx: static lint
     "W300": "no behaviour-set file found",
     "W301": "inactive signal (both probabilities are 0)",

@@ -39,6 +39,19 @@ def add_face_arguments(parser: argparse.ArgumentParser | argparse._ArgumentGroup
     parser.add_argument("--head-library", type=Path, metavar="FILE", help="Greta HeadGestures.xml for head lexemes")
 
 
+def add_bml_block_arguments(parser: argparse.ArgumentParser | argparse._ArgumentGroup) -> None:
+    """``--composition`` and ``--bml-id`` of the BML block (shared by sample, export and live)."""
+    parser.add_argument(
+        "--composition",
+        type=str.upper,
+        choices=("MERGE", "APPEND", "REPLACE"),
+        default="MERGE",
+        help="BML block composition: how the realizer combines it with the blocks it is playing (default MERGE)",
+    )
+    parser.add_argument("--bml-id", metavar="ID", help="the BML block id (default: bml_<expression>; a dialogue's "
+                        "carries its seed and length)")
+
+
 def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     p = subparsers.add_parser(
         "render",

@@ -94,9 +94,10 @@ def register(subparsers: Any) -> None:
         help="BML for this realizer (default: generic for bml, greta for greta-bml)",
     )
     out.add_argument("--library-dir", metavar="DIR", help="the realizer's libraries (Greta's BehaviorLexicon folder)")
-    from mse.cli.cmd_render import add_face_arguments
+    from mse.cli.cmd_render import add_bml_block_arguments, add_face_arguments
 
     add_face_arguments(out)
+    add_bml_block_arguments(out)
     parser.set_defaults(handler=run)
 
 
