@@ -6,8 +6,9 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from pathlib import Path
+from typing import TYPE_CHECKING
 
-from mse.diagnostics import Diagnostic, MseError
+from mse.diagnostics import Diagnostic, MseError, Span
 from mse.dialogue.inputs.common import (
     EmotionNames,
     InputEvent,
@@ -18,7 +19,18 @@ from mse.dialogue.inputs.common import (
     localname,
 )
 
-__all__ = ["EmotionNames", "InputEvent", "InputReading", "is_markup_input", "load_emotion_names", "read_input"]
+__all__ = [
+    "EmotionNames",
+    "InputEvent",
+    "InputReading",
+    "is_markup_input",
+    "load_emotion_names",
+    "read_dialogue_input",
+    "read_input",
+]
+
+if TYPE_CHECKING:
+    from mse.dialogue.script import Event
 
 #: Root element -> format name.
 FORMATS = {"fml-apml": "fml-apml", "emotionml": "emotionml"}
@@ -39,7 +51,7 @@ def read_input(
     path: str | Path,
     *,
     names: EmotionNames | None = None,
-    known: Callable[[str], bool] = known_emotion,
+    known: Callable[[str, Span], bool] = known_emotion,
 ) -> InputReading:
     """The dialogue events of an FML-APML or EmotionML file (told apart by the root element)."""
     doc = load_xml(path, what="dialogue input")
@@ -54,3 +66,25 @@ def read_input(
         return read_emotionml(doc, names=names, known=known)
     message = f"root element <{root}> is neither <fml-apml> (FML-APML) nor <emotionml> (EmotionML)"
     raise MseError([Diagnostic("E150", message, doc.span(doc.root))])
+
+
+def read_dialogue_input(
+    path: str | Path,
+    *,
+    names: EmotionNames | None = None,
+    known: Callable[[str, Span], bool] = known_emotion,
+) -> tuple[list[Event], list[Diagnostic]]:
+    """The script events of an FML-APML or EmotionML file, checked as a script's are
+    (:func:`mse.dialogue.script.parse_events`: E217 at the element's place), and the warnings
+    about what mse does not use of it (print them: nothing may be dropped without a word)."""
+    from mse.dialogue.script import parse_events
+
+    reading = read_input(path, names=names, known=known)
+    if not any("emotion" in e.event for e in reading.events):
+        where = next((w.span for w in reading.warnings if w.code == "W528"), Span(str(path), 1, 1))
+        nothing = Diagnostic(
+            "E150", "nothing to play: no emotion mse can play (see the warnings)", where
+        )
+        raise MseError([nothing, *reading.warnings])
+    events = parse_events((dict(e.event), e.span) for e in reading.events)
+    return events, list(reading.warnings)

@@ -106,9 +106,16 @@ def load_emotion_names(overrides: Iterable[Path] = ()) -> EmotionNames:
     return EmotionNames(tables, tuple(sources))
 
 
-def known_emotion(name: str) -> bool:
-    """A bundled behaviour set, or a set file that exists (what a dialogue script accepts)."""
-    return name in bundled_names() or (name.endswith(".xml") and Path(name).is_file())
+def known_emotion(name: str, span: Span) -> bool:
+    """What a dialogue script accepts (:func:`mse.dialogue.script.resolve_emotion`): a bundled
+    behaviour set, or a set file (a relative path is looked up beside the input first)."""
+    from mse.dialogue.script import resolve_emotion as resolve_in_script
+
+    try:
+        resolve_in_script(name, span)
+    except MseError:
+        return False
+    return True
 
 
 def resolve_emotion(
@@ -116,7 +123,7 @@ def resolve_emotion(
     vocabulary: str,
     name: str,
     span: Span,
-    known: Callable[[str], bool],
+    known: Callable[[str, Span], bool],
     warnings: list[Diagnostic],
 ) -> str | None:
     """The set mse plays for ``name`` of ``vocabulary``, or None (reported as W522)."""
@@ -132,7 +139,7 @@ def resolve_emotion(
             )
         )
         return None
-    if not known(target):
+    if not known(target, span):
         guess = difflib.get_close_matches(target, bundled_names(), n=1)
         hint = f"; did you mean {guess[0]!r}?" if guess else ""
         via = "" if mapped is None else f" (mapped to {target!r})"
@@ -213,8 +220,21 @@ def sequence_emotions(intervals: Sequence[EmotionInterval], warnings: list[Diagn
 
 def finish(fmt: str, events: list[InputEvent], warnings: list[Diagnostic], span: Span) -> InputReading:
     """Events in time order (emotion, then speech, at the same time) and a closing ``end``."""
-    if not any("emotion" in e.event for e in events):
+    emotions = [e for e in events if "emotion" in e.event]
+    if not emotions:
         warnings.append(Diagnostic("W528", "the input holds no emotion mse can play", span))
+    else:
+        # A dialogue starts with an emotion (which face speaks?): speech before the first one is
+        # spoken with it, and that is said.
+        first = min(emotions, key=lambda e: e.t)
+        earliest = min(e.t for e in events)
+        if earliest < first.t:
+            message = (
+                f"the agent speaks from {earliest:g} s but the first emotion starts at {first.t:g} s: "
+                f"that emotion is played from {earliest:g} s"
+            )
+            warnings.append(Diagnostic("W524", message, first.span))
+            events = [InputEvent({**e.event, "t": earliest}, e.span) if e is first else e for e in events]
     times = [e.t for e in events]
     times += [float(e.event["until"]) for e in events if "until" in e.event]
     times += [float(w[2]) for e in events for w in e.event.get("words", ())]

@@ -72,7 +72,7 @@ class Timing:
 
 
 class _Reader:
-    def __init__(self, doc: XmlInput, names: EmotionNames, known: Callable[[str], bool]) -> None:
+    def __init__(self, doc: XmlInput, names: EmotionNames, known: Callable[[str, Span], bool]) -> None:
         self.doc = doc
         self.names = names
         self.known = known
@@ -384,7 +384,7 @@ def read_emotionml(
     source: str | Path | XmlInput,
     *,
     names: EmotionNames | None = None,
-    known: Callable[[str], bool] = known_emotion,
+    known: Callable[[str, Span], bool] = known_emotion,
 ) -> InputReading:
     """Dialogue events of an EmotionML document, and what mse does not use of it."""
     doc = source if isinstance(source, XmlInput) else load_xml(source, what="EmotionML file")

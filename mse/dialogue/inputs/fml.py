@@ -6,7 +6,8 @@ refer to the marks (``s1:tm3``, ``s1:tm8+0.5``), to another function (``e1:end``
 seconds (``0``, ``5.0``).  mse reads it as Greta's ``FMLTranslator`` does (checked against
 Greta's own reader, tests/test_dialogue_inputs_fml.py) and keeps what a dialogue uses:
 
-- each ``<speech>`` is an utterance; its words are timed at :data:`SECONDS_PER_CHARACTER`
+- each ``<speech>`` is an utterance; its words are timed at the script's rate
+  (:data:`mse.dialogue.script.CHARS_PER_SECOND`, punctuation alone a :data:`PAUSE_SECONDS` pause)
   (a mark's ``time``, which Greta reads too, pins the words around it), and the words under a
   ``<pitchaccent>`` are its stressed words;
 - each ``<emotion>`` is an emotion episode from ``start`` to ``end`` (no ``end``: until the
@@ -45,13 +46,10 @@ from mse.dialogue.inputs.common import (
     resolve_emotion,
     sequence_emotions,
 )
+from mse.dialogue.script import CHARS_PER_SECOND
 from mse.limits import MAX_SECONDS
 
 FORMAT = "fml-apml"
-#: Estimated length of a spoken word: this many seconds per character (about 150 words a
-#: minute for English text, a usual TTS rate), at least :data:`MIN_WORD_SECONDS`.
-SECONDS_PER_CHARACTER = 0.065
-MIN_WORD_SECONDS = 0.15
 #: A token without a letter or digit (``.``, ``!``, ``...``) is a pause of this length.
 PAUSE_SECONDS = 0.3
 
@@ -193,7 +191,7 @@ def _tokens(parts: list[tuple[str, str | None]], start: float) -> tuple[list[Tok
         first.append(len(tokens))
         for word in text.split():
             is_word = any(c.isalnum() for c in word)
-            length = max(MIN_WORD_SECONDS, SECONDS_PER_CHARACTER * len(word)) if is_word else PAUSE_SECONDS
+            length = (len(word) + 1) / CHARS_PER_SECOND if is_word else PAUSE_SECONDS
             tokens.append(Token(word, clock, clock + length, is_word))
             clock += length
     return tokens, first
@@ -286,7 +284,7 @@ def _read_speech(
             Diagnostic(
                 "W524",
                 f"speech {sid!r}: its marks carry no time, so word times are estimated at "
-                f"{SECONDS_PER_CHARACTER:g} s per character (a TTS gives the real ones)",
+                f"{CHARS_PER_SECOND:g} characters per second (a TTS gives the real ones)",
                 span,
             )
         )
@@ -464,7 +462,7 @@ def read_fml(
     path: str | Path | XmlInput,
     *,
     names: EmotionNames | None = None,
-    known: Callable[[str], bool] = known_emotion,
+    known: Callable[[str, Span], bool] = known_emotion,
 ) -> InputReading:
     """Dialogue events of an FML-APML file, and what mse does not use of it."""
     document = read_fml_document(path)
