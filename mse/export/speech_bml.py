@@ -178,11 +178,19 @@ def greta_speech(sync: SpeechSync, *, origin: float = 0.0) -> list[Element]:
         words = utterance.words
         for index, word in enumerate(words, start=1):
             if utterance.stressed(word):
-                stop = f"e{index}" if index == len(words) or words[index].start - word.stop > SYNC_TOLERANCE else (
-                    f"w{index + 1}"
+                stop = (
+                    f"e{index}"
+                    if index == len(words) or words[index].start - word.stop > SYNC_TOLERANCE
+                    else (f"w{index + 1}")
                 )
-                attrs = {"id": f"{sid}_pa{index}", "start": f"{sid}:w{index}", "end": f"{sid}:{stop}",
-                         "type": "Hstar", "level": "medium", "importance": "1"}
+                attrs = {
+                    "id": f"{sid}_pa{index}",
+                    "start": f"{sid}:w{index}",
+                    "end": f"{sid}:{stop}",
+                    "type": "Hstar",
+                    "level": "medium",
+                    "importance": "1",
+                }
                 parts.append(element("pitchaccent", attrs))
         attrs = {
             "id": sid,
