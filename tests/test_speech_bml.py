@@ -111,3 +111,43 @@ def test_realizers_accept_generated_dialogues_and_resolve_every_reference(shared
     assert verdict.files == 24 and not verdict.rejected, verdict.rejected
     assert not verdict.problems, verdict.problems[:5]
     assert verdict.references > 50 and verdict.resolved == verdict.references
+
+
+def test_one_block_per_episode_for_a_live_realizer(shared_dir: Path, tmp_path: Path) -> None:
+    """Per-episode blocks: unique ids bml_<dialogue>_<n>, times from the block's offset, speech in
+    the block where it starts; both parsers accept them and time them as planned."""
+    from realizer_harness import greta_run_folder, run_asap, run_greta
+
+    from mse.export.episode_bml import episode_blocks
+
+    from mse.export.behaviours import plan_behaviours
+
+    timeline = generated_dialogues(1, seed=5)[0]
+    files: dict[str, list[tuple[Path, float]]] = {"bml": [], "greta-bml": []}
+    ids = []
+    for fmt in files:
+        for block in episode_blocks(timeline, fmt):
+            ids.append(block.id)
+            path = tmp_path / fmt / f"{block.id}.xml"
+            path.parent.mkdir(exist_ok=True)
+            path.write_text(block.text, encoding="utf-8")
+            files[fmt].append((path, block.offset))
+    count = len(timeline.episodes)
+    assert len(set(ids)) == count and ids[0].endswith("_1") and ids[count - 1].endswith(f"_{count}")
+    assert sum(b.text.count("<speech ") for b in episode_blocks(timeline)) == len(timeline.utterances)
+    reason = java_missing_reason(shared_dir)
+    if reason is not None:
+        pytest.skip(reason)
+    asap = run_asap(shared_dir, [p for p, _ in files["bml"]])
+    assert not [r.rejected for r in asap.values() if r.rejected]
+    run_folder = greta_run_folder(shared_dir, shared_dir / "greta", tmp_path / "greta-run")
+    greta = run_greta(shared_dir, run_folder, [p for p, _ in files["greta-bml"]])
+    checked = 0
+    for number, (path, offset) in enumerate(files["greta-bml"]):
+        episode = [s for s in timeline.signals if s.episode == timeline.episodes[number]["index"]]
+        planned = {b.id: (b.signal.start, b.signal.stop) for b in plan_behaviours(timeline.with_signals(episode))}
+        for bid, (start, end) in greta[path].timed.items():
+            if bid in planned:
+                assert (start + offset, end + offset) == pytest.approx(planned[bid], abs=0.0015), (path.name, bid)
+                checked += 1
+    assert checked >= len(timeline.signals) - 3  # Greta leaves out a torso it lacks
