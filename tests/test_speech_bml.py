@@ -118,9 +118,8 @@ def test_one_block_per_episode_for_a_live_realizer(shared_dir: Path, tmp_path: P
     the block where it starts; both parsers accept them and time them as planned."""
     from realizer_harness import greta_run_folder, run_asap, run_greta
 
-    from mse.export.episode_bml import episode_blocks
-
     from mse.export.behaviours import plan_behaviours
+    from mse.export.episode_bml import episode_blocks
 
     timeline = generated_dialogues(1, seed=5)[0]
     files: dict[str, list[tuple[Path, float]]] = {"bml": [], "greta-bml": []}
