@@ -24,7 +24,7 @@ True
 from __future__ import annotations
 
 import os
-from collections.abc import Iterable, Sequence
+from collections.abc import Iterable, Iterator, Sequence
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
@@ -42,9 +42,9 @@ from mse.dialogue.script import (
     parse_event,
     resolve_emotion,
 )
-from mse.envelope import Envelope, cut_envelope, envelope
+from mse.envelope import CUT_RELEASE, Envelope, cut_envelope, envelope
 from mse.ir.model import Model
-from mse.ir.schedule import Schedule, to_seconds
+from mse.ir.schedule import to_seconds
 from mse.timeline import Timeline, TimelineSignal
 
 #: Seconds planned at once for an episode whose end is not announced; when it runs longer, the
@@ -71,6 +71,30 @@ class _Running:
     intensity: float
     planned: list[TimelineSignal]
     continues: bool = False
+    #: The rest of the plan, as the sampler commits it (None: all of it is in ``planned``).
+    pending: Iterator[TimelineSignal] | None = None
+
+    def pull(self) -> TimelineSignal | None:
+        """The plan's next occurrence (appended to ``planned``), or None when it is complete."""
+        if self.pending is None:
+            return None
+        signal = next(self.pending, None)
+        if signal is None:
+            self.pending = None
+        else:
+            self.planned.append(signal)
+        return signal
+
+    def pull_through(self, limit: float) -> None:
+        """Pull the plan up to the first occurrence that starts after ``limit``."""
+        while self.pending is not None and (not self.planned or self.planned[-1].start <= limit):
+            if self.pull() is None:
+                break
+
+    def drain(self) -> list[TimelineSignal]:
+        while self.pull() is not None:
+            pass
+        return self.planned
 
 
 @dataclass
@@ -106,27 +130,39 @@ class Session:
         self._clock = 0.0
         self._ended: float | None = None
         self._next_index = 0
+        from mse.solve.protocol import get_solver
+
+        get_solver("greedy")  # import the sampler now, not at the first event
 
     # -- events -------------------------------------------------------------------------------
     def feed(self, event: Event) -> list[TimelineSignal]:
-        """Apply one event (checked against the ones before); the occurrences it commits."""
-        # The order rules of a whole script, against the previous event and utterance alone.
+        """Apply one event (checked against the ones before); the occurrences it commits: the
+        previous episode's that it closes and, for an emotion, the new episode's whole plan."""
+        return list(self.stream(event))
+
+    def stream(self, event: Event) -> Iterator[TimelineSignal]:
+        """As :meth:`feed`, the occurrences handed out as soon as each is committed: the new
+        episode's first one comes before its whole plan is made.  The event is checked and
+        applied at once (before the first ``next``); leaving the iterator unfinished is fine:
+        the rest of the plan is made when it is needed."""
+        # The order rules of a whole script, against the first event, the last utterance and
+        # the last event alone (what the order of the whole script needs).
         before: list[Event] = []
         for known in (self._first, self._last_say, self._last):
             if known is not None and all(known is not e for e in before):
                 before.append(known)
         check_sequence([*before, event])
         if isinstance(event, EmotionEvent):
-            result = self._emotion(event)
+            steps: Iterator[TimelineSignal] = self._emotion(event)
         elif isinstance(event, SayEvent):
             self._say(event)
             self._last_say = event
-            result = []
+            steps = iter(())
         else:
-            result = self._end(event)
+            steps = iter(self._end(event))
         self._first = self._first or event
         self._last = event
-        return result
+        return steps
 
     def emotion(
         self, t: float, emotion: str, intensity: float = 1.0, until: float | None = None
@@ -165,41 +201,40 @@ class Session:
 
             path = resolve_emotion(name, span)
             model = load(path)
-            own = {s.id: float(getattr(s, "intensity", 1.0)) for s in model.signals}
+            own = {s.id: s.intensity for s in model.signals}
             loaded = self._models[name] = _Loaded(model, expression_source(model), own)
         return loaded
 
     def _plan(self, loaded: _Loaded, index: int, start: float, length: float, intensity: float,
-              span: Span) -> list[TimelineSignal]:
-        """One episode's occurrences: a timeline of ``length`` from the sampler, at ``start``."""
+              span: Span) -> Iterator[TimelineSignal]:
+        """One episode's occurrences, as the sampler's stream commits them: a timeline of
+        ``length`` seconds (the default solver: the walk, its complete fallback), at ``start``."""
         from mse.solve.protocol import NoSolution, SolveRequest, get_solver
 
         model = loaded.model
+        request = SolveRequest(duration=length, seed=self.seed + index)
         try:
-            request = SolveRequest(duration=length, seed=self.seed + index)
-            schedule: Schedule = get_solver("greedy").solve(model, request)[0]
+            for occurrence in get_solver("greedy").stream(model, request):
+                modality, lexeme = model.signal_info[occurrence.signal]
+                begin = _r(start + to_seconds(occurrence.start))
+                finish = _r(start + to_seconds(occurrence.stop))
+                strength = intensity * loaded.own_intensity.get(occurrence.signal, 1.0)
+                leaf = model.signal(occurrence.signal).motion
+                yield TimelineSignal(occurrence.signal, modality, lexeme, begin, finish,
+                                     {"action": leaf.action} if leaf is not None else None, episode=index,
+                                     envelope=envelope(modality, begin, finish, strength))
         except NoSolution as failure:
-            message = (f"no timeline of {model.name!r} fits an episode of {length:g} s "
-                       f"({failure.diagnostics[0].message if failure.diagnostics else 'no solution'})")
+            reason = failure.diagnostics[0].message if failure.diagnostics else "no solution"
+            message = f"no timeline of {model.name!r} fits an episode of {length:g} s ({reason})"
             raise MseError([Diagnostic(CODE, message, span)]) from None
-        signals = []
-        for occurrence in schedule.occurrences:
-            modality, lexeme = model.signal_info[occurrence.signal]
-            begin = _r(start + to_seconds(occurrence.start))
-            finish = _r(start + to_seconds(occurrence.stop))
-            strength = intensity * loaded.own_intensity.get(occurrence.signal, 1.0)
-            motion = {"action": m.action} if (m := model.signal(occurrence.signal).motion) is not None else None
-            signals.append(TimelineSignal(occurrence.signal, modality, lexeme, begin, finish, motion, episode=index,
-                                          envelope=envelope(modality, begin, finish, strength)))
-        return signals
 
     def _open(self, loaded: _Loaded, emotion: str, start: float, stop: float, announced: bool, intensity: float,
               span: Span, continues: bool = False) -> _Running:
         index = self._next_index
         self._next_index += 1
-        planned = self._plan(loaded, index, start, stop - start, intensity, span)
-        return _Running(index, emotion, loaded.model, loaded.source, start, stop, announced, intensity, planned,
-                        continues)
+        plan = self._plan(loaded, index, start, stop - start, intensity, span)
+        return _Running(index, emotion, loaded.model, loaded.source, start, stop, announced, intensity, [],
+                        continues, plan)
 
     def _advance(self, t: float, span: Span, *, final: bool = False) -> list[TimelineSignal]:
         """Play the running episode up to ``t``: continue it by horizons while its plan ends
@@ -212,7 +247,7 @@ class Session:
             start = running.plan_stop
             running = self._open(loaded, running.emotion, start, _r(start + self.horizon), False,
                                  running.intensity, span, continues=True)
-            closed.extend(self._carry(closed, running, start))
+            self._carry(closed, running, start)
         if running is not None:
             closed.extend(self._close(running, t, final=final))
         self._running = None
@@ -222,6 +257,7 @@ class Session:
         """The running episode ends at ``t``: as planned, or interrupted (cut and dropped).
         At the dialogue's end (``final``) nothing follows, so cut occurrences stop at ``t``."""
         interrupted = t < running.plan_stop - _EPSILON
+        running.drain()
         kept: list[TimelineSignal] = []
         dropped: list[dict[str, Any]] = []
         for signal in running.planned:
@@ -252,12 +288,13 @@ class Session:
         return kept
 
     @staticmethod
-    def _carry(closed: list[TimelineSignal], running: _Running, t: float) -> list[TimelineSignal]:
+    def _carry(closed: list[TimelineSignal], running: _Running, t: float) -> None:
         """A lexeme both neighbouring episodes show carries over: the previous occurrence holds
         (no release) up to the new one's start, which rises from there without attack."""
+        running.pull_through(t + CUT_RELEASE)
         reaching = {s.lexeme: i for i, s in enumerate(closed) if s.stop >= t - _EPSILON and s.start < t}
         for position, signal in enumerate(running.planned):
-            if signal.start > t + 0.2 + _EPSILON or signal.lexeme not in reaching:
+            if signal.start > t + CUT_RELEASE + _EPSILON or signal.lexeme not in reaching:
                 continue
             i = reaching.pop(signal.lexeme)
             before = closed[i]
@@ -271,23 +308,34 @@ class Session:
                 rise = signal.envelope
                 running.planned[position] = replace(
                     signal, carry=True, envelope=replace(rise, attack=0.0, sustain=rise.sustain + rise.attack))
-        return []
 
     def _commit(self, signals: list[TimelineSignal]) -> None:
         if self.keep:
             self._signals.extend(signals)
 
-    def _emotion(self, event: EmotionEvent) -> list[TimelineSignal]:
+    def _emotion(self, event: EmotionEvent) -> Iterator[TimelineSignal]:
         loaded = self._load(event.emotion, event.span)
         closed = self._advance(event.t, event.span)
         stop = event.until if event.until is not None else _r(event.t + self.horizon)
         running = self._open(loaded, event.emotion, event.t, stop, event.until is not None, event.intensity,
                              event.span)
-        self._carry(closed, running, event.t)
-        self._commit(closed)
         self._running = running
         self._clock = event.t
-        return [*closed, *running.planned]
+        self._carry(closed, running, running.start)
+        self._commit(closed)
+        return self._hand_out(closed, running)
+
+    @staticmethod
+    def _hand_out(closed: list[TimelineSignal], running: _Running) -> Iterator[TimelineSignal]:
+        """The closed occurrences, then the new plan as it is committed."""
+        yield from closed
+        handed = 0
+        while True:
+            while handed < len(running.planned):
+                handed += 1
+                yield running.planned[handed - 1]
+            if running.pull() is None:
+                return
 
     def _say(self, event: SayEvent) -> None:
         if self._running is None:
@@ -309,6 +357,11 @@ class Session:
 
     # -- results --------------------------------------------------------------------------------
     @property
+    def current_episode(self) -> int | None:
+        """The index of the episode being played (None before the first emotion, after the end)."""
+        return self._running.index if self._running is not None else None
+
+    @property
     def utterance_words(self) -> list[tuple[Word, ...]]:
         return [tuple(Word(w[0], w[1], w[2]) for w in u["words"]) for u in self._utterances]
 
@@ -319,7 +372,7 @@ class Session:
         duration = self._ended
         if self._running is not None:
             running = self._running
-            signals.extend(running.planned)
+            signals.extend(running.drain())
             episodes.append({
                 "index": running.index, "emotion": running.emotion, "source": running.source,
                 "start": _r(running.start), "stop": _r(running.plan_stop), "announced": running.announced,

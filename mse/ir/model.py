@@ -189,6 +189,9 @@ class Signal:
     max_occurrences: int | None = None
     motion: MotionLeaf | None = None
     span: Span = field(default=NO_SPAN, compare=False, repr=False)
+    #: How strongly the signal is shown, in [0, 1] (an occurrence's intensity is its episode's
+    #: times this; mse.envelope).  Does not change where it occurs.
+    intensity: float = 1.0
 
     @property
     def repetitive(self) -> bool:

@@ -1,0 +1,233 @@
+"""Benchmark of `mse live` (issue 28): scripted one-hour dialogues.  Prints numbers; asserts nothing.
+
+    python bench/dialogue.py                      # one 1-hour dialogue, seed 1
+    python bench/dialogue.py --dialogues 3 --minutes 60 --seed 5
+
+Each dialogue changes emotion every 2-20 s (uniform), drawing from every bundled set and every
+set `mse import-greta` makes of $MSE_SHARED/greta (default ../shared); about half the episodes
+are announced (``until`` = the next change), a sixth are announced but interrupted before their
+announced end, the rest unannounced; utterances with word timings (0.15-0.5 s words, one stressed)
+fill part of each episode.  Measured:
+
+- speed: `mse live SCRIPT -o out.json` (a subprocess, start-up included) and the planning alone in
+  process, as multiples of real time (target >= 100x);
+- memory: RSS of the process when the dialogue's clock passes minute 5 and at its end (target:
+  growth <= 10 MB); every set is loaded before minute 5 so that loading is not counted as growth;
+- consistency: every episode under `mse check` (the evaluator), and every announced episode that
+  ran as planned under an independent checker: CP-SAT asked for a timeline with exactly the
+  episode's occurrences pinned and every other signal forbidden;
+- rates: occurrences per minute of each set's announced episodes against the same set sampled
+  alone at the same lengths (8 seeds each), target within 10 %;
+- latency: from an emotion event to the first committed occurrence of its episode
+  (``Session.stream``), p50 / p99 over every event (target p99 <= 10 ms).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import random
+import statistics
+import subprocess
+import sys
+import tempfile
+import time
+from collections import defaultdict
+from pathlib import Path
+from typing import Any
+
+REPO = Path(__file__).resolve().parent.parent
+sys.path.insert(0, str(REPO))
+
+from mse.api import load  # noqa: E402
+from mse.dialogue import Session, plan_script, read_script  # noqa: E402
+from mse.dialogue.check import check_dialogue  # noqa: E402
+from mse.resources import behaviour_sets_dir, bundled_names  # noqa: E402
+
+SHARED = Path(os.environ.get("MSE_SHARED", REPO.parent / "shared"))
+WORDS = ("well", "I", "really", "do", "not", "know", "what", "you", "expected", "me", "to", "say", "about",
+         "all", "of", "that", "now")
+
+
+def rss_mb() -> float:
+    with open("/proc/self/statm") as handle:
+        return int(handle.read().split()[1]) * os.sysconf("SC_PAGE_SIZE") / 2**20
+
+
+def import_greta(folder: Path) -> list[Path]:
+    greta = SHARED / "greta"
+    if not (greta / "lexicon.xml").is_file():
+        print(f"note: no Greta data in {greta}: bundled sets only", file=sys.stderr)
+        return []
+    subprocess.run([sys.executable, "-m", "mse", "import-greta", str(greta / "lexicon.xml"),
+                    str(greta / "constraint.xml"), "-o", str(folder)], check=True, capture_output=True,
+                   env={**os.environ, "PYTHONPATH": str(REPO)})
+    return sorted(folder.glob("*.xml"))
+
+
+def make_script(pool: list[str], minutes: float, rng: random.Random) -> list[dict[str, Any]]:
+    """One scripted dialogue (see the module docstring)."""
+    events: list[dict[str, Any]] = []
+    end = minutes * 60.0
+    t = 0.0
+    while t < end - 2.0:
+        length = min(rng.uniform(2.0, 20.0), end - t)
+        nxt = round(t + length, 3)
+        event: dict[str, Any] = {"t": round(t, 3), "emotion": rng.choice(pool),
+                                 "intensity": round(rng.uniform(0.3, 1.0), 2)}
+        kind = rng.random()
+        if kind < 0.5:
+            event["until"] = nxt
+        elif kind < 0.67:
+            event["until"] = round(nxt + rng.uniform(0.5, 5.0), 3)  # announced, then interrupted
+        events.append(event)
+        at = t + rng.uniform(0.1, 1.0)
+        while at < nxt - 1.0 and rng.random() < 0.7:
+            words = []
+            for _ in range(rng.randint(2, 12)):
+                stop = at + rng.uniform(0.15, 0.5)
+                if stop > nxt:
+                    break
+                words.append([rng.choice(WORDS), round(at, 3), round(stop, 3)])
+                at = stop + rng.choice((0.0, 0.0, 0.05))
+            if not words:
+                break
+            events.append({"t": words[0][1], "say": " ".join(w[0] for w in words), "words": words,
+                           "stress": [rng.choice(words)[0]]})
+            at += rng.uniform(0.3, 3.0)
+        t = nxt
+    events.append({"t": round(end, 3), "end": True})
+    return events
+
+
+def independent_check(model: Any, episode: dict[str, Any], signals: list[Any]) -> bool:
+    """CP-SAT: a timeline of the episode's length with exactly its occurrences exists."""
+    from mse.api import sample
+    from mse.solve.protocol import NoSolution, Pin
+
+    start = float(episode["start"])
+    pins = [Pin(s.id, round(s.start - start, 3), round(s.stop - start, 3)) for s in signals]
+    present = {s.id for s in signals}
+    forbid = [s.id for s in model.signals if s.id not in present]
+    try:
+        result = sample(model, round(float(episode["stop"]) - start, 3), seed=0, solver="cpsat", pinned=pins,
+                        forbid=forbid, time_limit=20.0)
+    except NoSolution:
+        return False
+    timeline = result if not isinstance(result, list) else result[0]
+    return sorted((s.id, s.start, s.stop) for s in timeline.signals) == sorted(
+        (p.signal, p.start, p.stop) for p in pins)
+
+
+def one_dialogue(number: int, pool: list[str], args: argparse.Namespace, folder: Path) -> dict[str, Any]:
+    rng = random.Random(args.seed * 1000 + number)
+    events = make_script(pool, args.minutes, rng)
+    script = folder / f"dialogue{number}.jsonl"
+    script.write_text("".join(json.dumps(e) + "\n" for e in events))
+    seed = args.seed + number
+    report: dict[str, Any] = {"events": len(events), "minutes": args.minutes}
+
+    # speed: the CLI, start-up included, then the planning alone in this process
+    out = folder / f"dialogue{number}.json"
+    began = time.perf_counter()
+    subprocess.run([sys.executable, "-m", "mse", "live", str(script), "--seed", str(seed), "-o", str(out)],
+                   check=True, env={**os.environ, "PYTHONPATH": str(REPO)})
+    cli = time.perf_counter() - began
+    parsed = read_script(script)
+    session = Session(seed=seed, base=folder)
+    for name in pool:  # load every set first: loading is not growth
+        session._load(name, parsed[0].span)
+    latencies: list[float] = []
+    rss_at_5 = None
+    began = time.perf_counter()
+    for event in parsed:
+        if rss_at_5 is None and event.t >= 300.0:
+            rss_at_5 = rss_mb()
+        tick = time.perf_counter()
+        handed = session.stream(event)
+        if hasattr(event, "emotion"):
+            new = session.current_episode
+            first = next((s for s in handed if s.episode == new), None)
+            if first is not None:  # an episode may have no occurrence at all: no latency to take
+                latencies.append(time.perf_counter() - tick)
+        for _ in handed:
+            pass
+    planning = time.perf_counter() - began
+    rss_end = rss_mb()
+    timeline = session.timeline()
+    same = plan_script(parsed, seed=seed, base=folder).to_json() == json.loads(out.read_text())
+    report.update(cli_x_real_time=args.minutes * 60 / cli, planning_x_real_time=args.minutes * 60 / planning,
+                  rss_growth_mb=rss_end - (rss_at_5 or rss_end), cli_equals_session=same,
+                  latency_p50_ms=1000 * statistics.median(latencies),
+                  latency_p99_ms=1000 * statistics.quantiles(latencies, n=100)[98])
+
+    # consistency under the evaluator, episode by episode
+    violations = check_dialogue(timeline)
+    episodes = timeline.episodes
+    report.update(episodes=len(episodes), announced=sum(1 for e in episodes if e["announced"]),
+                  interrupted=sum(1 for e in episodes if e["interrupted"]),
+                  episodes_with_violations=len({v.episode for v in violations}),
+                  signals=len(timeline.signals), utterances=len(timeline.utterances))
+
+    # independent checker and rates, per announced episode that ran as planned
+    by_episode: dict[int, list[Any]] = defaultdict(list)
+    for signal in timeline.signals:
+        by_episode[signal.episode or 0].append(signal)
+    models = {name: load(name if not name.endswith(".xml") else folder / name) for name in pool}
+    independent_ok = independent_total = 0
+    lengths: dict[str, list[float]] = defaultdict(list)
+    counts: dict[str, int] = defaultdict(int)
+    for episode in episodes:
+        if not episode["announced"] or episode["interrupted"]:
+            continue
+        name = episode["emotion"]
+        signals = by_episode[episode["index"]]
+        length = float(episode["stop"]) - float(episode["start"])
+        lengths[name].append(length)
+        counts[name] += len(signals)
+        if args.independent:
+            independent_total += 1
+            independent_ok += independent_check(models[name], episode, signals)
+    report.update(independent_checked=independent_total, independent_consistent=independent_ok)
+    from mse.api import sample
+
+    rates = {}
+    for name, spans in sorted(lengths.items()):
+        alone = sum(len(sample(models[name], length, seed=10_000 + k).signals)  # type: ignore[union-attr]
+                    for length in spans for k in range(8)) / 8
+        minutes = sum(spans) / 60
+        rates[name] = (counts[name] / minutes, alone / minutes)
+    report["rates"] = {name: {"dialogue": round(d, 2), "alone": round(a, 2), "ratio": round(d / a, 3)}
+                       for name, (d, a) in rates.items()}
+    total_d = sum(counts.values())
+    total_minutes = sum(sum(v) for v in lengths.values()) / 60
+    total_alone = sum(a * sum(lengths[n]) / 60 for n, (_, a) in rates.items())
+    report["rate_all_sets"] = {"dialogue": round(total_d / total_minutes, 2),
+                               "alone": round(total_alone / total_minutes, 2),
+                               "ratio": round(total_d / total_alone, 3)}
+    return report
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--dialogues", type=int, default=1)
+    parser.add_argument("--minutes", type=float, default=60.0)
+    parser.add_argument("--seed", type=int, default=1)
+    parser.add_argument("--no-independent", dest="independent", action="store_false",
+                        help="skip the CP-SAT check of every announced episode")
+    args = parser.parse_args()
+    print(f"load average {os.getloadavg()[0]:.2f} (2 cores, shared)")
+    with tempfile.TemporaryDirectory() as temporary:
+        folder = Path(temporary)
+        greta = import_greta(folder / "greta")
+        pool = [*bundled_names(), *(f"greta/{p.name}" for p in greta)]
+        print(f"{len(pool)} sets: {len(bundled_names())} bundled ({behaviour_sets_dir()}), {len(greta)} from Greta")
+        for number in range(args.dialogues):
+            report = one_dialogue(number, pool, args, folder)
+            print(json.dumps(report, indent=1))
+    print(f"load average {os.getloadavg()[0]:.2f} (2 cores, shared)")
+
+
+if __name__ == "__main__":
+    main()
