@@ -94,8 +94,7 @@ def test_clock_times_intensity_and_blends(written: dict[str, Path]) -> None:
         {"t": 0.0, "emotion": "anger", "intensity": 0.8, "until": 3.7},
         {"t": 3.7, "emotion": "cheerfulness", "intensity": 0.6, "until": 8.7},
         {"t": 10.0, "emotion": "panic_fear", "intensity": 1.0},
-        {"t": 10.0, "end": True},
-    ]
+    ]  # no end: the last emotion has none, the planner gives it its horizon
     assert [e.span.line for e in reading.events[:3]] == [3, 7, 11]
     codes = {(w.code, w.span.line) for w in reading.warnings}
     assert ("W525", 9) in codes  # sadness, the weaker category, is reported
@@ -108,7 +107,6 @@ def test_relative_times(written: dict[str, Path]) -> None:
     assert [dict(e.event) for e in reading.events] == [
         {"t": 0.5, "emotion": "anger", "intensity": 0.5, "until": 2.5},
         {"t": 2.5, "emotion": "panic_fear", "intensity": 1.0},
-        {"t": 2.5, "end": True},
     ]
     with pytest.raises(MseError) as caught:
         read_emotionml(written["mixed"])
@@ -188,3 +186,21 @@ def test_local_vocabulary_and_wrong_root(tmp_path: Path) -> None:
     wrong.write_text('<emotionml xmlns="urn:other" version="1.0"/>')
     with pytest.raises(MseError, match=re.escape(NAMESPACE)):
         read_emotionml(wrong)
+
+
+def test_read_events_tells_scripts_and_markup_apart(tmp_path: Path, written: dict[str, Path]) -> None:
+    from mse.dialogue import plan_script
+    from mse.dialogue.inputs import read_events
+
+    script = tmp_path / "talk.jsonl"
+    script.write_text('{"t": 0, "emotion": "anger", "until": 2}\n{"t": 2, "end": true}\n', encoding="utf-8")
+    events, notes = read_events(script)
+    assert len(events) == 2 and notes == []
+    events, notes = read_events(written["dialogue"])
+    assert len(events) == 3 and notes
+    timeline = plan_script(events, seed=1)
+    assert [e["emotion"] for e in timeline.episodes if e["start"] in (0.0, 3.7, 10.0)] == [
+        "anger",
+        "cheerfulness",
+        "panic_fear",
+    ]

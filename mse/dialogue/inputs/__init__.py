@@ -82,9 +82,17 @@ def read_dialogue_input(
     reading = read_input(path, names=names, known=known)
     if not any("emotion" in e.event for e in reading.events):
         where = next((w.span for w in reading.warnings if w.code == "W528"), Span(str(path), 1, 1))
-        nothing = Diagnostic(
-            "E150", "nothing to play: no emotion mse can play (see the warnings)", where
-        )
+        nothing = Diagnostic("E150", "nothing to play: no emotion mse can play (see the warnings)", where)
         raise MseError([nothing, *reading.warnings])
     events = parse_events((dict(e.event), e.span) for e in reading.events)
     return events, list(reading.warnings)
+
+
+def read_events(path: str | Path, *, names: EmotionNames | None = None) -> tuple[list[Event], list[Diagnostic]]:
+    """What ``mse live`` reads: a JSON Lines script, or an FML-APML or EmotionML file (its first
+    character is ``<``), as script events and the warnings about what was not used."""
+    from mse.dialogue.script import read_script
+
+    if str(path) != "-" and is_markup_input(path):
+        return read_dialogue_input(path, names=names)
+    return read_script(path), []

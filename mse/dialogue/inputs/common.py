@@ -240,7 +240,11 @@ def finish(fmt: str, events: list[InputEvent], warnings: list[Diagnostic], span:
     times += [float(w[2]) for e in events for w in e.event.get("words", ())]
     order = {"emotion": 0, "say": 1}
     ordered = sorted(events, key=lambda e: (e.t, min(order.get(k, 2) for k in e.event)))
-    if ordered:
+    last = max((e for e in ordered if "emotion" in e.event), key=lambda e: e.t, default=None)
+    open_ended = last is not None and "until" not in last.event and max(times) <= last.t
+    if ordered and not open_ended:
+        # The end of the last utterance or announced emotion.  An input whose last emotion has
+        # no end and nothing after it gets no end: the planner gives that episode its horizon.
         ordered.append(InputEvent({"t": round(max(times), 6), "end": True}, span))
     return InputReading(fmt, tuple(ordered), tuple(sorted(warnings, key=Diagnostic.sort_key)))
 
