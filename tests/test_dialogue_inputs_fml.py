@@ -234,3 +234,39 @@ def test_script_events_for_the_session(shared_dir: Path) -> None:
         read_dialogue_input(shared_dir / "fml" / "examples" / "unityShortSpeech_Obadiah_1.xml")
     codes = [d.code for d in caught.value.diagnostics]
     assert "E150" in codes and "W522" in codes  # envy has no set: that is why nothing plays
+
+
+@pytest.mark.parametrize(
+    ("body", "code"),
+    [
+        ('<bml><speech id="s1"><tm id="a" time="x"/>hi</speech></bml>', "E152"),
+        ('<bml><speech id="s1">hi</speech><speech id="s1">ho</speech></bml>', "E150"),
+        ("<bml><speech>hi</speech></bml>", "E150"),
+        (
+            '<fml><emotion id="a" type="anger" start="b:end" end="5"/>'
+            '<emotion id="b" type="anger" start="a:start"/></fml>',
+            "E151",
+        ),
+        ('<fml><emotion id="a" type="anger" start="0" end="s1:tm1 + x"/></fml>', "E152"),
+    ],
+)
+def test_more_bad_input(tmp_path: Path, body: str, code: str) -> None:
+    with pytest.raises(MseError) as caught:
+        read_fml(_write(tmp_path, body))
+    assert caught.value.diagnostics[0].code == code, caught.value
+
+
+def test_odd_but_readable_input_is_reported(tmp_path: Path) -> None:
+    path = _write(
+        tmp_path,
+        """<bml><speech id="s1" start="0.5">Hello <tm id="t1"/>there
+<pitchaccent id="p" start="s1:nowhere" end="s1:t1"/><boundary id="b" start="s1:t1" type="LL"/></speech>
+<gesture id="g" lexeme="BEAT"/></bml>
+<fml><emotion type="anger" start="0"/><emotion id="e" type="anger" start="s1:start" end="s1:end"
+ regulation="fake"/><performative id="p1" type="inform" start="0"/></fml><extra/>""",
+    )
+    reading = read_fml(path)
+    codes = sorted(w.code for w in reading.warnings)
+    assert codes.count("W520") == 5 and "W527" in codes and "W521" in codes, codes
+    emotion, say, end = (dict(e.event) for e in reading.events)
+    assert emotion["t"] == 0.5 and say["t"] == 0.5 and end["t"] == emotion["until"] == say["words"][-1][2]

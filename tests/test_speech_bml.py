@@ -25,6 +25,16 @@ UTTERANCE = {
 }
 
 
+def _bml_schema(shared: Path) -> etree.XMLSchema:
+    """The BML 1.0 XSD with ``part`` on ``<pose>``, which BML 1.0 requires and the XSD forbids
+    (as tests/test_export_bml.py)."""
+    tree = etree.parse(str(shared / "bml" / "bml-1.0.xsd"))
+    xs = "{http://www.w3.org/2001/XMLSchema}"
+    (pose_type,) = [t for t in tree.iter(f"{xs}complexType") if t.get("name") == "poseType"]
+    etree.SubElement(pose_type, f"{xs}attribute", name="part", type="closedSetItem")
+    return etree.XMLSchema(tree)
+
+
 def dialogue() -> Timeline:
     signals = (
         TimelineSignal("nod", "head", "head=nod", 0.8, 1.3, episode=0),  # on "believe"
@@ -107,6 +117,10 @@ def test_realizers_accept_generated_dialogues_and_resolve_every_reference(shared
     if reason is not None:
         pytest.skip(reason)
     written = write_all(generated_dialogues(6, seed=1), tmp_path)
+    schema = _bml_schema(shared_dir)
+    for w in written:
+        if w.profile == "generic":
+            assert schema.validate(etree.parse(str(w.path))), (w.path.name, schema.error_log)
     verdict = verify(written, shared_dir, tmp_path)
     assert verdict.files == 24 and not verdict.rejected, verdict.rejected
     assert not verdict.problems, verdict.problems[:5]
