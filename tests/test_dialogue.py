@@ -219,6 +219,12 @@ def test_check_names_the_episode_and_the_constraint(tmp_path: Path, capsys: pyte
     (tmp_path / "good.json").write_text(timeline.dumps())
     assert main(["check", str(tmp_path / "good.json")]) == 0
     assert "(2 of 2 episodes)" in capsys.readouterr().out
+    assert main(["check", "anger", str(tmp_path / "good.json")]) == 1
+    assert "check it alone" in capsys.readouterr().err
+    plain = tmp_path / "plain.json"
+    plain.write_text(mse.sample(mse.load("anger"), 5.0, seed=1).dumps())  # type: ignore[union-attr]
+    assert main(["check", str(plain)]) == 1
+    assert "has no episodes" in capsys.readouterr().err
 
 
 def test_a_gap_between_episodes_is_a_violation(tmp_path: Path) -> None:
@@ -356,3 +362,35 @@ def test_bml_block_ids_and_composition(tmp_path: Path) -> None:
                  "--composition", "REPLACE"]) == 0
     text = out.read_text()
     assert 'id="turn7"' in text and 'composition="REPLACE"' in text
+
+
+def test_a_cut_that_is_not_the_plan_cut_is_reported() -> None:
+    for seed in range(30):
+        session = Session(seed=seed)
+        planned = session.emotion(0.0, "embarrassment")
+        open_at = [s for s in planned if s.stop - s.start > 1.0]
+        if not open_at:
+            continue
+        t = round(open_at[0].start + 0.5, 3)
+        session.emotion(t, "relief", until=round(t + 4, 3))
+        session.end(round(t + 4, 3))
+        timeline = session.timeline()
+        cut = next(s for s in timeline.signals if s.cut)
+        late = timeline.with_signals([replace(s, stop=round(t + 0.5, 3)) if s is cut else s
+                                      for s in timeline.signals])
+        assert any("releases within" in v.violation.message for v in check_dialogue(late))
+        uncut = timeline.with_signals([replace(s, planned_stop=None) if s is cut else s for s in timeline.signals])
+        assert any(v.episode == 0 for v in check_dialogue(uncut))
+        return
+    pytest.fail("no seed gave an occurrence open at the change")
+
+
+def test_live_reads_standard_input(tmp_path: Path, monkeypatch: pytest.MonkeyPatch,
+                                   capsys: pytest.CaptureFixture[str]) -> None:
+    import io
+    import sys
+
+    text = "".join(json.dumps(e) + "\n" for e in SCRIPT)
+    monkeypatch.setattr(sys, "stdin", io.TextIOWrapper(io.BytesIO(text.encode())))
+    assert main(["live", "-", "--seed", "3"]) == 0
+    assert json.loads(capsys.readouterr().out)["episodes"][1]["emotion"] == "relief"

@@ -44,6 +44,11 @@ def run(args: argparse.Namespace) -> int:
     try:
         model = load(args.source)
         timelines = read_timelines(args.timeline)
+        if any(t.episodes for t in timelines):
+            where = "<stdin>" if args.timeline == "-" else args.timeline
+            message = (f"this is a dialogue's timeline (episodes, each with its own set): check it alone, "
+                       f"'mse check {args.timeline}'")
+            raise MseError([Diagnostic("E100", message, Span(where))])
     except MseError as error:
         return print_error(error)
     failing = 0

@@ -212,7 +212,9 @@ class Session:
         from mse.solve.protocol import NoSolution, SolveRequest, get_solver
 
         model = loaded.model
-        request = SolveRequest(duration=length, seed=self.seed + index)
+        # A length planned once (an announced episode) is not worth the sampler's plan cache.
+        once = abs(length - self.horizon) > _EPSILON
+        request = SolveRequest(duration=length, seed=self.seed + index, options={"cache_plan": not once})
         try:
             for occurrence in get_solver("greedy").stream(model, request):
                 modality, lexeme = model.signal_info[occurrence.signal]

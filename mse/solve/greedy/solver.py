@@ -110,7 +110,9 @@ class GreedySolver:
         duration = to_ticks(request.duration)
         slot = request.slot if request.slot is not None else DEFAULT_SLOT
         free = request.mode == "constraint-less"
-        plan = plan_for(model, duration, slot, with_constraints=not free)
+        # options["cache_plan"] = False: a length planned once (a dialogue's announced episode)
+        plan = plan_for(model, duration, slot, with_constraints=not free,
+                        cache=request.options.get("cache_plan", True) is not False)
         attempt = Attempt(plan, random.Random(seed), frozenset(request.forbid), frozenset(request.require))
         return plan, attempt
 
