@@ -53,6 +53,9 @@ CODES: dict[str, str] = {
     "E121": "invalid annotation",
     # E130: the command line or a library call asked for something invalid
     "E130": "invalid argument or option value",
+    "E150": "FML-APML or EmotionML structure mse cannot read",
+    "E151": "time reference that names nothing, or times on different bases",
+    "E152": "invalid number or time in an FML-APML or EmotionML input",
     # E2xx: well-formed but meaningless
     "E201": "duplicate signal id",
     "E202": "duplicate constraint id",
@@ -104,6 +107,16 @@ CODES: dict[str, str] = {
     "W501": "Greta name mismatch resolved",
     "W502": "Greta construct approximated",
     "W503": "annotation left out or merged",
+    "W520": "input element mse does not use (FML function, prosody, EmotionML descriptor)",
+    "W521": "input attribute mse does not use",
+    "W522": "input emotion with no behaviour set",
+    "W523": "overlapping input emotions cut (one emotion at a time)",
+    "W524": "input times estimated or shifted",
+    "W525": "several categories in one emotion (the strongest is played)",
+    "W526": "input emotion without a usable time (not placed)",
+    "W527": "FML function Greta's reader drops",
+    "W528": "input with no emotion mse can play",
+    "W529": "emotion vocabulary mse does not know (names not checked)",
     # W6xx: export
     "W601": "behaviour left out of the export (the realizer cannot play it)",
     "W602": "lexeme not drawn by the face player",

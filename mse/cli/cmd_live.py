@@ -1,5 +1,6 @@
-"""``mse live SCRIPT``: a dialogue script (JSON Lines of emotion changes, utterances and its end)
-planned episode by episode into one multi-episode timeline (docs/dialogue.md)."""
+"""``mse live SCRIPT``: a dialogue script (JSON Lines of emotion changes, utterances and its end,
+or an FML-APML or EmotionML file) planned episode by episode into one multi-episode timeline
+(docs/dialogue.md, docs/dialogue-inputs.md)."""
 
 from __future__ import annotations
 
@@ -8,7 +9,7 @@ from pathlib import Path
 from typing import Any
 
 from mse.cli.common import add_quiet, emit, print_error
-from mse.diagnostics import Diagnostic, MseError, Span
+from mse.diagnostics import MseError, argument_error
 
 FORMATS = ("json", "table", "bml", "greta-bml", "svg", "html", "eaf", "mp4", "webm", "gif")
 REALIZERS = ("generic", "greta", "asap")
@@ -22,7 +23,7 @@ def register(subparsers: Any) -> None:
         "{\"t\": 0.4, \"say\": \"...\"}, {\"t\": 8.7, \"end\": true}) and plan each episode as it comes into "
         "one timeline; --format gives every export of the whole dialogue. Exit 1 on bad input (nothing written).",
     )
-    parser.add_argument("script", help="dialogue script, JSON Lines ('-' for stdin)")
+    parser.add_argument("script", help="dialogue script: JSON Lines ('-' for stdin), FML-APML or EmotionML")
     parser.add_argument("-o", "--output", help="write to this file (atomically) instead of stdout")
     parser.add_argument("--format", choices=FORMATS,
                         help="output format (default: from the -o file's extension, else json)")
@@ -37,42 +38,36 @@ def register(subparsers: Any) -> None:
     out.add_argument("--realizer", choices=REALIZERS, help="BML for this realizer (default: generic for bml, "
                      "greta for greta-bml)")
     out.add_argument("--library-dir", metavar="DIR", help="the realizer's libraries (Greta's BehaviorLexicon folder)")
-    from mse.cli.cmd_render import add_bml_block_arguments, add_face_arguments
+    from mse.cli.cmd_render import add_bml_block_arguments, add_face_arguments, add_video_arguments
 
     add_face_arguments(out)
     add_bml_block_arguments(out)
+    add_video_arguments(parser.add_argument_group("video (--format mp4, webm, gif: as mse render)"))
     parser.set_defaults(handler=run)
 
 
 def _format(args: argparse.Namespace) -> str:
-    if args.format:
-        return str(args.format)
-    if not args.output or args.output == "-":
-        return "json"
-    from mse.export import SUFFIXES
+    from mse.cli.output_format import output_format
 
-    suffix = Path(args.output).suffix.lower()
-    by_suffix = {".json": "json", ".htm": "html", **{s: name for name, s in SUFFIXES.items()}}
-    if suffix in by_suffix:
-        return by_suffix[suffix]
-    known = ", ".join(sorted(by_suffix))
-    message = f"cannot tell the format from {args.output!r}: give --format, or -o a file ending in {known}"
-    raise MseError([Diagnostic("E100", message, Span("<arguments>"))])
+    return output_format(args.format, args.output, FORMATS) or "json"
 
 
 def run(args: argparse.Namespace) -> int:
     import random
 
+    from mse.cli.common import print_diagnostics
     from mse.cli.sample_output import render_timelines, write_video_file
-    from mse.dialogue import plan_script, read_script
+    from mse.dialogue import plan_script
+    from mse.dialogue.inputs import read_events
     from mse.limits import solve_duration_problem
 
     try:
         fmt = _format(args)
         problem = solve_duration_problem(args.horizon)
         if problem is not None:
-            raise MseError([Diagnostic("E100", f"--horizon {problem}", Span("<arguments>"))])
-        events = read_script(args.script)
+            raise argument_error(f"--horizon {problem}")
+        events, notes = read_events(args.script)
+        print_diagnostics(notes)  # what the input holds that mse cannot use, never dropped silently
         seed = args.seed if args.seed is not None else random.SystemRandom().randrange(2**31)
         base = None if args.script == "-" else Path(args.script).resolve().parent
         timeline = plan_script(events, seed=seed, horizon=args.horizon, base=base)

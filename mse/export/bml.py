@@ -237,6 +237,10 @@ def render_bml(timeline: Timeline, options: ExportOptions) -> str:
         library = optional_face_library(options)
         for b in behaviours:
             children.extend(_behaviour_elements(b, realizer, library, options))
+    if timeline.utterances:
+        from mse.export.speech_bml import with_speech
+
+        children = with_speech(timeline.utterances, behaviours, children, greta=realizer == "greta")
     if options.bml_constraints:
         children.extend(sync_constraints(children))
     if not any(isinstance(c, Element) for c in children):

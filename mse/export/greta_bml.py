@@ -154,7 +154,12 @@ def greta_notes(timeline: Timeline, options: ExportOptions, where: str = "<expor
 
 def render_greta_bml(timeline: Timeline, options: ExportOptions) -> str:
     realizer_for("greta-bml", options.realizer)
-    children: list[Element | Comment | str] = list(greta_elements(plan_behaviours(timeline), options))
+    behaviours = plan_behaviours(timeline)
+    children: list[Element | Comment | str] = list(greta_elements(behaviours, options))
+    if timeline.utterances:
+        from mse.export.speech_bml import with_speech
+
+        children = with_speech(timeline.utterances, behaviours, children, greta=True)
     attrs: dict[str, str | float | int | None] = {
         "xmlns": GRETA_BML_NAMESPACE,
         "xmlns:ext": EXT_NAMESPACE if options.bml_extensions else None,
