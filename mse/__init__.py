@@ -29,8 +29,8 @@ if TYPE_CHECKING:
     from mse.diagnostics import Diagnostic, MseError
     from mse.ir.evaluate import Violation
     from mse.ir.model import Model
-    from mse.solve.cpsat.explain import Explanation
     from mse.repairing.repair import NoRepair, Repair
+    from mse.solve.cpsat.explain import Explanation
     from mse.solve.protocol import NoSolution, Pin, SolveRequest
     from mse.timeline import Timeline, TimelineSignal
 

@@ -3,7 +3,7 @@
 Every layer reports problems as :class:`Diagnostic` records; front-ends (the CLI, an
 editor, CI) decide how to render them.  Codes: ``E1xx`` syntax, ``E2xx`` semantics,
 ``W3xx`` static lint, ``E4xx``/``W4xx`` solver-backed lint, ``W5xx`` import/conversion notes,
-``W6xx`` export notes.
+``W6xx`` export notes, ``W7xx``/``E7xx`` repair notes.
 """
 
 from __future__ import annotations
@@ -65,6 +65,7 @@ CODES: dict[str, str] = {
     "E214": "invalid lexeme table",
     "E215": "time outside the supported range",
     "E216": "a signal's length compared with something other than a number",
+    "E218": "invalid repair proposal (structure, names, times, word timings)",
     # W3xx: static lint
     "W300": "no behaviour-set file found",
     "W301": "inactive signal (both probabilities are 0)",
@@ -95,6 +96,9 @@ CODES: dict[str, str] = {
     # W6xx: export
     "W601": "behaviour left out of the export (the realizer cannot play it)",
     "W602": "lexeme not drawn by the face player",
+    # W7xx / E7xx: repair of proposed expressions
+    "W701": "proposed occurrence naming no signal of the set (left out of the repair)",
+    "E702": "no repair keeps what must be kept (proven, with a minimal explanation)",
 }
 
 

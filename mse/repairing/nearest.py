@@ -380,7 +380,7 @@ MOVE_SEARCHES: list[dict[str, Any]] = [{"linearization_level": 2}]
 
 
 def _search(cp: cp_model.CpModel, deadline: float, workers: int, seed: int,
-            searches: Sequence[Mapping[str, Any]]) -> tuple[int, cp_model.CpSolver]:
+            searches: Sequence[Mapping[str, Any]]) -> tuple[Any, cp_model.CpSolver]:
     from ortools.sat.python import cp_model
 
     from mse.solve.cpsat.engine import make_solver
@@ -401,7 +401,7 @@ def _search(cp: cp_model.CpModel, deadline: float, workers: int, seed: int,
 
 def _hint_solution(cp: cp_model.CpModel, solver: cp_model.CpSolver) -> None:
     """Every variable's value in ``solver``'s solution as the next search's hint."""
-    cp.clear_hints()
+    cp.clear_hints()  # type: ignore[no-untyped-call]
     proto = cp.proto
     for index in range(len(proto.variables)):
         cp.proto.solution_hint.vars.append(index)

@@ -33,6 +33,16 @@ class Positions:
         return self.at.get(path, (1, 1))
 
 
+@dataclass(slots=True)
+class _Open:
+    """An open container: its path, its kind, the next index (arrays), the pending key (objects)."""
+
+    path: Path
+    is_object: bool
+    index: int = 0
+    key: str | None = None
+
+
 def json_positions(text: str, depth: int = 4) -> Positions:
     """Positions of the values of ``text`` (valid JSON) down to ``depth`` levels."""
     import json
@@ -50,18 +60,17 @@ def json_positions(text: str, depth: int = 4) -> Positions:
         return low + 1, offset - line_starts[low] + 1
 
     found: dict[Path, tuple[int, int]] = {}
-    # Each open container: [its path, "object" | "array", the next index, the pending key].
-    stack: list[list[object]] = []
+    stack: list[_Open] = []
     offset = _SPACE.match(text, 0).end()  # type: ignore[union-attr]
     while offset < len(text):
         char = text[offset]
         if char in " \t\r\n,:":
             offset = _SPACE.match(text, offset + 1).end()  # type: ignore[union-attr]
             continue
-        if stack and stack[-1][1] == "object" and stack[-1][3] is None and char == '"':
+        if stack and stack[-1].is_object and stack[-1].key is None and char == '"':
             key = _STRING.match(text, offset)
             assert key is not None
-            stack[-1][3] = json.loads(key.group())
+            stack[-1].key = json.loads(key.group())
             offset = key.end()
             continue
         if char in "]}":
@@ -71,19 +80,19 @@ def json_positions(text: str, depth: int = 4) -> Positions:
         # A value starts here: its path is the parent's plus the key or index.
         if stack:
             parent = stack[-1]
-            if parent[1] == "object":
-                step: str | int = str(parent[3])
-                parent[3] = None
+            if parent.is_object:
+                step: str | int = str(parent.key)
+                parent.key = None
             else:
-                step = int(parent[2])  # type: ignore[call-overload]
-                parent[2] = step + 1
-            path: Path = (*parent[0], step)  # type: ignore[misc]
+                step = parent.index
+                parent.index += 1
+            path: Path = (*parent.path, step)
         else:
             path = ()
         if len(path) <= depth:
             found[path] = where(offset)
         if char in "[{":
-            stack.append([path, "object" if char == "{" else "array", 0, None])
+            stack.append(_Open(path, char == "{"))
             offset += 1
             continue
         token = _STRING.match(text, offset) if char == '"' else _SCALAR.match(text, offset)

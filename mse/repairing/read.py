@@ -14,6 +14,7 @@ know is no error: that occurrence is *foreign* (reported, kept out of the solve)
 
 from __future__ import annotations
 
+import itertools
 import math
 import re
 from collections.abc import Mapping, Sequence
@@ -41,16 +42,27 @@ _OCCURRENCE_KEYS = frozenset({"signal", "lexeme", "start", "stop", "length", "we
 _TAG = re.compile(r"\[(/?)([^\[\]\s/]+)\]")
 
 
+def proposal_schema() -> dict[str, Any]:
+    """The JSON Schema of ``mse-proposal/1`` (``proposal.schema.json`` beside this module)."""
+    import json
+    from importlib.resources import files
+
+    schema: dict[str, Any] = json.loads(files("mse.repairing").joinpath("proposal.schema.json").read_text("utf-8"))
+    return schema
+
+
 class _Located:
     """Positions of one document's values, and errors raised at them."""
 
-    def __init__(self, path: str, positions: Positions | None, origin: tuple[int, int] = (1, 1)) -> None:
+    def __init__(self, path: str, positions: Positions | None) -> None:
         self.path = path
         self.positions = positions
-        self.origin = origin
 
     def span(self, where: Path = ()) -> Span:
-        line, col = self.positions.of(where) if self.positions is not None else self.origin
+        """The value's line:col; just the path when the JSON came decoded (no positions)."""
+        if self.positions is None:
+            return Span(self.path)
+        line, col = self.positions.of(where)
         return Span(self.path, line, col)
 
     def fail(self, message: str, where: Path = ()) -> MseError:
@@ -321,7 +333,8 @@ def _is_number(value: object) -> bool:
 
 def _duration(obj: Mapping[str, Any], at: _Located) -> float:
     value = obj.get("duration")
-    if not _is_number(value) or not MIN_DURATION_SECONDS <= float(value) <= MAX_SOLVE_SECONDS:
+    if not isinstance(value, int | float) or not _is_number(value) or not (
+            MIN_DURATION_SECONDS <= float(value) <= MAX_SOLVE_SECONDS):
         raise at.fail(f"'duration' must be a number of seconds in [{MIN_DURATION_SECONDS:g}, {MAX_SOLVE_SECONDS:g}]",
                       ("duration",))
     return float(value)
@@ -399,7 +412,7 @@ def _finish(model: ir.Model, occurrences: list[ProposedOccurrence], duration: fl
         by_name.setdefault(occurrence.signal or occurrence.name, []).append(occurrence)
     for group in by_name.values():
         ordered = sorted(group, key=lambda o: (o.start, o.stop))
-        for first, second in zip(ordered, ordered[1:], strict=False):
+        for first, second in itertools.pairwise(ordered):
             if second.start < first.stop:
                 where = first.span.render()
                 raise MseError([Diagnostic(CODE, f"{second.describe()} overlaps {first.describe()} (at {where}): "

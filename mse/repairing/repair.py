@@ -55,6 +55,7 @@ class Change:
     start: int | None = None
     stop: int | None = None
     reasons: tuple[Reason, ...] = ()
+    path: str = "<proposal>"
 
     @property
     def moved(self) -> int:
@@ -65,7 +66,8 @@ class Change:
 
     @property
     def span(self) -> Span:
-        return self.proposed.span if self.proposed is not None else Span("<repair>")
+        """Where the proposal wrote the occurrence (an added one: the proposal itself)."""
+        return self.proposed.span if self.proposed is not None else Span(self.path)
 
     def describe(self) -> str:
         here = f"[{_s(self.start)}, {_s(self.stop)}] s" if self.start is not None else ""
@@ -290,7 +292,7 @@ def _changes(model: ir.Model, proposal: Proposal, solved: Solved) -> list[Change
     for position, p in enumerate(placed):
         others = current[:position] + current[position + 1:]
         if p.source is None:
-            changes.append(Change("added", p.signal, None, p.start, p.stop, reasons(others)))
+            changes.append(Change("added", p.signal, None, p.start, p.stop, reasons(others), proposal.path))
             continue
         proposed = proposal.occurrences[p.source]
         if (p.start, p.stop) != (proposed.start, proposed.stop):
