@@ -34,8 +34,9 @@ from typing import Any
 ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT / "tests"))
 
-import mse  # noqa: E402
 from independent_checker import problems  # noqa: E402
+
+import mse  # noqa: E402
 from mse.ir.evaluate import check_schedule  # noqa: E402
 from mse.resources import bundled_names  # noqa: E402
 

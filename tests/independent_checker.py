@@ -51,9 +51,9 @@ def occurrence_problems(model: ir.Model, occurrences: Sequence[Occ], duration: i
         if first[0] == second[0] or first[0] not in signals or second[0] not in signals:
             continue
         modality = signals[first[0]].modality
-        if modality in exclusive and modality == signals[second[0]].modality:
-            if first[1] < second[2] and second[1] < first[2]:
-                found.append(f"{first[0]} and {second[0]} overlap in {modality}")
+        same = modality in exclusive and modality == signals[second[0]].modality
+        if same and first[1] < second[2] and second[1] < first[2]:
+            found.append(f"{first[0]} and {second[0]} overlap in {modality}")
     return found
 
 

@@ -13,9 +13,9 @@ from pathlib import Path
 import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
+from independent_checker import problems
 
 import mse
-from independent_checker import problems
 from mse.cli import main
 from mse.ir.evaluate import check_schedule
 from mse.repairing.read import proposal_schema
