@@ -216,12 +216,15 @@ def repair(
     >>> import mse
     >>> model = mse.load("embarrassment")
     >>> fixed = mse.repair(model, {"duration": 10, "occurrences": [
-    ...     {"signal": "gaze_down", "start": 1, "stop": 3},
-    ...     {"signal": "tensed_smile", "start": 2.5, "stop": 5}]})
+    ...     {"signal": "head_down", "start": 0.5, "stop": 3.5},
+    ...     {"signal": "gaze_down", "start": 1, "stop": 2.5},
+    ...     {"signal": "tensed_smile", "start": 2, "stop": 4.5}]})
     >>> [(s.id, s.start, s.stop) for s in fixed.timeline.signals]
-    [('head_down', 1.0, 3.0), ('gaze_down', 1.0, 2.5), ('tensed_smile', 2.5, 5.0)]
+    [('head_down', 0.5, 3.5), ('gaze_down', 1.0, 2.5), ('tensed_smile', 2.5, 4.5)]
     >>> print(fixed.summary())
-    repaired for embarrassment: 0 dropped, 1 added, 1 moved by 500 ms in all, 0 foreign
+    repaired for embarrassment: 0 dropped, 0 added, 1 moved by 500 ms in all, 0 foreign
+    >>> print(fixed.changes[0].reasons[0].rule)
+    looks_down_first
     >>> mse.check(model, fixed.timeline)
     []
     """
