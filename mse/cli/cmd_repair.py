@@ -17,7 +17,8 @@ def register(subparsers: Any) -> None:
         help="repair a proposed expression into the nearest consistent timeline",
         description="Read a proposal (a timeline JSON, an mse-proposal/1 JSON, or tagged text such as "
         "'[nod] I [smile]really[/smile] mean it') and write the consistent timeline that changes it "
-        "least: first the fewest occurrences dropped or added, then the least time moved (milliseconds, times each occurrence's weight). "
+        "least: first the fewest occurrences dropped or added, then the least time moved "
+        "(milliseconds, times each occurrence's weight). "
         "Each change is reported on stderr with the rule (file:line) that forced it. Exit 0: repaired or "
         "already consistent (then written back unchanged); 1: bad input; 2: no repair keeps what --keep "
         "demands (with a minimal explanation).",
