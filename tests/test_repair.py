@@ -287,3 +287,19 @@ def test_cli_unknown_keep_and_strict(tmp_path: Path, capsys: pytest.CaptureFixtu
     assert code == 1 and "E100 --keep 'nothing'" in err
     code, _, err = _run(["repair", "embarrassment", str(proposal), "--strict"], capsys)
     assert code == 1 and "E218 wink" in err
+
+
+@pytest.mark.shared
+def test_sets_imported_from_greta(greta_dir: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    assert main(["import-greta", str(greta_dir / "lexicon.xml"), str(greta_dir / "constraint.xml"),
+                 "-o", str(tmp_path)]) == 0
+    capsys.readouterr()
+    rng = random.Random(3)
+    for path in sorted(tmp_path.glob("*.xml")):
+        model = mse.load(path)
+        for seed in range(3):
+            original = mse.sample(model, 10.0, seed=seed)
+            assert mse.repair(model, original).timeline is original
+            result = mse.repair(model, _perturbed(original, rng))
+            _consistent(model, result)
+            assert result.optimal, path.name
