@@ -284,7 +284,7 @@ def _from_text(model: ir.Model, text: str, words: Any, at: _Located, duration: f
             stop = times[last][1]
         else:
             stop = start + (typical_length(model.signal(signal)) if signal is not None else 1000)
-        occurrences.append(ProposedOccurrence(name, signal, start, stop, estimated=words is None and last is None,
+        occurrences.append(ProposedOccurrence(name, signal, start, stop, estimated=words is None or last is None,
                                               span=span(offset)))
     return _finish(model, occurrences, duration, at, form="text", floor=end_of_speech)
 
