@@ -7,9 +7,9 @@ Four parts, data flowing one way:
 - ``mse.timeline`` -> ``mse.export`` (JSON, BML, SVG, HTML) and ``mse.motion`` (motion leaves).
 
 The public API (docs/api.md): ``load``, ``loads``, ``sample``, ``iter_sample``, ``check``,
-``lint``, ``explain`` and the types they take and return (``Model``, ``Timeline``,
+``lint``, ``explain``, ``repair`` and the types they take and return (``Model``, ``Timeline``,
 ``TimelineSignal``, ``Pin``, ``SolveRequest``, ``Violation``, ``Explanation``,
-``Diagnostic``, ``MseError``, ``NoSolution``), imported on first use.
+``Diagnostic``, ``MseError``, ``NoSolution``, ``Repair``, ``NoRepair``), imported on first use.
 
 >>> import mse
 >>> model = mse.load("anger")
@@ -25,10 +25,11 @@ __version__ = "0.1.0"
 from typing import TYPE_CHECKING, Any
 
 if TYPE_CHECKING:
-    from mse.api import check, explain, iter_sample, iter_timelines, lint, load, loads, sample
+    from mse.api import check, explain, iter_sample, iter_timelines, lint, load, loads, repair, sample
     from mse.diagnostics import Diagnostic, MseError
     from mse.ir.evaluate import Violation
     from mse.ir.model import Model
+    from mse.repairing.repair import NoRepair, Repair
     from mse.solve.cpsat.explain import Explanation
     from mse.solve.protocol import NoSolution, Pin, SolveRequest
     from mse.timeline import Timeline, TimelineSignal
@@ -44,12 +45,15 @@ _LAZY = {
     "load": "mse.api",
     "loads": "mse.api",
     "sample": "mse.api",
+    "repair": "mse.api",
     "Diagnostic": "mse.diagnostics",
     "MseError": "mse.diagnostics",
     "Violation": "mse.ir.evaluate",
     "Model": "mse.ir.model",
     "Timeline": "mse.timeline",
     "TimelineSignal": "mse.timeline",
+    "Repair": "mse.repairing.repair",
+    "NoRepair": "mse.repairing.repair",
     "Pin": "mse.solve.protocol",
     "SolveRequest": "mse.solve.protocol",
     "NoSolution": "mse.solve.protocol",
@@ -73,8 +77,10 @@ __all__ = [
     "Explanation",
     "Model",
     "MseError",
+    "NoRepair",
     "NoSolution",
     "Pin",
+    "Repair",
     "SolveRequest",
     "Timeline",
     "TimelineSignal",
@@ -87,5 +93,6 @@ __all__ = [
     "lint",
     "load",
     "loads",
+    "repair",
     "sample",
 ]

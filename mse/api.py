@@ -40,15 +40,19 @@ from mse.timeline import Timeline
 # re-exports it and stays the one documented API.
 __all__ = [
     "DEFAULT_OBJECTIVE", "check", "compile_source", "expand_paths", "explain", "expression_source", "iter_sample",
-    "iter_timelines", "learn", "lint", "load", "loads", "loads_ir", "motion_annotations", "resolve_path", "sample",
-    "with_source",
+    "iter_timelines", "learn", "lint", "load", "loads", "loads_ir", "motion_annotations", "repair", "resolve_path",
+    "sample", "with_source",
 ]
 
 # The XML reader, the grammar and the IR builder (lxml, lark) are imported inside the
 # functions that parse: a model from the compiled-model cache needs none of them.
 
 if TYPE_CHECKING:
+    from collections.abc import Mapping
+
     from mse.learn import LearnOptions, LearnResult, TierMapping
+    from mse.repairing.proposal import Proposal
+    from mse.repairing.repair import Repair
 
 
 def compile_source(path: str | Path, data: bytes | None = None) -> tuple[Model | None, list[Diagnostic]]:
@@ -192,6 +196,45 @@ def check(model: Model, timeline: Timeline) -> list[Violation]:
     ['angry_face_shown']
     """
     return check_schedule(model, timeline.to_schedule())
+
+
+def repair(
+    model: Model,
+    proposal: Proposal | Timeline | Mapping[str, Any] | str,
+    *,
+    keep: Iterable[str] = (),
+    duration: float | None = None,
+    time_limit: float = 10.0,
+    workers: int = 1,
+    path: str = "<proposal>",
+) -> Repair:
+    """The consistent timeline nearest to ``proposal``, and each change with the rules
+    (file:line) that forced it (docs/repair.md).
+
+    ``proposal``: a timeline, decoded JSON (a timeline or an ``mse-proposal/1`` document) or
+    text (JSON, or tagged text like ``"[nod] I [smile]really[/smile] mean it"``).  Nearest means
+    first the fewest occurrences dropped or added, then the least time moved.  ``keep``: signal
+    ids or occurrence ids that must not be dropped.  Bad input raises :class:`mse.MseError`
+    (E218 at the proposal's line:col); :class:`mse.NoRepair` when nothing keeps ``keep``.
+
+    >>> import mse
+    >>> model = mse.load("embarrassment")
+    >>> fixed = mse.repair(model, {"duration": 10, "occurrences": [
+    ...     {"signal": "head_down", "start": 0.5, "stop": 3.5},
+    ...     {"signal": "gaze_down", "start": 1, "stop": 2.5},
+    ...     {"signal": "tensed_smile", "start": 2, "stop": 4.5}]})
+    >>> [(s.id, s.start, s.stop) for s in fixed.timeline.signals]
+    [('head_down', 0.5, 3.5), ('gaze_down', 1.0, 2.5), ('tensed_smile', 2.5, 4.5)]
+    >>> print(fixed.summary())
+    repaired for embarrassment: 0 dropped, 0 added, 1 moved by 500 ms in all, 0 foreign
+    >>> print(fixed.changes[0].reasons[0].rule)
+    looks_down_first
+    >>> mse.check(model, fixed.timeline)
+    []
+    """
+    from mse.repairing.repair import repair as nearest
+
+    return nearest(model, proposal, keep=keep, duration=duration, time_limit=time_limit, workers=workers, path=path)
 
 
 def expand_paths(paths: Iterable[str | Path]) -> list[Path]:

@@ -2,8 +2,10 @@
 
 Every layer reports problems as :class:`Diagnostic` records; front-ends (the CLI, an
 editor, CI) decide how to render them.  Codes: ``E1xx`` unreadable input (``E130``: a bad
-argument or option value), ``E2xx`` semantics, ``W3xx`` static lint, ``E4xx``/``W4xx``
-solver-backed lint, ``W5xx`` import/conversion notes, ``W6xx`` export notes.
+argument or option value; ``E15x``: dialogue inputs), ``E2xx`` semantics, ``W3xx`` static
+lint, ``E4xx``/``W4xx``/``N4xx`` solver-backed lint (``N``: notes, never counted by
+``--strict``), ``W5xx`` import/conversion notes, ``W6xx`` export notes, ``W7xx``/``E7xx``
+repair notes.
 """
 
 from __future__ import annotations
@@ -74,6 +76,7 @@ CODES: dict[str, str] = {
     "E215": "time outside the supported range",
     "E216": "a signal's length compared with something other than a number",
     "E217": "invalid dialogue script (event, order, utterance or word timing)",
+    "E218": "invalid repair proposal (structure, names, times, word timings)",
     # W3xx: static lint
     "W300": "no behaviour-set file found",
     "W301": "inactive signal (both probabilities are 0)",
@@ -121,6 +124,9 @@ CODES: dict[str, str] = {
     "W601": "behaviour left out of the export (the realizer cannot play it)",
     "W602": "lexeme not drawn by the face player",
     "W603": "BML behaviour written with a lexeme outside BML 1.0's core sets",
+    # W7xx / E7xx: repair of proposed expressions
+    "W701": "proposed occurrence naming no signal of the set (left out of the repair)",
+    "E702": "no repair keeps what must be kept (proven, with a minimal explanation)",
 }
 
 

@@ -1,4 +1,4 @@
-"""Generated dialogues for the speech-sync checks (tests/test_speech_bml.py, bench/speech_sync.py):
+"""Generated dialogues for the speech-sync checks (tests/test_speech_bml.py, bench/evaluation/speech_sync.py):
 scripts whose utterances start where an emotion changes and whose announced ends fall on word
 boundaries, as a scripted agent's do, planned by ``mse live``'s planner, exported in every BML
 profile, then read back from what Greta's and AsapRealizer's own parsers report."""

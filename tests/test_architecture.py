@@ -28,6 +28,7 @@ LAYERS: dict[str, int] = {
     "mse.export": 5,
     "mse.motion": 5,
     "mse.learn": 5,
+    "mse.repairing": 5,
     "mse.api": 6,
     "mse.sampling": 6,
     "mse.model_cache": 6,

@@ -1,6 +1,6 @@
 """BML with speech sync: utterances as <speech> with word-boundary sync points; behaviours on a
 boundary refer to it; Greta's and AsapRealizer's own parsers accept every generated dialogue
-and resolve every reference to the time mse planned (bench/speech_sync.py: 100 dialogues)."""
+and resolve every reference to the time mse planned (bench/evaluation/speech_sync.py: 100 dialogues)."""
 
 from __future__ import annotations
 
@@ -8,8 +8,8 @@ from pathlib import Path
 
 import pytest
 from lxml import etree
-from realizer_harness import java_missing_reason
-from speech_sync_harness import generated_dialogues, verify, write_all
+from tests.realizer_harness import java_missing_reason
+from tests.speech_sync_harness import generated_dialogues, verify, write_all
 
 from mse.export import ExportOptions, render
 from mse.export.speech_bml import SpokenWord, Utterance, speech_sync, tie_to_speech

@@ -1,6 +1,6 @@
 """Speech sync through real realizers' parsers (issue 28, item 4): the numbers of docs/realizers.md.
 
-    MSE_SHARED=../shared python bench/speech_sync.py [COUNT]
+    MSE_SHARED=../shared python -m bench.evaluation.speech_sync [COUNT]
 
 Generates COUNT dialogues (default 100: 4 episodes of 2-6 s from the bundled sets, utterances
 with word timings starting where the emotion changes, occurrences within 0.25 s of a word boundary
@@ -18,12 +18,11 @@ import tempfile
 import time
 from pathlib import Path
 
-REPO = Path(__file__).resolve().parent.parent
-sys.path.insert(0, str(REPO))
-sys.path.insert(0, str(REPO / "tests"))
+from tests.realizer_harness import java_missing_reason
+from tests.speech_sync_harness import ASAP_PROFILES, PROFILES, generated_dialogues, verify, write_all
 
-from realizer_harness import java_missing_reason  # noqa: E402
-from speech_sync_harness import ASAP_PROFILES, PROFILES, generated_dialogues, verify, write_all  # noqa: E402
+
+REPO = Path(__file__).resolve().parents[2]
 
 
 def main() -> int:

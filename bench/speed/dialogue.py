@@ -1,7 +1,7 @@
 """Benchmark of `mse live` (issue 28): scripted one-hour dialogues.  Prints numbers; asserts nothing.
 
-    python bench/dialogue.py                      # one 1-hour dialogue, seed 1
-    python bench/dialogue.py --dialogues 3 --minutes 60 --seed 5
+    python -m bench.speed.dialogue                      # one 1-hour dialogue, seed 1
+    python -m bench.speed.dialogue --dialogues 3 --minutes 60 --seed 5
 
 Each dialogue changes emotion every 2-20 s (uniform), drawing from every bundled set and every
 set `mse import-greta` makes of $MSE_SHARED/greta (default ../shared); about half the episodes
@@ -14,7 +14,7 @@ fill part of each episode.  Measured:
 - memory: RSS of the process when the dialogue's clock passes minute 5 and at its end (target:
   growth <= 10 MB); every set is loaded before minute 5 so that loading is not counted as growth;
 - consistency: every episode under `mse check` (the evaluator), and every announced episode that
-  ran as planned under an independent checker (bench/naive_check.py: docs/semantics.md written
+  ran as planned under an independent checker (tests/independent_checker.py: docs/semantics.md written
   out as plain loops, without mse.ir.evaluate);
 - rates: occurrences per minute of each set's announced episodes, pooled over the dialogues and
   over ``--rate-seeds`` plans of each script (one hour gives each of the 19 sets about a dozen
@@ -40,17 +40,13 @@ from collections import defaultdict
 from pathlib import Path
 from typing import Any
 
-REPO = Path(__file__).resolve().parent.parent
-sys.path.insert(0, str(REPO))
-sys.path.insert(0, str(Path(__file__).resolve().parent))
-
-from naive_check import problems as naive_problems  # noqa: E402
-
-from mse.api import load  # noqa: E402
-from mse.dialogue import Session, plan_script, read_script  # noqa: E402
+from mse.api import load
+from mse.dialogue import Session, plan_script, read_script
+from tests.independent_checker import problems as naive_problems
 from mse.dialogue.check import check_dialogue  # noqa: E402
 from mse.resources import behaviour_sets_dir, bundled_names  # noqa: E402
 
+REPO = Path(__file__).resolve().parents[2]
 SHARED = Path(os.environ.get("MSE_SHARED", REPO.parent / "shared"))
 WORDS = ("well", "I", "really", "do", "not", "know", "what", "you", "expected", "me", "to", "say", "about",
          "all", "of", "that", "now")
@@ -108,7 +104,7 @@ def make_script(pool: list[str], minutes: float, rng: random.Random) -> list[dic
 
 
 def independent_check(model: Any, episode: dict[str, Any], signals: list[Any]) -> list[str]:
-    """bench/naive_check.py's verdict on an episode that ran as planned (empty: consistent)."""
+    """tests/independent_checker.py's verdict on an episode that ran as planned (empty: consistent)."""
     start = float(episode["start"])
     occurrences = [(s.id, round((s.start - start) * 1000), round((s.stop - start) * 1000)) for s in signals]
     return naive_problems(model, occurrences, round((float(episode["stop"]) - start) * 1000))
