@@ -13,12 +13,12 @@ from pathlib import Path
 import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
-from tests.independent_checker import problems
 
 import mse
 from mse.cli import main
 from mse.ir.evaluate import check_schedule
 from mse.repairing.read import proposal_schema
+from tests.independent_checker import problems
 
 EXAMPLE = {
     "format": "mse-proposal/1",

@@ -8,13 +8,13 @@ from pathlib import Path
 
 import pytest
 from lxml import etree
-from tests.realizer_harness import java_missing_reason
-from tests.speech_sync_harness import generated_dialogues, verify, write_all
 
 from mse.export import ExportOptions, render
 from mse.export.speech_bml import SpokenWord, Utterance, speech_sync, tie_to_speech
 from mse.export.xmltext import element
 from mse.timeline import Timeline, TimelineSignal
+from tests.realizer_harness import java_missing_reason
+from tests.speech_sync_harness import generated_dialogues, verify, write_all
 
 UTTERANCE = {
     "start": 0.4,

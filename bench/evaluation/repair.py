@@ -25,7 +25,6 @@ import argparse
 import os
 import random
 import statistics
-import sys
 import tempfile
 import time
 from pathlib import Path
@@ -120,7 +119,7 @@ def _ms(values: list[float], q: float) -> float:
 
 def sets(chosen: list[str] | None, folder: Path) -> list[tuple[str, mse.Model]]:
     found = [(name, mse.load(name)) for name in bundled_names()]
-    greta = Path(os.environ.get("MSE_SHARED", ROOT.parent / "shared")) / "greta"
+    greta = Path(os.environ.get("MSE_SHARED", Path(__file__).resolve().parents[3] / "shared")) / "greta"
     if (greta / "lexicon.xml").is_file():
         import contextlib
         import io

@@ -21,7 +21,6 @@ from pathlib import Path
 from tests.realizer_harness import java_missing_reason
 from tests.speech_sync_harness import ASAP_PROFILES, PROFILES, generated_dialogues, verify, write_all
 
-
 REPO = Path(__file__).resolve().parents[2]
 
 

@@ -42,9 +42,9 @@ from typing import Any
 
 from mse.api import load
 from mse.dialogue import Session, plan_script, read_script
+from mse.dialogue.check import check_dialogue
+from mse.resources import behaviour_sets_dir, bundled_names
 from tests.independent_checker import problems as naive_problems
-from mse.dialogue.check import check_dialogue  # noqa: E402
-from mse.resources import behaviour_sets_dir, bundled_names  # noqa: E402
 
 REPO = Path(__file__).resolve().parents[2]
 SHARED = Path(os.environ.get("MSE_SHARED", REPO.parent / "shared"))
