@@ -207,7 +207,7 @@ def from_schedule(
 def loads_many(text: str, *, path: str = "<timeline>") -> list[Timeline]:
     """Read one timeline, a JSON array of them, or JSON lines (lines end at "\n" only:
     U+2028 or U+0085 inside a string are not line ends)."""
-    from mse.fileio import parse_json
+    from mse.input_files import parse_json
 
     if not text.strip():
         raise MseError([Diagnostic("E212", "no timeline in the input", Span(path, 1, 1))])

@@ -16,18 +16,10 @@ from mse.api import load
 from mse.ir import model as ir
 from mse.ir.evaluate import check_schedule
 from mse.solve.greedy import engine
-from mse.solve.greedy.partial import (
-    AND_TABLE,
-    HOT_CALLS,
-    OR_TABLE,
-    Box,
-    CompiledConstraint,
-    _acceptance,
-    _generated,
-    compile_expr,
-    mask_and,
-    mask_or,
-)
+from mse.solve.greedy.closures import compile_expr
+from mse.solve.greedy.closures import generated as _generated
+from mse.solve.greedy.masks import AND_TABLE, OR_TABLE, Box, mask_and, mask_or
+from mse.solve.greedy.partial import HOT_CALLS, CompiledConstraint, _acceptance
 from mse.solve.greedy.plan import build_plan
 from mse.solve.greedy.solver import GreedySolver
 from mse.solve.greedy.windows import critical_points, critical_rules, critical_values

@@ -13,8 +13,9 @@ from collections.abc import Mapping, Sequence
 
 from mse.export.behaviours import Behaviour, block_id, composition, plan_behaviours, provenance, timing
 from mse.export.greta_bml import greta_elements
-from mse.export.lexemes import ActionUnit, FaceLibrary, format_seconds, load_face_library, upper_token
+from mse.export.lexemes import format_seconds, upper_token
 from mse.export.options import ExportOptions
+from mse.export.realizer_libraries import ActionUnit, FaceLibrary, load_face_library
 from mse.export.realizers import lexeme_table, realize_gaze, realizer_for
 from mse.export.xmltext import Comment, Element, document, element
 from mse.timeline import Timeline

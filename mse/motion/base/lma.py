@@ -74,6 +74,22 @@ class LmaFeatures:
         return np.array(values, dtype=np.float64)
 
 
+def body_frame(positions: FloatArray, body: BodyMap, origin: FloatArray) -> FloatArray:
+    """Positions relative to ``origin``, rotated so that the body's first-frame forward axis
+    is +Z and up is +Y (performers face different ways): rows of the basis are the new X
+    (left), Y (up) and Z (forward)."""
+    lateral = positions[0, body.left_hip] - positions[0, body.right_hip]
+    lateral[UP_AXIS] = 0.0
+    norm = float(np.linalg.norm(lateral))
+    lateral = lateral / norm if norm > 1e-9 else np.array([1.0, 0.0, 0.0])
+    up = np.zeros(3)
+    up[UP_AXIS] = 1.0
+    forward = np.cross(lateral, up)
+    basis = np.stack([lateral, up, forward])
+    result: FloatArray = (positions - origin) @ basis.T
+    return result
+
+
 def arm_length(positions: FloatArray, body: BodyMap) -> float:
     upper = np.linalg.norm(positions[:, body.right_elbow] - positions[:, body.right_shoulder], axis=-1)
     lower = np.linalg.norm(positions[:, body.right_wrist] - positions[:, body.right_elbow], axis=-1)
