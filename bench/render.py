@@ -29,9 +29,10 @@ sys.path.insert(0, str(REPO))
 
 import numpy as np  # noqa: E402
 
-from mse.api import load, sample  # noqa: E402
+from mse.api import load  # noqa: E402
 from mse.export import ExportOptions  # noqa: E402
 from mse.export.video import VideoOptions, _encode, frame_times, iter_frames, painter, write_video  # noqa: E402
+from mse.sampling import sample  # noqa: E402
 from mse.timeline import Timeline  # noqa: E402
 
 

@@ -67,7 +67,7 @@ def test_sampled_timelines_pass_the_full_check() -> None:
     for name in bundled_names():
         model = api.load(name)
         request = SolveRequest(duration=10, seed=5, count=20)
-        for schedule in GreedySolver().solve(model, request):
+        for schedule in GreedySolver().solve(model, request).schedules:
             assert is_clean(model, schedule)
             assert _all_violations(model, schedule) == []
 

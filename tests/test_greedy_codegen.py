@@ -118,9 +118,9 @@ def _timelines(solver: object, name: str, count: int = 40) -> list[list[tuple[in
     model = load(name)
     found = get_solver("greedy").solve(model, SolveRequest(duration=10.0, count=count, seed=3)) if solver is None \
         else solver.solve(model, SolveRequest(duration=10.0, count=count, seed=3))  # type: ignore[attr-defined]
-    for schedule in found:
+    for schedule in found.schedules:
         assert not check_schedule(model, schedule)
-    return [[(o.start, o.stop, o.signal) for o in s.occurrences] for s in found]
+    return [[(o.start, o.stop, o.signal) for o in s.occurrences] for s in found.schedules]
 
 
 @pytest.mark.parametrize("name", ["anger", "pride", "cheerfulness"])

@@ -11,6 +11,7 @@ from pathlib import Path
 import pytest
 
 import mse.api as api
+import mse.sampling as sampling
 from mse.cli import main
 from mse.ir import model as ir
 from mse.learn import LearnOptions, LearnResult, learn
@@ -24,8 +25,7 @@ QUICK = LearnOptions(name="relief", confidence=1.0, calibration_rounds=1, calibr
 
 @pytest.fixture(scope="module")
 def relief_corpus(tmp_path_factory: pytest.TempPathFactory) -> Path:
-    timelines = api.sample(api.load("relief"), 10.0, seed=11, count=300)
-    assert isinstance(timelines, list)
+    timelines = sampling.iter_timelines(api.load("relief"), 10.0, seed=11, count=300)
     path = tmp_path_factory.mktemp("corpus") / "relief.jsonl"
     path.write_text(dumps_jsonl(timelines), encoding="utf-8")
     return path
@@ -56,7 +56,7 @@ def test_result_is_lint_clean_and_samplable(relief: LearnResult, tmp_path: Path)
     path = tmp_path / "relief.xml"
     path.write_text(relief.xml, encoding="utf-8")
     assert api.lint([path], deep=True, duration=10.0) == []
-    timeline = api.sample(relief.model, 10.0, seed=1)
+    timeline = sampling.sample(relief.model, 10.0, seed=1)
     assert api.check(relief.model, timeline) == []  # type: ignore[arg-type]
 
 
