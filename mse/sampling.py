@@ -10,8 +10,8 @@ timeline exists (``mse.explain``); docs/api.md.
 from __future__ import annotations
 
 import hashlib
-import os
 import random
+import weakref
 from collections.abc import Iterable, Iterator, Mapping
 from dataclasses import replace
 from pathlib import Path
@@ -21,6 +21,7 @@ from mse import progress
 from mse.diagnostics import Diagnostic, MseError, Span
 from mse.ir.model import Model
 from mse.ir.schedule import to_seconds
+from mse.limits import MIN_DURATION_SECONDS, time_problem
 from mse.resources import bundled_path
 from mse.solve.objectives import DEFAULT_OBJECTIVE
 from mse.solve.protocol import (
@@ -28,6 +29,7 @@ from mse.solve.protocol import (
     CspOptions,
     GreedyOptions,
     Pin,
+    Solution,
     Solver,
     SolveRequest,
     check_supported,
@@ -62,34 +64,33 @@ class SampleOptions(TypedDict, total=False):
 def expression_source(model: Model) -> dict[str, str] | None:
     """Where ``model`` was read from, as timelines record it (their ``"source"``):
     ``{"bundled": name, "sha256": ...}`` or ``{"path": absolute path, "sha256": ...}``, the
-    hash being of the file's bytes; None when the model comes from no file (a string, stdin).
+    hash being of the file's bytes when this model's first timeline was made; None when the
+    model comes from no file (a string, stdin).
 
     >>> import mse
     >>> from mse.sampling import expression_source
     >>> expression_source(mse.load("relief"))["bundled"]
     'relief'
     """
-    try:  # a path named by compiled IR may be anything: a regular file, capped, or nothing
-        status = os.stat(model.path)
-    except (OSError, ValueError):
-        return None
-    # The file's identity and version: a loop of sample() calls reads and hashes it once.
-    key = (model.path, status.st_dev, status.st_ino, status.st_size, status.st_mtime_ns)
-    if key not in _SOURCES:
-        if len(_SOURCES) >= 256:
+    # Read and hashed once per model (its first timeline), not once per sample() call.
+    known = _SOURCES.get(id(model))
+    if known is None or known[0]() is not model:
+        if len(_SOURCES) >= 64:
             _SOURCES.clear()
-        _SOURCES[key] = _source_of(Path(model.path))
-    source = _SOURCES[key]
+        known = _SOURCES[id(model)] = (weakref.ref(model), _source_of(Path(model.path)))
+    source = known[1]
     return dict(source) if source is not None else None
 
 
-_SOURCES: dict[tuple[str, int, int, int, int], dict[str, str] | None] = {}
+#: id(model) -> (the model, its source): the model is held weakly, and checked, since an id
+#: may be reused once it is gone.
+_SOURCES: dict[int, tuple[weakref.ref[Model], dict[str, str] | None]] = {}
 
 
 def _source_of(path: Path) -> dict[str, str] | None:
     from mse.input_files import read_input
 
-    try:
+    try:  # a path named by compiled IR may be anything: a regular file, capped, or nothing
         data = read_input(path) if path.is_file() else None
     except (MseError, ValueError):
         data = None
@@ -140,13 +141,13 @@ def _pins_option(value: object) -> tuple[Pin, ...]:
 
 
 def _request(duration: float, seed: int | None, count: int, mode: str, options: SampleOptions) -> SolveRequest:
-    from mse.limits import MIN_DURATION_SECONDS, time_problem
-
     problem = time_problem(float(duration), minimum=MIN_DURATION_SECONDS)
     if problem is not None:
         raise MseError([Diagnostic("E100", f"duration {duration!r} {problem}", Span("<arguments>"))])
     if seed is None:
         seed = random.SystemRandom().randrange(2**31)
+    if not options:
+        return SolveRequest(duration=float(duration), seed=seed, count=count, mode=mode)
     fields: dict[str, Any] = dict(options)
     for key in ("require", "forbid"):
         if key in fields:
@@ -191,7 +192,8 @@ def sample(
     >>> "head_forward" in {s.id for s in pinned.signals}
     False
     """
-    return next(_timelines(model, duration, seed, 1, solver, mode, options))
+    backend, request = _checked(duration, seed, 1, solver, mode, options)
+    return _timeline(model, request, solver, expression_source(model), 0, next(backend.solutions(model, request)))
 
 
 def iter_timelines(
@@ -219,15 +221,17 @@ def iter_timelines(
     >>> [next(stream).seed for _ in range(2)]
     [3, 4]
     """
-    return _timelines(model, duration, seed, count, solver, mode, options)
+    backend, request = _checked(duration, seed, count, solver, mode, options)
+    return _solved(backend, model, request, solver)
 
 
-def _timelines(model: Model, duration: float, seed: int | None, count: int, solver: str, mode: str,
-               options: SampleOptions) -> Iterator[Timeline]:
+def _checked(duration: float, seed: int | None, count: int, solver: str, mode: str,
+             options: SampleOptions) -> tuple[Solver, SolveRequest]:
+    """The backend and the request, both checked (a bad option raises here, at the call)."""
     backend = get_solver(solver)
     request = _request(duration, seed, count, mode, options)
     check_supported(backend, request)
-    return _solved(backend, model, request, solver)
+    return backend, request
 
 
 def _solved(backend: Solver, model: Model, request: SolveRequest, solver: str) -> Iterator[Timeline]:
@@ -235,17 +239,23 @@ def _solved(backend: Solver, model: Model, request: SolveRequest, solver: str) -
     solutions = backend.solutions(model, request)
     with progress.bar(request.count, "sample", unit="timeline") as steps:
         for index, solution in enumerate(solutions):
-            extra: dict[str, Any] = {"mode": request.mode}
-            if solution.method is not None:  # how the default solver made it: "walk" or its fallback
-                extra["method"] = solution.method
-            if source is not None:
-                extra["source"] = source
-            if request.diverse:
-                extra["diverse"] = {"seed": request.seed, "index": index}
-            timeline = from_schedule(solution.schedule, expression=model.name, signal_info=model.signal_info,
-                                     solver=solver, seed=solution.seed, motions=model.motion_annotations)
-            yield replace(timeline, extra=extra)
+            yield _timeline(model, request, solver, source, index, solution)
             steps.update()
+
+
+def _timeline(model: Model, request: SolveRequest, solver: str, source: Mapping[str, str] | None, index: int,
+              solution: Solution) -> Timeline:
+    """The timeline of ``solution``, recording how it was made and where its model came from."""
+    extra: dict[str, Any] = {"mode": request.mode}
+    if solution.method is not None:  # how the default solver made it: "walk" or its fallback
+        extra["method"] = solution.method
+    if source is not None:
+        extra["source"] = dict(source)
+    if request.diverse:
+        extra["diverse"] = {"seed": request.seed, "index": index}
+    timeline = from_schedule(solution.schedule, expression=model.name, signal_info=model.signal_info,
+                             solver=solver, seed=solution.seed, motions=model.motion_annotations)
+    return replace(timeline, extra=extra)
 
 
 def iter_sample(

@@ -48,17 +48,27 @@ FALLBACK = "cpsat"
 
 
 class DefaultSolver:
-    """``name = "greedy"``: walk → (backtracking) → CP-SAT → proof.  Stateless: what one solve
-    learns of its request lives in a :class:`_Run` for that solve alone."""
+    """``name = "greedy"``: walk → (backtracking) → CP-SAT → proof.  It reports nothing
+    through attributes: what one solve learns of its request lives in a :class:`_Run` for
+    that solve alone, and each :class:`Solution` says how it was made."""
 
     name = "greedy"
     supports = frozenset({"stream", "constraint-less", "require", "forbid", "pin"})
 
     def __init__(self) -> None:
         self.walker = GreedySolver()
+        # The last request's checked setup, for a loop of one solve per seed (``mse.sample``
+        # in a loop): a cache of what does not depend on the seed, never a report.
+        self._setup: _Setup | None = None
+
+    def _run(self, model: ir.Model, request: SolveRequest) -> _Run:
+        setup = self._setup
+        if setup is None or setup.model is not model or not _same_but_seed(setup.request, request):
+            setup = self._setup = _Setup(model, request)
+        return _Run(self.walker, setup, request)
 
     def solutions(self, model: ir.Model, request: SolveRequest) -> Iterator[Solution]:
-        run = _Run(self.walker, model, request)
+        run = self._run(model, request)
         for index in range(request.count):
             yield run.one(derive_seed(request.seed, index))
 
@@ -68,7 +78,7 @@ class DefaultSolver:
     def stream(self, model: ir.Model, request: SolveRequest) -> Iterator[Occurrence]:
         """The walk's stream (each batch handed out at a checkpoint, docs/sampler.md); when the
         walk gives up before its first checkpoint, the fallback's timeline at once."""
-        run = _Run(self.walker, model, request)
+        run = self._run(model, request)
         if not request.pinned:
             streamed = False
             try:
@@ -82,21 +92,38 @@ class DefaultSolver:
         yield from sorted(run.one(derive_seed(request.seed, 0), walk=False).schedule.occurrences)
 
 
-class _Run:
-    """One request's solve: validated once, with what it learns for every seed of it."""
+def _same_but_seed(known: SolveRequest, request: SolveRequest) -> bool:
+    """``request`` asks what ``known`` asks, but perhaps for another seed."""
+    if known is request:
+        return True
+    fields_of = request.__dict__  # (a frozen dataclass without slots: one dict compare)
+    return {**known.__dict__, "seed": fields_of["seed"]} == fields_of
 
-    def __init__(self, walker: GreedySolver, model: ir.Model, request: SolveRequest) -> None:
+
+class _Setup:
+    """What a request implies whatever its seed: it is valid, its never-occurring signals,
+    and the walk's first request."""
+
+    def __init__(self, model: ir.Model, request: SolveRequest) -> None:
         validate(model, request)
         check_request(model, request)
-        self.walker, self.model, self.request = walker, model, request
+        self.model, self.request = model, request
         # Never-occurring signals the request does not ask for: forbidden in the first pass.
         asked = {*request.require, *request.forbid, *(pin.signal for pin in request.pinned)}
         self.zeros = tuple(s.id for s in model.signals if never_occurs(s) and s.id not in asked)
         # Without them, a proof only sends us to the second pass: CP-SAT need not explain it
-        # (docs/sampler.md "Proofs").
+        # (docs/sampler.md "Proofs").  (Its seed plays no part: each pass is given its own.)
         self.first = (replace(request, forbid=(*request.forbid, *self.zeros),
                               cpsat=replace(request.cpsat, explain=False))
                       if self.zeros else request)
+
+
+class _Run:
+    """One request's solve, with what it learns for every seed of it."""
+
+    def __init__(self, walker: GreedySolver, setup: _Setup, request: SolveRequest) -> None:
+        self.walker, self.model, self.request = walker, setup.model, request
+        self.zeros, self.first = setup.zeros, setup.first
         # Learnt from one seed, true of every seed: no timeline exists without the
         # never-occurring signals; one exists with them.
         self.zeros_needed = False

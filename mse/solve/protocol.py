@@ -16,7 +16,7 @@ from __future__ import annotations
 import enum
 import importlib
 from collections.abc import Iterator
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from typing import Protocol
 
 from mse.diagnostics import Diagnostic, MseError, Span
@@ -87,9 +87,9 @@ class SolveRequest:
     objective: str | None = None  # None: the default (objectives.DEFAULT_OBJECTIVE); else one of OBJECTIVES
     diverse: bool = False
     time_limit: float = 10.0  # seconds per timeline (and per window of a long cpsat one)
-    greedy: GreedyOptions = field(default_factory=GreedyOptions)
-    cpsat: CpSatOptions = field(default_factory=CpSatOptions)
-    csp: CspOptions = field(default_factory=CspOptions)
+    greedy: GreedyOptions = GreedyOptions()
+    cpsat: CpSatOptions = CpSatOptions()
+    csp: CspOptions = CspOptions()
 
     def features(self) -> frozenset[str]:
         used: set[str] = set()
@@ -211,6 +211,12 @@ BACKENDS: dict[str, str] = {
 
 
 def get_solver(name: str) -> Solver:
+    """The backend called ``name``, imported on first use.  Backends keep nothing between
+    calls (what a solve learns of its request lives in that solve), so one instance per name
+    serves every caller."""
+    solver = _INSTANCES.get(name)
+    if solver is not None:
+        return solver
     target = BACKENDS.get(name)
     if target is None:
         raise MseError(
@@ -218,8 +224,12 @@ def get_solver(name: str) -> Solver:
         )
     module_name, class_name = target.split(":")
     module = importlib.import_module(module_name)
-    solver: Solver = getattr(module, class_name)()
-    return solver
+    made: Solver = getattr(module, class_name)()
+    _INSTANCES[name] = made
+    return made
+
+
+_INSTANCES: dict[str, Solver] = {}
 
 
 def check_supported(solver: Solver, request: SolveRequest) -> None:
