@@ -14,7 +14,7 @@ from mse.ir.evaluate import check_schedule
 from mse.ir.schedule import to_ticks
 from mse.resources import bundled_names
 from mse.sampling import explain, iter_timelines, sample
-from mse.solve.cpsat import CpSatSolver
+from mse.solve.cpsat.solver import CpSatSolver
 from mse.solve.protocol import NoSolution, Pin, SolveRequest
 from mse.timeline import Timeline
 

@@ -13,9 +13,9 @@ from mse.ir import model as ir
 from mse.ir.evaluate import check_schedule
 from mse.ir.schedule import Schedule, to_ticks
 from mse.solve.bounds import slot_counts
-from mse.solve.cpsat import CpSatSolver
 from mse.solve.cpsat.encode import build
 from mse.solve.cpsat.engine import make_solver
+from mse.solve.cpsat.solver import CpSatSolver
 from mse.solve.protocol import NoSolution, SolveRequest
 
 SETTINGS = settings(max_examples=60, deadline=None, suppress_health_check=list(HealthCheck))

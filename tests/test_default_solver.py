@@ -17,8 +17,7 @@ from mse.ir import model as ir
 from mse.ir.evaluate import check_schedule
 from mse.ir.schedule import Schedule
 from mse.solve.default import DefaultSolver, _Run
-from mse.solve.greedy import GreedySolver
-from mse.solve.greedy.solver import Tally
+from mse.solve.greedy.solver import GreedySolver, Tally
 from mse.solve.protocol import NoSolution, Pin, SolveRequest, Status, get_solver
 
 SEQ = """<?xml version="1.0" encoding="UTF-8"?>

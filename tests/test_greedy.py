@@ -19,7 +19,7 @@ from mse.ir import model as ir
 from mse.ir.evaluate import check_schedule
 from mse.ir.schedule import Schedule, to_ticks
 from mse.resources import bundled_names
-from mse.solve.greedy import GreedySolver
+from mse.solve.greedy.solver import GreedySolver
 from mse.solve.greedy.walk import CAREFUL_DEBTS
 from mse.solve.protocol import GreedyOptions, NoSolution, SolveRequest
 

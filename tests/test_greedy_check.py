@@ -13,7 +13,7 @@ from mse.ir import model as ir
 from mse.ir.evaluate import _all_violations, _compile, check_schedule, evaluate_expr, is_clean
 from mse.ir.schedule import Occurrence, Schedule, to_ticks
 from mse.resources import bundled_names
-from mse.solve.greedy import GreedySolver
+from mse.solve.greedy.solver import GreedySolver
 from mse.solve.protocol import SolveRequest
 
 DURATION = 6_000

@@ -30,8 +30,7 @@ from dataclasses import replace
 from mse.ir import model as ir
 from mse.ir.profile import never_occurs
 from mse.ir.schedule import Occurrence, Schedule
-from mse.solve.greedy import GreedySolver
-from mse.solve.greedy.solver import Tally, validate
+from mse.solve.greedy.solver import GreedySolver, Tally, validate
 from mse.solve.protocol import (
     NoSolution,
     Solution,

@@ -204,9 +204,9 @@ def solve_all(solver: Solver, model: Model, request: SolveRequest) -> SolveResul
 #: name -> "module:Class"; imported only when used.
 BACKENDS: dict[str, str] = {
     "greedy": "mse.solve.default:DefaultSolver",  # the walk, then CP-SAT when it gives up
-    "walk": "mse.solve.greedy:GreedySolver",  # the walk alone (no fallback, no proof)
-    "cpsat": "mse.solve.cpsat:CpSatSolver",
-    "csp": "mse.solve.csp:CspSolver",
+    "walk": "mse.solve.greedy.solver:GreedySolver",  # the walk alone (no fallback, no proof)
+    "cpsat": "mse.solve.cpsat.solver:CpSatSolver",
+    "csp": "mse.solve.csp.solver:CspSolver",
 }
 
 

@@ -27,24 +27,15 @@ import numpy as np
 
 from mse.motion.base.bodyparts import body_map
 from mse.motion.base.bvh import Motion
-from mse.motion.base.filters import zero_phase_lowpass
 from mse.motion.base.kinematics import FloatArray
-from mse.motion.base.lma import UP_AXIS, arm_length, body_frame, lma_from_positions
+from mse.motion.base.lma import UP_AXIS, arm_length, body_frame, filtered_derivative, lma_from_positions
 
 #: C grid of the classifier (1/λ of the L2 penalty)
 C_GRID = (0.1, 0.3, 1.0)
 #: actions with fewer training clips have no usable per-action spread
 MIN_ACTION_CLIPS = 3
-_CUTOFF_HZ = 6.0
 #: a frame is "in motion" when the summed point speed exceeds this share of its maximum
 _MOVING_SHARE = 0.25
-
-
-def _derivative(signal: FloatArray, frame_time: float) -> FloatArray:
-    if len(signal) < 2:
-        return np.zeros_like(signal)
-    derivative: FloatArray = np.gradient(signal, frame_time, axis=0)
-    return zero_phase_lowpass(derivative, frame_time, _CUTOFF_HZ)
 
 
 def _floor_origin(positions: FloatArray, root: int) -> FloatArray:
@@ -63,9 +54,9 @@ def style_descriptor(motion: Motion, *, path: str = "<motion>") -> FloatArray:
     lma = np.log1p(np.maximum(lma_from_positions(positions, dt, body).vector(), 0.0))
     local = body_frame(positions, body, _floor_origin(positions, 0))
     points = local[:, list(body.part_indices())]  # (F, 6, 3)
-    velocity = _derivative(points, dt)
-    acceleration = _derivative(velocity, dt)
-    jerk = _derivative(acceleration, dt)
+    velocity = filtered_derivative(points, dt)
+    acceleration = filtered_derivative(velocity, dt)
+    jerk = filtered_derivative(acceleration, dt)
     speed = np.linalg.norm(velocity, axis=-1)
     dynamics = np.concatenate(
         [
