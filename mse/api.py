@@ -1,4 +1,5 @@
-"""The library API: one function per stage.  The CLI is a thin layer over these.
+"""The library API: one function per stage (loading, checking, linting, learning here; sampling
+in :mod:`mse.sampling`).  The CLI is a thin layer over these.
 
 The names most users need are also importable from ``mse`` itself (``mse.load``,
 ``mse.sample``, ``mse.Pin``...); docs/api.md lists them all with examples.
@@ -24,24 +25,10 @@ from mse.diagnostics import Diagnostic, MseError, Span, argument_error, has_erro
 from mse.ir.evaluate import Violation, check_schedule
 from mse.ir.model import Model
 from mse.resources import SEARCH_PATH_VARIABLE, named_set, named_sets
-from mse.sampling import (
-    DEFAULT_OBJECTIVE,
-    explain,
-    expression_source,
-    iter_sample,
-    iter_timelines,
-    motion_annotations,
-    sample,
-    with_source,
-)
 from mse.timeline import Timeline
 
-# The sampling stage (options → request → timelines, or why none exists) lives in mse/sampling.py; this module
-# re-exports it and stays the one documented API.
 __all__ = [
-    "DEFAULT_OBJECTIVE", "check", "compile_source", "expand_paths", "explain", "expression_source", "iter_sample",
-    "iter_timelines", "learn", "lint", "load", "loads", "loads_ir", "motion_annotations", "repair", "resolve_path",
-    "sample", "with_source",
+    "check", "compile_source", "expand_paths", "learn", "lint", "load", "loads", "loads_ir", "repair", "resolve_path",
 ]
 
 # The XML reader, the grammar and the IR builder (lxml, lark) are imported inside the
@@ -125,7 +112,7 @@ def load(path_or_name: str | Path, *, cache: bool = False) -> Model:
     """
     path = resolve_path(path_or_name)
     if path.suffix == ".json":
-        from mse.fileio import decode_utf8, read_input
+        from mse.input_files import decode_utf8, read_input
 
         text = decode_utf8(read_input(path, what="compiled IR file"), str(path), what="compiled IR file")
         return loads_ir(text, path=str(path))
@@ -159,7 +146,7 @@ def loads(data: bytes | str, *, path: str = "<string>") -> Model:
     """
     raw = data.encode("utf-8", errors="surrogateescape") if isinstance(data, str) else data
     if raw.lstrip().startswith(b"{"):
-        from mse.fileio import decode_utf8
+        from mse.input_files import decode_utf8
 
         return loads_ir(decode_utf8(raw, path, what="compiled IR"), path=path)
     model, diagnostics = compile_source(path, raw)
@@ -176,7 +163,7 @@ def loads_ir(text: str, *, path: str = "<stdin>") -> Model:
     >>> loads_ir(model_dumps(load("relief"))).name
     'relief'
     """
-    from mse.fileio import parse_json
+    from mse.input_files import parse_json
     from mse.ir.canonical import model_from_json
 
     return model_from_json(parse_json(text, path), path=path)
@@ -374,7 +361,8 @@ def learn(
     >>> import tempfile
     >>> from mse.timeline import dumps_jsonl
     >>> corpus = Path(tempfile.mkdtemp()) / "relief.jsonl"
-    >>> _ = corpus.write_text(dumps_jsonl(sample(load("relief"), 10.0, seed=1, count=40)))
+    >>> from mse.sampling import iter_timelines
+    >>> _ = corpus.write_text(dumps_jsonl(iter_timelines(load("relief"), 10.0, seed=1, count=40)))
     >>> result = learn([corpus], name="relief", confidence=1.0, calibrate=False, deep_lint=False)
     >>> result.breaks, len(result.model.signals)
     ([], 9)

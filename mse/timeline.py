@@ -360,7 +360,7 @@ def loads_many(text: str, *, path: str = "<timeline>") -> list[Timeline]:
     U+2028 or U+0085 inside a string are not line ends).  The signal lines of
     ``mse sample --stream`` are assembled: consecutive lines of one expression, seed and
     duration make one timeline."""
-    from mse.fileio import parse_json
+    from mse.input_files import parse_json
 
     if not text.strip():
         raise MseError([Diagnostic("E212", "no timeline in the input", Span(path, 1, 1))])

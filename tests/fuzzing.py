@@ -37,13 +37,14 @@ from typing import Any
 from hypothesis import strategies as st
 from lxml import etree
 
-from mse.api import compile_source, loads, sample
+from mse.api import compile_source, loads
 from mse.diagnostics import CODES, MseError
 from mse.ir.canonical import model_dumps
 from mse.ir.evaluate import check_schedule
 from mse.ir.lint import STATIC_RULES, lint_model
 from mse.resources import behaviour_sets_dir
-from mse.solve.protocol import NoSolution
+from mse.sampling import sample
+from mse.solve.protocol import GreedyOptions, NoSolution
 from mse.timeline import Timeline, dumps_jsonl, loads_many
 
 TESTS = Path(__file__).resolve().parent
@@ -119,7 +120,7 @@ def _exercise_model(model: Any, seed: int) -> None:
     if len(model.signals) > 12 or len(model.constraints) > 12:
         return  # a solver on a big random set is a performance question, not this one
     try:
-        timeline = sample(model, 4.0, seed=seed, max_restarts=3)
+        timeline = sample(model, 4.0, seed=seed, greedy=GreedyOptions(max_restarts=3))
     except NoSolution:
         return
     assert isinstance(timeline, Timeline)

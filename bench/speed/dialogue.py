@@ -198,7 +198,7 @@ def one_dialogue(number: int, pool: list[str], args: argparse.Namespace, folder:
 def rates(reports: list[dict[str, Any]]) -> dict[str, Any]:
     """Occurrences per minute of each set's announced episodes, pooled over the dialogues,
     against the same set sampled alone at the same lengths (8 seeds each)."""
-    from mse.api import sample
+    from mse.sampling import sample
 
     lengths: dict[str, list[float]] = defaultdict(list)
     counts: dict[str, int] = defaultdict(int)

@@ -155,7 +155,8 @@ def report_unmapped_faces(timelines: list[Timeline], options: ExportOptions, fmt
     """With --face-library, say which face lexemes the library lacks: they are exported as
     plain lexemes, without action units, which --bml-extensions would otherwise add.  For the
     greta profile a face is looked up by the Greta name it is written with."""
-    from mse.export.lexemes import Lexeme, load_face_library, modality_of, split_lexeme
+    from mse.export.lexemes import Lexeme, modality_of, split_lexeme
+    from mse.export.realizer_libraries import load_face_library
     from mse.export.realizers import realize_greta, realizer_for
 
     if options.face_library is None:

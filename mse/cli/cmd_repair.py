@@ -59,7 +59,7 @@ def _argument_problems(args: argparse.Namespace) -> list[str]:
 
 def run(args: argparse.Namespace) -> int:
     from mse.api import load
-    from mse.fileio import decode_utf8, read_input
+    from mse.input_files import decode_utf8, read_input
     from mse.repairing.read import CODE
     from mse.repairing.repair import NoRepair, as_proposal, repair
 

@@ -214,12 +214,12 @@ class Session:
               span: Span) -> Iterator[TimelineSignal]:
         """One episode's occurrences, as the sampler's stream commits them: a timeline of
         ``length`` seconds (the default solver: the walk, its complete fallback), at ``start``."""
-        from mse.solve.protocol import NoSolution, SolveRequest, get_solver
+        from mse.solve.protocol import GreedyOptions, NoSolution, SolveRequest, get_solver
 
         model = loaded.model
         # A length planned once (an announced episode) is not worth the sampler's plan cache.
         once = abs(length - self.horizon) > _EPSILON
-        request = SolveRequest(duration=length, seed=self.seed + index, options={"cache_plan": not once})
+        request = SolveRequest(duration=length, seed=self.seed + index, greedy=GreedyOptions(cache_plan=not once))
         try:
             for occurrence in get_solver("greedy").stream(model, request):
                 modality, lexeme = model.signal_info[occurrence.signal]

@@ -14,15 +14,9 @@ from collections.abc import Mapping, Sequence
 from mse.diagnostics import Diagnostic, Span
 from mse.export.behaviours import Behaviour, amount, block_id, composition, plan_behaviours, provenance, timing
 from mse.export.greta_bml import greta_elements
-from mse.export.lexemes import (
-    ActionUnit,
-    FaceLibrary,
-    format_seconds,
-    load_face_library,
-    split_lexeme,
-    upper_token,
-)
+from mse.export.lexemes import format_seconds, split_lexeme, upper_token
 from mse.export.options import ExportOptions
+from mse.export.realizer_libraries import ActionUnit, FaceLibrary, load_face_library
 from mse.export.realizers import lexeme_table, realize_gaze, realizer_for
 from mse.export.xmltext import Comment, Element, document, element
 from mse.timeline import Timeline

@@ -23,9 +23,9 @@ from collections.abc import Mapping, Sequence
 
 from mse.diagnostics import Diagnostic, Span
 from mse.export.behaviours import Behaviour, amount, block_id, composition, plan_behaviours, provenance, timing
-from mse.export.lexemes import FaceLibrary, Lexeme, load_face_library
+from mse.export.lexemes import Lexeme
 from mse.export.options import ExportOptions
-from mse.export.realizer_libraries import GretaLibraries
+from mse.export.realizer_libraries import FaceLibrary, GretaLibraries, load_face_library
 from mse.export.realizers import greta_libraries, realize_gaze, realize_greta, realizer_for
 from mse.export.xmltext import Comment, Element, document, element
 from mse.timeline import Timeline

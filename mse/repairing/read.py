@@ -72,7 +72,7 @@ class _Located:
 def read_proposal(model: ir.Model, text: str, *, path: str = "<proposal>", duration: float | None = None) -> Proposal:
     """The proposal in ``text`` (any form) for ``model``; ``duration`` (seconds) is used when
     the proposal gives none (a timeline always gives its own)."""
-    from mse.fileio import parse_json
+    from mse.input_files import parse_json
 
     if text.lstrip().startswith("{"):
         decoded = parse_json(text, path, code=CODE)

@@ -20,9 +20,7 @@ from typing import NamedTuple
 from mse.ir import model as ir
 from mse.ir.profile import RATE_UNIT
 from mse.ir.schedule import to_ticks
-from mse.solve.greedy.edges import Edge as Edge  # re-exported: windows.py and others take it from here
-from mse.solve.greedy.edges import StartBound as StartBound
-from mse.solve.greedy.edges import edges_of, start_bounds_of
+from mse.solve.greedy.edges import Edge, StartBound, edges_of, start_bounds_of
 from mse.solve.greedy.order import needs_before
 from mse.solve.greedy.partial import CompiledConstraint, absent_gate
 
