@@ -6,7 +6,7 @@ machine's load weighs on both alike; the ratio is the median of the rounds' rati
 Target: the loop runs within 10 % of ``iter_timelines``' rate (ratio >= 0.90).  Both give
 the same timelines (checked here).
 
-    PYTHONPATH=. python bench/api_overhead.py [--sets anger,relief,embarrassment] [--count 50] [--rounds 21]
+    python -m bench.speed.api_overhead [--sets anger,relief,embarrassment] [--count 50] [--rounds 21]
 """
 
 from __future__ import annotations
@@ -14,11 +14,7 @@ from __future__ import annotations
 import argparse
 import os
 import statistics
-import sys
 import time
-from pathlib import Path
-
-sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
 import mse
 
