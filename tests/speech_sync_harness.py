@@ -172,7 +172,7 @@ def verify(written: list[Written], shared: Path, folder: Path) -> Verdict:
     """Run AsapRealizer's and Greta's parsers over ``written`` and check every behaviour's times,
     sync references resolved through the parser's own reading of the speech (ASAP: the syncs in
     the text it parsed; Greta: its Temporizer's times, from its time markers)."""
-    from realizer_harness import greta_run_folder, run_asap, run_greta
+    from tests.realizer_harness import greta_run_folder, run_asap, run_greta
 
     verdict = Verdict()
     asap_files = [w for w in written if w.profile in ASAP_PROFILES]

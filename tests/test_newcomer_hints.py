@@ -108,11 +108,12 @@ def test_short_signals_are_not_warned_and_keep_their_rate_at_any_slot() -> None:
     assert model is not None
     from mse.ir.lint import lint_model
     from mse.sampling import iter_timelines
+    from mse.solve.protocol import GreedyOptions
 
     assert [d.code for d in lint_model(model)] == []
     rates = []
     for slot in (None, 0.2):
-        timelines = list(iter_timelines(model, 10, count=400, seed=5, slot=slot))
+        timelines = list(iter_timelines(model, 10, count=400, seed=5, greedy=GreedyOptions(slot=slot)))
         rates.append(sum(any(s.id == "blink" for s in t.signals) for t in timelines) / len(timelines))
     assert all(abs(rate - 0.5) < 0.12 for rate in rates), rates
 

@@ -35,10 +35,12 @@ from mse.learn import read_corpus
 from mse.learn.mine import MiningOptions, mine
 from mse.learn.stats import corpus_arrays
 from mse.solve.cpsat.solver import CpSatSolver
-from mse.solve.greedy import GreedySolver
+from mse.solve.greedy.closures import compile_expr
+from mse.solve.greedy.closures import generated as _generated
 from mse.solve.greedy.edges import _comparisons, start_bounds_of
-from mse.solve.greedy.masks import fold_relation
-from mse.solve.greedy.partial import CompiledConstraint, F, N, T, _generated, compile_expr, relation_mask
+from mse.solve.greedy.masks import F, N, T, fold_relation, relation_mask
+from mse.solve.greedy.partial import CompiledConstraint
+from mse.solve.greedy.solver import GreedySolver
 from mse.solve.protocol import SolveRequest
 
 DOCS = Path(__file__).resolve().parent.parent / "docs" / "semantics.md"

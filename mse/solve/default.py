@@ -122,7 +122,9 @@ class _Run:
 
     def __init__(self, walker: GreedySolver, setup: _Setup, request: SolveRequest) -> None:
         self.walker, self.model, self.request = walker, setup.model, request
-        self.zeros, self.first = setup.zeros, setup.first
+        # The setup may come from another seed of the same request: the first pass is this one's.
+        first = setup.first
+        self.zeros, self.first = setup.zeros, first if first.seed == request.seed else replace(first, seed=request.seed)
         # Learnt from one seed, true of every seed: no timeline exists without the
         # never-occurring signals; one exists with them.
         self.zeros_needed = False
