@@ -199,6 +199,16 @@ def _false_like(atom: ir.Compare) -> ir.Compare:
     return ir.Compare("<", same, same, 0, atom.span)
 
 
+def timeline_speech(model: ir.Model, timeline: Any, speech: Speech | None, path: str) -> ir.Model:
+    """``model`` resolved for checking ``timeline`` (a :class:`mse.timeline.Timeline`, read
+    from ``path``): with ``speech`` when given, else with the timeline's own ``utterances``."""
+    if not uses_anchors(model):
+        return model
+    if speech is None and "utterances" in timeline.extra:
+        speech = speech_from_utterances(timeline.extra["utterances"], Span("<stdin>" if path == "-" else path))
+    return resolve_anchors(model, speech)
+
+
 # -- reading speech -------------------------------------------------------------------------------
 def _fail(message: str, span: Span) -> MseError:
     return MseError([Diagnostic(SPEECH_CODE, message, span)])
