@@ -5,9 +5,9 @@ by the evaluator and by a check written here from the docs), and the CLI."""
 from __future__ import annotations
 
 import json
-from html import escape
 import subprocess
 import sys
+from html import escape
 from pathlib import Path
 
 import pytest
