@@ -17,7 +17,14 @@ from hypothesis import strategies as st
 from mse.api import loads
 from mse.diagnostics import MseError
 from mse.ir import model as ir
-from mse.ir.anchors import Speech, Word, resolve_anchors, utterance_from_json, without_anchored
+from mse.ir.anchors import (
+    Speech,
+    Word,
+    episode_speech,
+    resolve_anchors,
+    utterance_from_json,
+    without_anchored,
+)
 from mse.ir.canonical import model_from_json, model_to_json
 from mse.ir.decode import decode_expr
 from mse.ir.evaluate import check_schedule
@@ -308,3 +315,13 @@ def test_samples_place_every_anchored_signal() -> None:
         for timeline in iter_timelines(resolved, 5.0, seed=1, count=60, solver=solver):
             placed.update(_occurrences(timeline))
         assert placed == {"nod", "gaze_away", "smile"}, solver
+
+
+def test_episode_speech_is_the_overlapping_utterances_in_the_episode_time() -> None:
+    first = Speech(1.0, 2.0, (Word("yes", 1.0, 2.0, stressed=True),))
+    second = Speech(4.5, 6.0, (Word("no", 4.5, 5.2), Word("way", 5.2, 6.0, stressed=True)))
+    episode = episode_speech([first, second], 4.0, 8.0)
+    assert episode == Speech(0.5, 2.0, (Word("no", 0.5, 1.2), Word("way", 1.2, 2.0, stressed=True)))
+    assert episode_speech([first, second], 2.0, 4.5) is None  # touching is not overlapping
+    spanning = episode_speech([first, second], 1.5, None)
+    assert spanning is not None and spanning.start == -0.5 and [w.text for w in spanning.stressed] == ["yes", "way"]

@@ -78,6 +78,27 @@ class Speech:
         )
 
 
+def episode_speech(utterances: Sequence[Speech], start: float, stop: float | None) -> Speech | None:
+    """The speech of one episode of a dialogue, ``[start, stop)`` in the dialogue's time
+    (``stop`` None: not known yet), in the episode's own time (0 = ``start``): the utterances
+    that overlap the episode, joined, every time shifted by ``-start``.  An utterance begun
+    before the episode or running past its end keeps its words, whose times may then lie
+    before 0 or after the episode (a comparison with them still has its meaning).  None when
+    no utterance overlaps (anchors of the episode's set are then an error, E219)."""
+    inside = [u for u in utterances if u.stop > start and (stop is None or u.start < stop)]
+    if not inside:
+        return None
+    def moved(time: float) -> float:  # on the 1 ms grid, as every time of a timeline
+        return to_ticks(time - start) / 1000
+
+    shifted = [
+        Speech(moved(u.start), moved(u.stop),
+               tuple(replace(w, start=moved(w.start), stop=moved(w.stop)) for w in u.words))
+        for u in inside
+    ]
+    return Speech.join(shifted)
+
+
 # -- resolving ------------------------------------------------------------------------------------
 def term_anchors(term: ir.Term) -> bool:
     return isinstance(term, ir.SpeechTime)
