@@ -64,7 +64,7 @@ def register(subparsers: Any) -> None:
     parser.add_argument("--stream", action="store_true", help="print each signal as a JSON line once decided")
     parser.add_argument("--speech", metavar="FILE",
                         help="the agent's speech (JSON: start, stop, words, stress) for speech.start, "
-                        "speech.stop and stressed in constraints (docs/semantics.md)")
+                        "speech.stop and stressed in constraints")
     parser.add_argument("--realtime", action="store_true", help="with --stream: pace the lines to the clock")
     parser.add_argument("--slot", type=float, help="greedy: time-stamp length in seconds (default about 1)")
     parser.add_argument("--max-restarts", type=int, default=20,
