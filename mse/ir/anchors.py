@@ -308,11 +308,16 @@ def utterance_from_json(obj: Any, span: Span, where: str = "") -> Speech:
     return Speech(start, stop, marked_words)
 
 
-def speech_from_utterances(raw: Any, span: Span) -> Speech | None:
-    """A timeline's ``utterances`` (the dialogue format), joined; None for an empty list."""
+def utterances_from_json(raw: Any, span: Span) -> list[Speech]:
+    """A timeline's ``utterances`` (the dialogue format), one :class:`Speech` each."""
     if not isinstance(raw, list):
         raise _fail("'utterances' must be a list of utterances", span)
-    utterances = [utterance_from_json(u, span, f"utterances[{i}]: ") for i, u in enumerate(raw)]
+    return [utterance_from_json(u, span, f"utterances[{i}]: ") for i, u in enumerate(raw)]
+
+
+def speech_from_utterances(raw: Any, span: Span) -> Speech | None:
+    """A timeline's ``utterances``, joined; None for an empty list."""
+    utterances = utterances_from_json(raw, span)
     return Speech.join(utterances) if utterances else None
 
 
