@@ -6,10 +6,12 @@ Four parts, data flowing one way:
 - ``mse.solve``: backends behind one protocol (greedy sampler, CP-SAT, python-constraint);
 - ``mse.timeline`` -> ``mse.export`` (JSON, BML, SVG, HTML) and ``mse.motion`` (motion leaves).
 
-The public API (docs/api.md): ``load``, ``loads``, ``sample``, ``iter_sample``, ``check``,
-``lint``, ``explain`` and the types they take and return (``Model``, ``Timeline``,
-``TimelineSignal``, ``Pin``, ``SolveRequest``, ``Violation``, ``Explanation``,
-``Diagnostic``, ``MseError``, ``NoSolution``), imported on first use.
+The public API (docs/api.md): ``load``, ``loads``, ``sample``, ``iter_timelines``,
+``iter_sample``, ``check``, ``lint``, ``explain``, ``repair`` and the types they take and return
+(``Model``, ``Timeline``, ``TimelineSignal``, ``Pin``, ``SolveRequest``, ``GreedyOptions``,
+``CpSatOptions``, ``CspOptions``, ``SolveResult``, ``Solution``, ``Status``, ``Violation``,
+``Explanation``, ``Diagnostic``, ``MseError``, ``NoSolution``, ``Repair``, ``NoRepair``),
+imported on first use.
 
 >>> import mse
 >>> model = mse.load("anger")
@@ -25,34 +27,55 @@ __version__ = "0.1.0"
 from typing import TYPE_CHECKING, Any
 
 if TYPE_CHECKING:
-    from mse.api import check, explain, iter_sample, iter_timelines, lint, load, loads, sample
+    from mse.api import check, lint, load, loads, repair
     from mse.diagnostics import Diagnostic, MseError
     from mse.ir.evaluate import Violation
     from mse.ir.model import Model
+    from mse.repairing.repair import NoRepair, Repair
+    from mse.sampling import explain, iter_sample, iter_timelines, sample
     from mse.solve.cpsat.explain import Explanation
-    from mse.solve.protocol import NoSolution, Pin, SolveRequest
+    from mse.solve.protocol import (
+        CpSatOptions,
+        CspOptions,
+        GreedyOptions,
+        NoSolution,
+        Pin,
+        Solution,
+        SolveRequest,
+        SolveResult,
+        Status,
+    )
     from mse.timeline import Timeline, TimelineSignal
 
 # The public names are imported on first use, so that `import mse` (and the command
 # line's start) stays cheap.
 _LAZY = {
     "check": "mse.api",
-    "explain": "mse.api",
-    "iter_sample": "mse.api",
-    "iter_timelines": "mse.api",
+    "explain": "mse.sampling",
+    "iter_sample": "mse.sampling",
+    "iter_timelines": "mse.sampling",
     "lint": "mse.api",
     "load": "mse.api",
     "loads": "mse.api",
-    "sample": "mse.api",
+    "sample": "mse.sampling",
+    "repair": "mse.api",
     "Diagnostic": "mse.diagnostics",
     "MseError": "mse.diagnostics",
     "Violation": "mse.ir.evaluate",
     "Model": "mse.ir.model",
     "Timeline": "mse.timeline",
     "TimelineSignal": "mse.timeline",
+    "Repair": "mse.repairing.repair",
+    "NoRepair": "mse.repairing.repair",
     "Pin": "mse.solve.protocol",
     "SolveRequest": "mse.solve.protocol",
     "NoSolution": "mse.solve.protocol",
+    "GreedyOptions": "mse.solve.protocol",
+    "CpSatOptions": "mse.solve.protocol",
+    "CspOptions": "mse.solve.protocol",
+    "SolveResult": "mse.solve.protocol",
+    "Solution": "mse.solve.protocol",
+    "Status": "mse.solve.protocol",
     "Explanation": "mse.solve.cpsat.explain",
 }
 
@@ -69,13 +92,21 @@ def __getattr__(name: str) -> Any:
 
 
 __all__ = [
+    "CpSatOptions",
+    "CspOptions",
     "Diagnostic",
     "Explanation",
+    "GreedyOptions",
     "Model",
     "MseError",
+    "NoRepair",
     "NoSolution",
     "Pin",
+    "Repair",
+    "Solution",
     "SolveRequest",
+    "SolveResult",
+    "Status",
     "Timeline",
     "TimelineSignal",
     "Violation",
@@ -87,5 +118,6 @@ __all__ = [
     "lint",
     "load",
     "loads",
+    "repair",
     "sample",
 ]

@@ -1,4 +1,5 @@
-"""The library API: one function per stage.  The CLI is a thin layer over these.
+"""The library API: one function per stage (loading, checking, linting, learning here; sampling
+in :mod:`mse.sampling`).  The CLI is a thin layer over these.
 
 The names most users need are also importable from ``mse`` itself (``mse.load``,
 ``mse.sample``, ``mse.Pin``...); docs/api.md lists them all with examples.
@@ -24,31 +25,21 @@ from mse.diagnostics import Diagnostic, MseError, Span, argument_error, has_erro
 from mse.ir.evaluate import Violation, check_schedule
 from mse.ir.model import Model
 from mse.resources import SEARCH_PATH_VARIABLE, named_set, named_sets
-from mse.sampling import (
-    DEFAULT_OBJECTIVE,
-    explain,
-    expression_source,
-    iter_sample,
-    iter_timelines,
-    motion_annotations,
-    sample,
-    with_source,
-)
 from mse.timeline import Timeline
 
-# The sampling stage (options → request → timelines, or why none exists) lives in mse/sampling.py; this module
-# re-exports it and stays the one documented API.
 __all__ = [
-    "DEFAULT_OBJECTIVE", "check", "compile_source", "expand_paths", "explain", "expression_source", "iter_sample",
-    "iter_timelines", "learn", "lint", "load", "loads", "loads_ir", "motion_annotations", "resolve_path", "sample",
-    "with_source",
+    "check", "compile_source", "expand_paths", "learn", "lint", "load", "loads", "loads_ir", "repair", "resolve_path",
 ]
 
 # The XML reader, the grammar and the IR builder (lxml, lark) are imported inside the
 # functions that parse: a model from the compiled-model cache needs none of them.
 
 if TYPE_CHECKING:
+    from collections.abc import Mapping
+
     from mse.learn import LearnOptions, LearnResult, TierMapping
+    from mse.repairing.proposal import Proposal
+    from mse.repairing.repair import Repair
 
 
 def compile_source(path: str | Path, data: bytes | None = None) -> tuple[Model | None, list[Diagnostic]]:
@@ -121,7 +112,7 @@ def load(path_or_name: str | Path, *, cache: bool = False) -> Model:
     """
     path = resolve_path(path_or_name)
     if path.suffix == ".json":
-        from mse.fileio import decode_utf8, read_input
+        from mse.input_files import decode_utf8, read_input
 
         text = decode_utf8(read_input(path, what="compiled IR file"), str(path), what="compiled IR file")
         return loads_ir(text, path=str(path))
@@ -155,7 +146,7 @@ def loads(data: bytes | str, *, path: str = "<string>") -> Model:
     """
     raw = data.encode("utf-8", errors="surrogateescape") if isinstance(data, str) else data
     if raw.lstrip().startswith(b"{"):
-        from mse.fileio import decode_utf8
+        from mse.input_files import decode_utf8
 
         return loads_ir(decode_utf8(raw, path, what="compiled IR"), path=path)
     model, diagnostics = compile_source(path, raw)
@@ -172,7 +163,7 @@ def loads_ir(text: str, *, path: str = "<stdin>") -> Model:
     >>> loads_ir(model_dumps(load("relief"))).name
     'relief'
     """
-    from mse.fileio import parse_json
+    from mse.input_files import parse_json
     from mse.ir.canonical import model_from_json
 
     return model_from_json(parse_json(text, path), path=path)
@@ -192,6 +183,45 @@ def check(model: Model, timeline: Timeline) -> list[Violation]:
     ['angry_face_shown']
     """
     return check_schedule(model, timeline.to_schedule())
+
+
+def repair(
+    model: Model,
+    proposal: Proposal | Timeline | Mapping[str, Any] | str,
+    *,
+    keep: Iterable[str] = (),
+    duration: float | None = None,
+    time_limit: float = 10.0,
+    workers: int = 1,
+    path: str = "<proposal>",
+) -> Repair:
+    """The consistent timeline nearest to ``proposal``, and each change with the rules
+    (file:line) that forced it (docs/repair.md).
+
+    ``proposal``: a timeline, decoded JSON (a timeline or an ``mse-proposal/1`` document) or
+    text (JSON, or tagged text like ``"[nod] I [smile]really[/smile] mean it"``).  Nearest means
+    first the fewest occurrences dropped or added, then the least time moved.  ``keep``: signal
+    ids or occurrence ids that must not be dropped.  Bad input raises :class:`mse.MseError`
+    (E218 at the proposal's line:col); :class:`mse.NoRepair` when nothing keeps ``keep``.
+
+    >>> import mse
+    >>> model = mse.load("embarrassment")
+    >>> fixed = mse.repair(model, {"duration": 10, "occurrences": [
+    ...     {"signal": "head_down", "start": 0.5, "stop": 3.5},
+    ...     {"signal": "gaze_down", "start": 1, "stop": 2.5},
+    ...     {"signal": "tensed_smile", "start": 2, "stop": 4.5}]})
+    >>> [(s.id, s.start, s.stop) for s in fixed.timeline.signals]
+    [('head_down', 0.5, 3.5), ('gaze_down', 1.0, 2.5), ('tensed_smile', 2.5, 4.5)]
+    >>> print(fixed.summary())
+    repaired for embarrassment: 0 dropped, 0 added, 1 moved by 500 ms in all, 0 foreign
+    >>> print(fixed.changes[0].reasons[0].rule)
+    looks_down_first
+    >>> mse.check(model, fixed.timeline)
+    []
+    """
+    from mse.repairing.repair import repair as nearest
+
+    return nearest(model, proposal, keep=keep, duration=duration, time_limit=time_limit, workers=workers, path=path)
 
 
 def expand_paths(paths: Iterable[str | Path]) -> list[Path]:
@@ -333,7 +363,8 @@ def learn(
     >>> import tempfile
     >>> from mse.timeline import dumps_jsonl
     >>> corpus = Path(tempfile.mkdtemp()) / "relief.jsonl"
-    >>> _ = corpus.write_text(dumps_jsonl(sample(load("relief"), 10.0, seed=1, count=40)))
+    >>> from mse.sampling import iter_timelines
+    >>> _ = corpus.write_text(dumps_jsonl(iter_timelines(load("relief"), 10.0, seed=1, count=40)))
     >>> result = learn([corpus], name="relief", confidence=1.0, calibrate=False, deep_lint=False)
     >>> result.breaks, len(result.model.signals)
     ([], 9)

@@ -2,8 +2,10 @@
 
 Every layer reports problems as :class:`Diagnostic` records; front-ends (the CLI, an
 editor, CI) decide how to render them.  Codes: ``E1xx`` unreadable input (``E130``: a bad
-argument or option value), ``E2xx`` semantics, ``W3xx`` static lint, ``E4xx``/``W4xx``
-solver-backed lint, ``W5xx`` import/conversion notes, ``W6xx`` export notes.
+argument or option value; ``E15x``: dialogue inputs), ``E2xx`` semantics, ``W3xx`` static
+lint, ``E4xx``/``W4xx``/``N4xx`` solver-backed lint (``N``: notes, never counted by
+``--strict``), ``W5xx`` import/conversion notes, ``W6xx`` export notes, ``W7xx``/``E7xx``
+repair notes.
 """
 
 from __future__ import annotations
@@ -53,6 +55,9 @@ CODES: dict[str, str] = {
     "E121": "invalid annotation",
     # E130: the command line or a library call asked for something invalid
     "E130": "invalid argument or option value",
+    "E150": "FML-APML or EmotionML structure mse cannot read",
+    "E151": "time reference that names nothing, or times on different bases",
+    "E152": "invalid number or time in an FML-APML or EmotionML input",
     # E2xx: well-formed but meaningless
     "E201": "duplicate signal id",
     "E202": "duplicate constraint id",
@@ -70,6 +75,8 @@ CODES: dict[str, str] = {
     "E214": "invalid lexeme table",
     "E215": "time outside the supported range",
     "E216": "a signal's length compared with something other than a number",
+    "E217": "invalid dialogue script (event, order, utterance or word timing)",
+    "E218": "invalid repair proposal (structure, names, times, word timings)",
     "E219": "speech anchor with no speech given (speech.start, speech.stop, stressed)",
     "E220": "invalid speech (structure, times, word timing, stressed words)",
     # W3xx: static lint
@@ -106,10 +113,23 @@ CODES: dict[str, str] = {
     "W501": "Greta name mismatch resolved",
     "W502": "Greta construct approximated",
     "W503": "annotation left out or merged",
+    "W520": "input element mse does not use (FML function, prosody, EmotionML descriptor)",
+    "W521": "input attribute mse does not use",
+    "W522": "input emotion with no behaviour set",
+    "W523": "overlapping input emotions cut (one emotion at a time)",
+    "W524": "input times estimated or shifted",
+    "W525": "several categories in one emotion (the strongest is played)",
+    "W526": "input emotion without a usable time (not placed)",
+    "W527": "FML function Greta's reader drops",
+    "W528": "input with no emotion mse can play",
+    "W529": "emotion vocabulary mse does not know (names not checked)",
     # W6xx: export
     "W601": "behaviour left out of the export (the realizer cannot play it)",
     "W602": "lexeme not drawn by the face player",
     "W603": "BML behaviour written with a lexeme outside BML 1.0's core sets",
+    # W7xx / E7xx: repair of proposed expressions
+    "W701": "proposed occurrence naming no signal of the set (left out of the repair)",
+    "E702": "no repair keeps what must be kept (proven, with a minimal explanation)",
 }
 
 

@@ -1,10 +1,4 @@
-"""The one place where mse reads input files and writes output files.
-
-Reading (:func:`read_input`; the code is :mod:`mse.input_files`'s): regular files only (or
-``-`` for standard input), never more than a size limit, so ``/dev/zero``, a FIFO without a
-writer or a 300 MB stdin cannot grow memory or hang.  :func:`decode_utf8` and
-:func:`parse_json` turn bad bytes, deep nesting, huge integers and NaN/Infinity into located
-diagnostics.
+"""Where mse writes output files (reading is :mod:`mse.input_files`'s).
 
 Writing (:func:`write_atomic`, :func:`staged_folder`), by kind of target (docs/security.md):
 
@@ -34,25 +28,8 @@ from collections.abc import Iterable, Iterator, Sequence
 from pathlib import Path
 
 from mse.diagnostics import MseError
-from mse.input_files import (
-    PathLike,
-    decode_utf8,
-    file_kind,
-    json_depth,
-    located_error,
-    parse_json,
-    read_capped,
-    read_input,
-    read_json,
-)
+from mse.input_files import PathLike, file_kind, located_error
 
-# Reading lives in mse/input_files.py; this module writes and re-exports it, so that
-# ``mse.fileio`` stays the one name for mse's file access.
-__all__ = [
-    "PathLike", "Terminated", "atomic_path", "decode_utf8", "install_termination_handler", "json_depth",
-    "parse_json", "private_folder", "read_capped", "read_input", "read_json", "refuse_inputs", "staged_folder",
-    "user_cache_dir", "write_atomic",
-]
 _SIGNALS = tuple(s for s in (signal.SIGTERM, signal.SIGINT, getattr(signal, "SIGHUP", None)) if s is not None)
 
 

@@ -2,8 +2,7 @@
 size limit, so ``/dev/zero``, a FIFO without a writer or a 300 MB stdin cannot grow memory or
 hang; bad bytes, deep nesting, huge integers and NaN/Infinity become located diagnostics.
 
-The reading half of :mod:`mse.fileio` (the one place where mse reads and writes files), which
-re-exports every name here.
+Writing (atomic files, staged folders, the cache folder) is :mod:`mse.fileio`'s.
 """
 
 from __future__ import annotations

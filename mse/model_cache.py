@@ -24,7 +24,8 @@ from typing import Any
 
 from mse import __version__
 from mse.diagnostics import Diagnostic, MseError
-from mse.fileio import private_folder, read_input, user_cache_dir, write_atomic
+from mse.fileio import private_folder, user_cache_dir, write_atomic
+from mse.input_files import read_input
 from mse.ir.decode import DecodeError, model_from_trusted_json
 from mse.ir.model import Model
 from mse.limits import MAX_INPUT_BYTES

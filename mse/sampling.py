@@ -1,12 +1,9 @@
-"""The API's sampling stage: checked options → a solver request → timelines that record their
-source (``mse.sample``, ``mse.iter_timelines``, ``mse.iter_sample``), or why no timeline exists
-(``mse.explain``); docs/api.md.
-
-:mod:`mse.api` re-exports every name here and stays the documented API.
+"""The sampling stage of the API: checked options → a solver request → timelines that record
+their source (``mse.sample``, ``mse.iter_timelines``, ``mse.iter_sample``), or why no
+timeline exists (``mse.explain``); docs/api.md.
 
 >>> import mse
->>> from mse.sampling import sample
->>> sample(mse.load("relief"), 4.0, seed=7).seed
+>>> mse.sample(mse.load("relief"), 4.0, seed=7).seed
 7
 """
 
@@ -14,50 +11,85 @@ from __future__ import annotations
 
 import hashlib
 import random
+import weakref
 from collections.abc import Iterable, Iterator, Mapping
 from dataclasses import replace
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, TypedDict, Unpack
 
 from mse import progress
 from mse.diagnostics import MseError, argument_error
 from mse.ir.model import Model
-from mse.ir.schedule import Schedule, to_seconds
+from mse.ir.schedule import to_seconds
+from mse.limits import MIN_DURATION_SECONDS, time_problem
 from mse.resources import bundled_path
-from mse.solve.protocol import Pin, Solver, SolveRequest, check_supported, derive_seed, get_solver
+from mse.solve.objectives import DEFAULT_OBJECTIVE
+from mse.solve.protocol import (
+    CpSatOptions,
+    CspOptions,
+    GreedyOptions,
+    Pin,
+    Solution,
+    Solver,
+    SolveRequest,
+    check_supported,
+    get_solver,
+)
 from mse.timeline import Timeline, TimelineSignal, from_schedule
 
 if TYPE_CHECKING:
     from mse.solve.cpsat.explain import Explanation
 
-#: The name of the default objective: every backend follows the probability profile
-#: (``--objective profile``; the CP-SAT backend by perturb-and-MAP, docs/solvers.md).
-DEFAULT_OBJECTIVE = "profile"
 
+class SampleOptions(TypedDict, total=False):
+    """The keyword options of :func:`sample`, :func:`iter_timelines` and :func:`iter_sample`."""
 
-def motion_annotations(model: Model) -> dict[str, dict[str, object]]:
-    """``{"action": ...}`` for every motion-leaf signal (timeline entries carry it).
-
-    >>> from mse.api import load, motion_annotations
-    >>> motion_annotations(load("embarrassment"))["bow"]
-    {'action': 'bow'}
-    """
-    return {s.id: {"action": s.motion.action} for s in model.signals if s.motion is not None}
+    #: Signals that must occur exactly there (:class:`mse.Pin` values; one may be given alone).
+    pinned: Pin | Iterable[Pin]
+    #: Signal ids that must (``require``) or must not (``forbid``) occur; one may be a string.
+    require: str | Iterable[str]
+    forbid: str | Iterable[str]
+    #: DEFAULT_OBJECTIVE ("profile") or one of :data:`mse.solve.objectives.OBJECTIVES`.
+    objective: str
+    #: With ``count``: maximally different timelines (cpsat).
+    diverse: bool
+    #: Seconds per timeline (and per window of a long cpsat one).
+    time_limit: float
+    #: Each backend's own options; the others ignore them.
+    greedy: GreedyOptions
+    cpsat: CpSatOptions
+    csp: CspOptions
 
 
 def expression_source(model: Model) -> dict[str, str] | None:
     """Where ``model`` was read from, as timelines record it (their ``"source"``):
     ``{"bundled": name, "sha256": ...}`` or ``{"path": absolute path, "sha256": ...}``, the
-    hash being of the file's bytes; None when the model comes from no file (a string, stdin).
+    hash being of the file's bytes when this model's first timeline was made; None when the
+    model comes from no file (a string, stdin).
 
     >>> import mse
-    >>> from mse.api import expression_source
+    >>> from mse.sampling import expression_source
     >>> expression_source(mse.load("relief"))["bundled"]
     'relief'
     """
-    from mse.fileio import read_input
+    # Read and hashed once per model (its first timeline), not once per sample() call.
+    known = _SOURCES.get(id(model))
+    if known is None or known[0]() is not model:
+        if len(_SOURCES) >= 64:
+            _SOURCES.clear()
+        known = _SOURCES[id(model)] = (weakref.ref(model), _source_of(Path(model.path)))
+    source = known[1]
+    return dict(source) if source is not None else None
 
-    path = Path(model.path)
+
+#: id(model) -> (the model, its source): the model is held weakly, and checked, since an id
+#: may be reused once it is gone.
+_SOURCES: dict[int, tuple[weakref.ref[Model], dict[str, str] | None]] = {}
+
+
+def _source_of(path: Path) -> dict[str, str] | None:
+    from mse.input_files import read_input
+
     try:  # a path named by compiled IR may be anything: a regular file, capped, or nothing
         data = read_input(path) if path.is_file() else None
     except (MseError, ValueError):
@@ -75,7 +107,7 @@ def expression_source(model: Model) -> dict[str, str] | None:
 def with_source(timeline: Timeline, source: Mapping[str, str] | None) -> Timeline:
     """``timeline`` recording ``source`` (see :func:`expression_source`) in its JSON.
 
-    >>> from mse.api import with_source
+    >>> from mse.sampling import with_source
     >>> from mse.timeline import Timeline
     >>> with_source(Timeline("x", 1.0, ()), {"path": "/x.xml", "sha256": "0"}).source
     {'path': '/x.xml', 'sha256': '0'}
@@ -85,7 +117,7 @@ def with_source(timeline: Timeline, source: Mapping[str, str] | None) -> Timelin
     return replace(timeline, extra={**timeline.extra, "source": dict(source)})
 
 
-def _names_option(value: object) -> object:
+def _names_option(value: object) -> Any:
     """``require="frown"`` is one signal, not five letters; any iterable becomes a tuple."""
     if isinstance(value, str):
         return (value,)
@@ -108,22 +140,23 @@ def _pins_option(value: object) -> tuple[Pin, ...]:
     return pins
 
 
-def _request(duration: float, seed: int | None, count: int, **options: object) -> SolveRequest:
-    from mse.limits import MIN_DURATION_SECONDS, time_problem
-
+def _request(duration: float, seed: int | None, count: int, mode: str, options: SampleOptions) -> SolveRequest:
     problem = time_problem(float(duration), minimum=MIN_DURATION_SECONDS)
     if problem is not None:
         raise argument_error(f"duration {duration!r} {problem}")
     if seed is None:
         seed = random.SystemRandom().randrange(2**31)
+    if not options:
+        return SolveRequest(duration=float(duration), seed=seed, count=count, mode=mode)
+    fields: dict[str, Any] = dict(options)
     for key in ("require", "forbid"):
-        if key in options:
-            options[key] = _names_option(options[key])
-    if "pinned" in options:
-        options["pinned"] = _pins_option(options["pinned"])
-    if options.get("objective") == DEFAULT_OBJECTIVE:
-        del options["objective"]  # the backend's own default: follow the probability profile
-    return SolveRequest(duration=float(duration), seed=seed, count=count, **options)  # type: ignore[arg-type]
+        if key in fields:
+            fields[key] = _names_option(fields[key])
+    if "pinned" in fields:
+        fields["pinned"] = _pins_option(fields["pinned"])
+    if fields.get("objective") == DEFAULT_OBJECTIVE:
+        del fields["objective"]  # the backend's own default: follow the probability profile
+    return SolveRequest(duration=float(duration), seed=seed, count=count, mode=mode, **fields)
 
 
 def sample(
@@ -131,30 +164,27 @@ def sample(
     duration: float = 10.0,
     *,
     seed: int | None = None,
-    count: int | None = None,
     solver: str = "greedy",
     mode: str = "consistent",
-    **options: object,
-) -> Timeline | list[Timeline]:
-    """One timeline (``count=None``) or a list of ``count`` timelines of ``duration`` seconds.
+    **options: Unpack[SampleOptions],
+) -> Timeline:
+    """One timeline of ``duration`` seconds (several: :func:`iter_timelines`).
 
     ``solver`` is ``"greedy"`` (the paper's sampler), ``"cpsat"`` (exact) or ``"csp"``;
     ``mode="constraint-less"`` ignores the constraints (the paper's control condition).
-    ``options`` are the fields of :class:`mse.SolveRequest`: ``pinned`` (:class:`mse.Pin`
-    values), ``require`` and ``forbid`` (signal ids; one id may be given as a string),
-    ``objective`` (``"profile"``, the default, ``"likely"``, ``"random"``, ``"most-signals"``,
-    ``"fewest-signals"``), ``diverse``, ``time_limit``, ``workers``, ``grid``, ``slot``,
-    ``max_restarts``. A solver that cannot honour an option raises :class:`mse.MseError`;
-    when no timeline exists it raises :class:`mse.NoSolution`. Timeline *i* of a ``count``
-    run has seed ``seed + i``.
+    ``options`` (:class:`SampleOptions`): ``pinned`` (:class:`mse.Pin` values), ``require``
+    and ``forbid`` (signal ids; one id may be given as a string), ``objective``
+    (``"profile"``, the default, ``"likely"``, ``"random"``, ``"most-signals"``,
+    ``"fewest-signals"``), ``diverse``, ``time_limit``, and each backend's own options
+    (``greedy=mse.GreedyOptions(...)``, ``cpsat=mse.CpSatOptions(...)``,
+    ``csp=mse.CspOptions(...)``). A solver that cannot honour an option raises
+    :class:`mse.MseError`; when no timeline exists it raises :class:`mse.NoSolution`.
 
     >>> import mse
     >>> model = mse.load("anger")
     >>> timeline = mse.sample(model, 10.0, seed=7)
     >>> timeline.duration, timeline.seed, timeline.source["bundled"]
     (10.0, 7, 'anger')
-    >>> [t.seed for t in mse.sample(model, 10.0, seed=1, count=3)]
-    [1, 2, 3]
     >>> pinned = mse.sample(model, 10.0, seed=1, solver="cpsat",
     ...                     pinned=[mse.Pin("frown", 4.0, 6.0)], forbid="head_forward")
     >>> [(s.start, s.stop) for s in pinned.signals if s.id == "frown"]
@@ -162,9 +192,8 @@ def sample(
     >>> "head_forward" in {s.id for s in pinned.signals}
     False
     """
-    timelines = list(iter_timelines(model, duration, seed=seed, count=count or 1, solver=solver, mode=mode,
-                                    **options))
-    return timelines if count is not None else timelines[0]
+    backend, request = _checked(duration, seed, 1, solver, mode, options)
+    return _timeline(model, request, solver, expression_source(model), 0, next(backend.solutions(model, request)))
 
 
 def iter_timelines(
@@ -175,60 +204,58 @@ def iter_timelines(
     count: int = 1,
     solver: str = "greedy",
     mode: str = "consistent",
-    **options: object,
+    **options: Unpack[SampleOptions],
 ) -> Iterator[Timeline]:
-    """The timelines of :func:`sample`, each yielded as soon as it is solved (memory stays
-    flat whatever ``count``).  Timeline *i* has seed ``seed + i`` and is what ``count=None,
-    seed=seed + i`` gives alone.  With ``diverse=True`` it also depends on the timelines before
-    it; its JSON then records ``"diverse": {"seed": seed, "index": i}``, which reproduces it
-    (``--seed seed --count i+1 --diverse``, last timeline).
+    """``count`` timelines, each yielded as soon as it is solved (memory stays flat whatever
+    ``count``); options as :func:`sample`.  Timeline *i* has seed ``seed + i`` and is what
+    :func:`sample` gives alone for ``seed + i``.  With ``diverse=True`` it also depends on the
+    timelines before it; its JSON then records ``"diverse": {"seed": seed, "index": i}``,
+    which reproduces it (``--seed seed --count i+1 --diverse``, last timeline).  The request
+    is checked at once (a bad option raises here, not at the first ``next``).
 
     >>> import mse
-    >>> stream = mse.iter_timelines(mse.load("anger"), 10.0, seed=3, count=10**9)
+    >>> model = mse.load("anger")
+    >>> [t.seed for t in mse.iter_timelines(model, 10.0, seed=1, count=3)]
+    [1, 2, 3]
+    >>> stream = mse.iter_timelines(model, 10.0, seed=3, count=10**9)
     >>> [next(stream).seed for _ in range(2)]
     [3, 4]
     """
+    backend, request = _checked(duration, seed, count, solver, mode, options)
+    return _solved(backend, model, request, solver)
+
+
+def _checked(duration: float, seed: int | None, count: int, solver: str, mode: str,
+             options: SampleOptions) -> tuple[Solver, SolveRequest]:
+    """The backend and the request, both checked (a bad option raises here, at the call)."""
     backend = get_solver(solver)
-    request = _request(duration, seed, count, mode=mode, **options)
+    request = _request(duration, seed, count, mode, options)
     check_supported(backend, request)
-    motions = motion_annotations(model)
+    return backend, request
+
+
+def _solved(backend: Solver, model: Model, request: SolveRequest, solver: str) -> Iterator[Timeline]:
     source = expression_source(model)
-    # How each timeline was made (the default solver: "walk" or its fallback) and the mode.
-    schedules: Iterable[tuple[Schedule, str | None]]
+    solutions = backend.solutions(model, request)
+    with progress.bar(request.count, "sample", unit="timeline") as steps:
+        for index, solution in enumerate(solutions):
+            yield _timeline(model, request, solver, source, index, solution)
+            steps.update()
+
+
+def _timeline(model: Model, request: SolveRequest, solver: str, source: Mapping[str, str] | None, index: int,
+              solution: Solution) -> Timeline:
+    """The timeline of ``solution``, recording how it was made and where its model came from."""
+    extra: dict[str, Any] = {"mode": request.mode}
+    if solution.method is not None:  # how the default solver made it: "walk" or its fallback
+        extra["method"] = solution.method
+    if source is not None:
+        extra["source"] = dict(source)
     if request.diverse:
-        # each one depends on those before it
-        together = backend.solve(model, request)
-        methods: list[str] = list(getattr(backend, "methods", ()))
-        schedules = ((schedule, methods[index] if index < len(methods) else None)
-                     for index, schedule in enumerate(together))
-    else:
-        schedules = (_one(backend, model, replace(request, seed=derive_seed(request.seed, index), count=1))
-                     for index in progress.each(range(count), "sample", unit="timeline"))
-    for index, (schedule, method) in enumerate(schedules):
-        timeline = with_source(
-            replace(
-                from_schedule(
-                    schedule,
-                    expression=model.name,
-                    signal_info=model.signal_info,
-                    solver=solver,
-                    seed=derive_seed(request.seed, index),
-                    motions=motions,
-                ),
-                extra={"mode": request.mode, **({"method": method} if method is not None else {})},
-            ),
-            source,
-        )
-        if request.diverse:
-            timeline = replace(timeline, extra={**timeline.extra, "diverse": {"seed": request.seed, "index": index}})
-        yield timeline
-
-
-def _one(backend: Solver, model: Model, request: SolveRequest) -> tuple[Schedule, str | None]:
-    """The one timeline of ``request`` (count 1) and how it was made, when the backend says."""
-    schedule = backend.solve(model, request)[0]
-    methods = list(getattr(backend, "methods", ()))
-    return schedule, (methods[0] if methods else None)
+        extra["diverse"] = {"seed": request.seed, "index": index}
+    timeline = from_schedule(solution.schedule, expression=model.name, signal_info=model.signal_info,
+                             solver=solver, seed=solution.seed, motions=model.motion_annotations)
+    return replace(timeline, extra=extra)
 
 
 def iter_sample(
@@ -237,7 +264,8 @@ def iter_sample(
     *,
     seed: int | None = None,
     solver: str = "greedy",
-    **options: object,
+    mode: str = "consistent",
+    **options: Unpack[SampleOptions],
 ) -> Iterator[TimelineSignal]:
     """The signals of one timeline, each yielded as soon as the solver decides it (a solver
     that decides a whole timeline at once hands its signals out in order); options as
@@ -250,12 +278,10 @@ def iter_sample(
     True
     """
     backend = get_solver(solver)
-    request = _request(duration, seed, 1, **options)
+    request = _request(duration, seed, 1, mode, options)
     check_supported(backend, request)
-    motions = motion_annotations(model)
-    occurrences = (backend.stream(model, request) if "stream" in backend.supports
-                   else iter(backend.solve(model, request)[0].occurrences))
-    for occurrence in occurrences:
+    motions = model.motion_annotations
+    for occurrence in backend.stream(model, request):
         modality, lexeme = model.signal_info[occurrence.signal]
         yield TimelineSignal(
             occurrence.signal,
@@ -267,10 +293,18 @@ def iter_sample(
         )
 
 
-def explain(model: Model, duration: float = 10.0, **options: Any) -> Explanation | None:
+def explain(
+    model: Model,
+    duration: float = 10.0,
+    *,
+    pinned: Pin | Iterable[Pin] = (),
+    require: str | Iterable[str] = (),
+    forbid: str | Iterable[str] = (),
+    time_limit: float = 10.0,
+) -> Explanation | None:
     """Why no timeline of ``duration`` exists (a minimal conflicting set), or None.
 
-    Options: ``pinned``, ``require``, ``forbid`` as for :func:`sample`, and a ``time_limit``.
+    ``pinned``, ``require`` and ``forbid`` as for :func:`sample`.
 
     >>> import mse
     >>> model = mse.loads('''<expression name="tiny"><signals>
@@ -284,9 +318,5 @@ def explain(model: Model, duration: float = 10.0, **options: Any) -> Explanation
     """
     from mse.solve.cpsat.explain import explain as explain_model
 
-    for key in ("require", "forbid"):
-        if key in options:
-            options[key] = _names_option(options[key])
-    if "pinned" in options:
-        options["pinned"] = _pins_option(options["pinned"])
-    return explain_model(model, float(duration), **options)
+    return explain_model(model, float(duration), pinned=_pins_option(pinned), require=_names_option(require),
+                         forbid=_names_option(forbid), time_limit=time_limit)

@@ -23,6 +23,7 @@ from dataclasses import dataclass, field, replace
 from typing import Any, TypeGuard
 
 from mse.diagnostics import Diagnostic, MseError, Span
+from mse.envelope import Envelope
 from mse.ir.schedule import Occurrence, Schedule, to_seconds, to_ticks
 from mse.limits import MAX_SECONDS, MIN_DURATION_SECONDS, time_problem, xml_char_problem
 
@@ -40,6 +41,22 @@ class TimelineSignal:
     start: float
     stop: float
     motion: Mapping[str, Any] | None = None
+    #: In a dialogue (docs/dialogue.md): the episode's index, the envelope (intensity, attack,
+    #: sustain, release), the planned stop when an unannounced change cut the occurrence, and
+    #: whether it carries over the previous episode's occurrence of the same lexeme.
+    episode: int | None = None
+    envelope: Envelope | None = None
+    planned_stop: float | None = None
+    carry: bool = False
+
+    @property
+    def cut(self) -> bool:
+        return self.planned_stop is not None
+
+    def shifted(self, offset: float) -> TimelineSignal:
+        planned = None if self.planned_stop is None else round(self.planned_stop + offset, 3)
+        start, stop = round(self.start + offset, 3), round(self.stop + offset, 3)
+        return replace(self, start=start, stop=stop, planned_stop=planned)
 
     def to_json(self) -> dict[str, Any]:
         entry: dict[str, Any] = {
@@ -51,6 +68,15 @@ class TimelineSignal:
         }
         if self.motion is not None:
             entry["motion"] = dict(self.motion)
+        if self.episode is not None:
+            entry["episode"] = self.episode
+        if self.envelope is not None:
+            entry.update(self.envelope.to_json())
+        if self.planned_stop is not None:
+            entry["cut"] = True
+            entry["planned_stop"] = round(self.planned_stop, 3)
+        if self.carry:
+            entry["carry"] = True
         return entry
 
 
@@ -86,6 +112,73 @@ class Timeline:
 
     def with_signals(self, signals: Iterable[TimelineSignal]) -> Timeline:
         return replace(self, signals=tuple(signals))
+
+    # -- dialogues (docs/dialogue.md) --------------------------------------------------
+    @property
+    def episodes(self) -> list[dict[str, Any]]:
+        """The episodes of a dialogue timeline (``"episodes"`` in the JSON); [] for one expression."""
+        value = self.extra.get("episodes")
+        return [dict(e) for e in value if isinstance(e, Mapping)] if isinstance(value, list) else []
+
+    @property
+    def utterances(self) -> list[dict[str, Any]]:
+        value = self.extra.get("utterances")
+        return [dict(u) for u in value if isinstance(u, Mapping)] if isinstance(value, list) else []
+
+    def as_episodes(self) -> Timeline:
+        """A dialogue timeline: this timeline as one announced episode when it has none."""
+        if self.episodes:
+            return self
+        episode: dict[str, Any] = {
+            "index": 0, "emotion": self.expression, "start": 0.0, "stop": round(self.duration, 3),
+            "announced": True, "interrupted": False, "intensity": 1.0,
+        }
+        if self.source is not None:
+            episode["source"] = dict(self.source)
+        signals = [replace(s, episode=0) for s in self.signals]
+        return replace(self, signals=tuple(signals), extra={**self.extra, "episodes": [episode], "utterances": []})
+
+    def shift(self, offset: float) -> Timeline:
+        """This timeline ``offset`` seconds later (a dialogue's episodes and utterances too);
+        the duration grows by ``offset``, so it still starts at 0."""
+        if offset < 0:
+            raise ValueError("a timeline can only be shifted later (offset >= 0)")
+        dialogue = self.as_episodes()
+        episodes = [{**e, **_moved(e, offset, ("start", "stop", "plan_stop"))} for e in dialogue.episodes]
+        for episode in episodes:
+            if isinstance(episode.get("dropped"), list):
+                episode["dropped"] = [{**d, **_moved(d, offset, ("start", "stop"))} for d in episode["dropped"]]
+        utterances = []
+        for utterance in dialogue.utterances:
+            moved = {**utterance, **_moved(utterance, offset, ("start", "stop"))}
+            if isinstance(utterance.get("words"), list):
+                moved["words"] = [[w[0], round(w[1] + offset, 3), round(w[2] + offset, 3)] for w in utterance["words"]]
+            utterances.append(moved)
+        return replace(
+            dialogue,
+            duration=round(self.duration + offset, 3),
+            signals=tuple(s.shifted(offset) for s in dialogue.signals),
+            extra={**dialogue.extra, "episodes": episodes, "utterances": utterances},
+        )
+
+    def then(self, other: Timeline) -> Timeline:
+        """This timeline followed by ``other`` (shifted to start at this one's end): one dialogue
+        whose episodes are this one's and then ``other``'s, renumbered; each stays checkable."""
+        first = self.as_episodes()
+        second = other.as_episodes().shift(self.duration)
+        count = len(first.episodes)
+        renumbered = [{**e, "index": int(e.get("index", 0)) + count} for e in second.episodes]
+        signals = [*first.signals, *(replace(s, episode=(s.episode or 0) + count) for s in second.signals)]
+        names = [str(e.get("emotion", "")) for e in (*first.episodes, *renumbered)]
+        return replace(
+            first,
+            expression="dialogue" if len(set(names)) > 1 else first.expression,
+            duration=second.duration,
+            signals=tuple(signals),
+            seed=first.seed,
+            extra={**first.extra, "episodes": [*first.episodes, *renumbered],
+                   "utterances": [*first.utterances, *second.utterances]},
+        )
 
     def to_json(self) -> dict[str, Any]:
         obj: dict[str, Any] = {
@@ -158,6 +251,7 @@ class Timeline:
                     start=float(start),
                     stop=float(stop),
                     motion=dict(motion) if isinstance(motion, dict) else None,
+                    **_dialogue_fields(entry, position, fail),
                 )
             )
         for key in ("expression", "solver"):
@@ -173,6 +267,30 @@ class Timeline:
             seed=seed if isinstance(seed, int) and not isinstance(seed, bool) else None,
             extra={k: v for k, v in obj.items() if k not in _KNOWN_KEYS},
         )
+
+
+def _dialogue_fields(entry: Mapping[str, Any], position: int, fail: Any) -> dict[str, Any]:
+    """The optional dialogue keys of a signal entry (docs/dialogue.md)."""
+    fields: dict[str, Any] = {}
+    episode = entry.get("episode")
+    if episode is not None:
+        if not isinstance(episode, int) or isinstance(episode, bool) or episode < 0:
+            raise fail(f"signals[{position}].episode must be an episode index (an integer >= 0)")
+        fields["episode"] = episode
+    phases = [entry.get(key) for key in ("intensity", "attack", "sustain", "release")]
+    if any(value is not None for value in phases):
+        if not all(_is_number(value) and value >= 0 for value in phases):
+            raise fail(f"signals[{position}] needs 'intensity', 'attack', 'sustain' and 'release' (numbers >= 0) "
+                       "together")
+        fields["envelope"] = Envelope(*(float(value) for value in phases if _is_number(value)))
+    planned = entry.get("planned_stop")
+    if planned is not None:
+        if not _is_number(planned) or time_problem(float(planned)) is not None:
+            raise fail(f"signals[{position}].planned_stop must be a time in seconds")
+        fields["planned_stop"] = float(planned)
+    if entry.get("carry") is True:
+        fields["carry"] = True
+    return fields
 
 
 def _is_number(value: object) -> TypeGuard[int | float]:
@@ -204,6 +322,20 @@ def from_schedule(
     return Timeline(expression, to_seconds(schedule.duration), signals, solver, seed)
 
 
+def concatenate(timelines: Iterable[Timeline]) -> Timeline:
+    """The timelines one after the other as one dialogue (see :meth:`Timeline.then`)."""
+    result: Timeline | None = None
+    for timeline in timelines:
+        result = timeline.as_episodes() if result is None else result.then(timeline)
+    if result is None:
+        raise ValueError("concatenate needs at least one timeline")
+    return result
+
+
+def _moved(entry: Mapping[str, Any], offset: float, keys: tuple[str, ...]) -> dict[str, float]:
+    return {key: round(float(entry[key]) + offset, 3) for key in keys if _is_number(entry.get(key))}
+
+
 #: What each signal line of ``mse sample --stream`` adds to the signal: its timeline's key.
 _STREAM_KEYS = ("expression", "seed", "duration")
 
@@ -228,7 +360,7 @@ def loads_many(text: str, *, path: str = "<timeline>") -> list[Timeline]:
     U+2028 or U+0085 inside a string are not line ends).  The signal lines of
     ``mse sample --stream`` are assembled: consecutive lines of one expression, seed and
     duration make one timeline."""
-    from mse.fileio import parse_json
+    from mse.input_files import parse_json
 
     if not text.strip():
         raise MseError([Diagnostic("E212", "no timeline in the input", Span(path, 1, 1))])

@@ -37,14 +37,15 @@ from typing import Any
 from hypothesis import strategies as st
 from lxml import etree
 
-from mse.api import compile_source, loads, sample
+from mse.api import compile_source, loads
 from mse.diagnostics import CODES, MseError
 from mse.ir.anchors import Speech, Word, resolve_anchors, uses_anchors
 from mse.ir.canonical import model_dumps
 from mse.ir.evaluate import check_schedule
 from mse.ir.lint import STATIC_RULES, lint_model
 from mse.resources import behaviour_sets_dir
-from mse.solve.protocol import NoSolution
+from mse.sampling import sample
+from mse.solve.protocol import GreedyOptions, NoSolution
 from mse.timeline import Timeline, dumps_jsonl, loads_many
 
 TESTS = Path(__file__).resolve().parent
@@ -128,7 +129,7 @@ def _exercise_model(model: Any, seed: int) -> None:
             _require(False, "anchors without speech were accepted")
         model = resolve_anchors(model, FUZZ_SPEECH)
     try:
-        timeline = sample(model, 4.0, seed=seed, max_restarts=3)
+        timeline = sample(model, 4.0, seed=seed, greedy=GreedyOptions(max_restarts=3))
     except NoSolution:
         return
     assert isinstance(timeline, Timeline)

@@ -283,9 +283,10 @@ def odd_lexemes_timeline() -> Timeline:
 def build_corpus(shared: Path, folder: Path) -> Corpus:
     """Sample every bundled and imported Greta set with :data:`SEEDS`, export each timeline in
     every variant, and run each parser once over all its files."""
-    from mse.api import load, loads, sample
+    from mse.api import load, loads
     from mse.export import render
     from mse.resources import bundled_names
+    from mse.sampling import sample
     from mse.syntax.greta import import_greta
 
     greta = shared / "greta"

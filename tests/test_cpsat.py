@@ -8,12 +8,13 @@ from pathlib import Path
 
 import pytest
 
-from mse.api import explain, load, loads, sample
+from mse.api import load, loads
 from mse.diagnostics import MseError
 from mse.ir.evaluate import check_schedule
 from mse.ir.schedule import to_ticks
 from mse.resources import bundled_names
-from mse.solve.cpsat import CpSatSolver
+from mse.sampling import explain, iter_timelines, sample
+from mse.solve.cpsat.solver import CpSatSolver
 from mse.solve.protocol import NoSolution, Pin, SolveRequest
 from mse.timeline import Timeline
 
@@ -21,15 +22,6 @@ FIXTURES = Path(__file__).parent / "fixtures" / "solvers"
 TINY = FIXTURES / "tiny.xml"
 CONFLICT = FIXTURES / "conflict.xml"
 
-
-def _one(result: Timeline | list[Timeline]) -> Timeline:
-    assert isinstance(result, Timeline)
-    return result
-
-
-def _many(result: Timeline | list[Timeline]) -> list[Timeline]:
-    assert isinstance(result, list)
-    return result
 
 
 def _consistent(model_path: Path | str, timeline: Timeline) -> None:
@@ -39,7 +31,7 @@ def _consistent(model_path: Path | str, timeline: Timeline) -> None:
 
 def test_tiny_timelines_are_consistent_and_vary_with_the_seed() -> None:
     model = load(TINY)
-    timelines = [_one(sample(model, 4.0, seed=seed, solver="cpsat")) for seed in range(6)]
+    timelines = [sample(model, 4.0, seed=seed, solver="cpsat") for seed in range(6)]
     for timeline in timelines:
         assert timeline.solver == "cpsat"
         _consistent(TINY, timeline)
@@ -48,15 +40,15 @@ def test_tiny_timelines_are_consistent_and_vary_with_the_seed() -> None:
 
 def test_same_seed_same_timeline() -> None:
     model = load(TINY)
-    first = _one(sample(model, 4.0, seed=11, solver="cpsat"))
-    second = _one(sample(model, 4.0, seed=11, solver="cpsat"))
+    first = sample(model, 4.0, seed=11, solver="cpsat")
+    second = sample(model, 4.0, seed=11, solver="cpsat")
     assert first.signals == second.signals
 
 
 @pytest.mark.parametrize("name", bundled_names())
 def test_every_bundled_set_samples_at_10_seconds(name: str) -> None:
     model = load(name)
-    timeline = _one(sample(model, 10.0, seed=1, solver="cpsat"))
+    timeline = sample(model, 10.0, seed=1, solver="cpsat")
     _consistent(name, timeline)
 
 
@@ -64,8 +56,8 @@ def test_pin_require_forbid() -> None:
     model = load(TINY)
     pinned = (Pin("look_down", 0.5, 1.5),)
     for seed in range(3):
-        timeline = _one(sample(model, 4.0, seed=seed, solver="cpsat", pinned=pinned,
-                               require=("nod",), forbid=("look_away",)))
+        timeline = sample(model, 4.0, seed=seed, solver="cpsat", pinned=pinned,
+                          require=("nod",), forbid=("look_away",))
         ids = [s.id for s in timeline.signals]
         assert ("look_down", 0.5, 1.5) in [(s.id, s.start, s.stop) for s in timeline.signals]
         assert "nod" in ids and "look_away" not in ids
@@ -75,7 +67,7 @@ def test_pin_require_forbid() -> None:
 def test_require_a_signal_that_needs_another() -> None:
     # nod_in_smile: nod needs smile around it, and smile needs look_down.
     model = load(TINY)
-    timeline = _one(sample(model, 4.0, seed=2, solver="cpsat", require=("nod",)))
+    timeline = sample(model, 4.0, seed=2, solver="cpsat", require=("nod",))
     ids = {s.id for s in timeline.signals}
     assert {"smile", "nod", "look_down"} <= ids
     _consistent(TINY, timeline)
@@ -92,7 +84,7 @@ def test_unknown_signal_and_bad_pin_are_argument_errors() -> None:
 @pytest.mark.parametrize("objective", ["likely", "random", "most-signals", "fewest-signals"])
 def test_objectives(objective: str) -> None:
     model = load(TINY)
-    timeline = _one(sample(model, 4.0, seed=3, solver="cpsat", objective=objective))
+    timeline = sample(model, 4.0, seed=3, solver="cpsat", objective=objective)
     _consistent(TINY, timeline)
     ids = {s.id for s in timeline.signals}
     if objective == "most-signals":
@@ -103,28 +95,28 @@ def test_objectives(objective: str) -> None:
 
 def test_likely_is_deterministic_across_seeds() -> None:
     model = load(TINY)
-    first = _one(sample(model, 4.0, seed=1, solver="cpsat", objective="likely"))
-    second = _one(sample(model, 4.0, seed=2, solver="cpsat", objective="likely"))
+    first = sample(model, 4.0, seed=1, solver="cpsat", objective="likely")
+    second = sample(model, 4.0, seed=2, solver="cpsat", objective="likely")
     assert [s.id for s in first.signals] == [s.id for s in second.signals]
 
 
 def test_diverse_timelines_differ() -> None:
     model = load(TINY)
-    timelines = _many(sample(model, 4.0, seed=5, count=3, solver="cpsat", diverse=True))
+    timelines = list(iter_timelines(model, 4.0, seed=5, count=3, solver="cpsat", diverse=True))
     assert len(timelines) == 3
     keys = {tuple((s.id, s.start, s.stop) for s in t.signals) for t in timelines}
     assert len(keys) == 3
     for timeline in timelines:
         _consistent(TINY, timeline)
     assert [t.seed for t in timelines] == [5, 6, 7]
-    again = _many(sample(model, 4.0, seed=5, count=3, solver="cpsat", diverse=True))
+    again = list(iter_timelines(model, 4.0, seed=5, count=3, solver="cpsat", diverse=True))
     assert [t.signals for t in again] == [t.signals for t in timelines]
 
 
 def test_count_without_diverse_reproduces_single_seeds() -> None:
     model = load(TINY)
-    many = _many(sample(model, 4.0, seed=20, count=2, solver="cpsat"))
-    alone = _one(sample(model, 4.0, seed=21, solver="cpsat"))
+    many = list(iter_timelines(model, 4.0, seed=20, count=2, solver="cpsat"))
+    alone = sample(model, 4.0, seed=21, solver="cpsat")
     assert many[1].signals == alone.signals
 
 
@@ -138,7 +130,7 @@ def test_infeasible_is_proven_and_explained() -> None:
     assert "needs_a (" in message and "b_after_a (" in message
     assert "conflict.xml:10" in message
     # The same file has timelines when there is room.
-    _consistent(CONFLICT, _one(sample(model, 4.0, seed=0, solver="cpsat")))
+    _consistent(CONFLICT, sample(model, 4.0, seed=0, solver="cpsat"))
 
 
 def test_explanation_is_minimal() -> None:
@@ -208,16 +200,14 @@ def test_repetitive_signal_can_recur_and_proof_uses_enough_slots() -> None:
   </constraints>
 </expression>"""
     model = loads(xml, path="twice.xml")
-    timeline = _one(sample(model, 5.0, seed=0, solver="cpsat", objective="fewest-signals",
-                           require=("s",)))
+    timeline = sample(model, 5.0, seed=0, solver="cpsat", objective="fewest-signals", require=("s",))
     assert len(timeline.signals) >= 2
     assert check_schedule(model, timeline.to_schedule()) == []
 
 
 def test_constraint_less_mode_ignores_constraints() -> None:
     model = load(CONFLICT)
-    timeline = _one(sample(model, 2.0, seed=0, solver="cpsat", mode="constraint-less",
-                           require=("a", "b")))
+    timeline = sample(model, 2.0, seed=0, solver="cpsat", mode="constraint-less", require=("a", "b"))
     starts = {s.id: (to_ticks(s.start), to_ticks(s.stop)) for s in timeline.signals}
     assert {"a", "b"} <= set(starts)
 
@@ -248,7 +238,7 @@ def test_perturb_and_map_follows_the_probability_profiles() -> None:
     present = {"often": 0, "early": 0, "rare": 0}
     in_first_half = 0
     for seed in range(runs):
-        (schedule,) = CpSatSolver().solve(model, SolveRequest(duration=10.0, seed=seed))
+        (schedule,) = CpSatSolver().solve(model, SolveRequest(duration=10.0, seed=seed)).schedules
         for occurrence in schedule.occurrences:
             present[occurrence.signal] += 1
             in_first_half += occurrence.signal == "early" and occurrence.start < 5000

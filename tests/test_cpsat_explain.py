@@ -14,7 +14,7 @@ from mse.solve.cpsat.encode import build
 from mse.solve.cpsat.engine import make_solver
 from mse.solve.cpsat.explain import explain
 from mse.solve.cpsat.solver import solve_one
-from mse.solve.protocol import NoSolution, SolveRequest
+from mse.solve.protocol import CpSatOptions, NoSolution, SolveRequest
 from tests.strategies import models
 
 
@@ -84,7 +84,7 @@ def test_a_verdict_without_its_explanation_when_only_the_verdict_is_needed(monke
 
     monkeypatch.setattr(explainer, "explain", counted)
     with pytest.raises(NoSolution) as caught:
-        get_solver("cpsat").solve(model, SolveRequest(duration=5, seed=0, options={"explain": False}))
+        get_solver("cpsat").solve(model, SolveRequest(duration=5, seed=0, cpsat=CpSatOptions(explain=False)))
     assert caught.value.proven and calls == [] and caught.value.reason == "no timeline of 5 s exists"
     with pytest.raises(NoSolution) as caught:
         DefaultSolver().solve(model, SolveRequest(duration=5, seed=1))

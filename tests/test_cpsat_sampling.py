@@ -12,9 +12,9 @@ from mse.ir import model as ir
 from mse.ir.evaluate import check_schedule
 from mse.ir.schedule import Schedule, to_ticks
 from mse.solve.bounds import slot_counts
-from mse.solve.cpsat import CpSatSolver
 from mse.solve.cpsat.encode import build
 from mse.solve.cpsat.engine import make_solver
+from mse.solve.cpsat.solver import CpSatSolver
 from mse.solve.protocol import NoSolution, SolveRequest
 from tests.strategies import models
 
@@ -49,7 +49,7 @@ def _check(model: ir.Model, schedule: Schedule, *, violate: bool = False) -> Non
 def test_timelines_are_consistent_and_complete(model: ir.Model, duration: float, seed: int) -> None:
     request = SolveRequest(duration=duration, seed=seed, time_limit=20.0)
     try:
-        [schedule] = CpSatSolver().solve(model, request)
+        [schedule] = CpSatSolver().solve(model, request).schedules
     except NoSolution as error:
         assert error.proven
         assert not _exists(model, duration)
@@ -66,7 +66,7 @@ def test_rolling_horizon_never_dead_ends(model: ir.Model, duration: float, seed:
     request = SolveRequest(duration=duration, seed=seed, time_limit=60.0)
     feasible = _exists(model, duration)
     try:
-        [schedule] = CpSatSolver().solve(model, request)
+        [schedule] = CpSatSolver().solve(model, request).schedules
     except NoSolution as error:
         assert error.proven and not feasible
         return
@@ -85,7 +85,7 @@ def test_constraint_less_violates_a_constraint(model: ir.Model, duration: float,
         return
     request = SolveRequest(duration=duration, seed=seed, mode="constraint-less", time_limit=60.0)
     try:
-        [schedule] = CpSatSolver().solve(model, request)
+        [schedule] = CpSatSolver().solve(model, request).schedules
     except NoSolution as error:
         assert error.proven and "violates a constraint" in str(error)
         assert not _exists(model, duration, violate=True)
@@ -102,8 +102,8 @@ def test_never_occurring_signals_stay_out(mode: str) -> None:
     rule = ir.Constraint("c1", ir.Relation("precedes", "loud", "other"))
     model = ir.Model("m", (quiet, loud, other), (rule,))
     for seed in range(25):
-        [schedule] = CpSatSolver().solve(model, SolveRequest(duration=6.0, seed=seed, mode=mode))
+        [schedule] = CpSatSolver().solve(model, SolveRequest(duration=6.0, seed=seed, mode=mode)).schedules
         assert "quiet" not in {o.signal for o in schedule.occurrences}
     needed = ir.Model("m", (quiet, loud), (ir.Constraint("c1", ir.Exists("quiet")),))
-    [schedule] = CpSatSolver().solve(needed, SolveRequest(duration=6.0, seed=1))
+    [schedule] = CpSatSolver().solve(needed, SolveRequest(duration=6.0, seed=1)).schedules
     assert [o.signal for o in schedule.occurrences].count("quiet") == 1

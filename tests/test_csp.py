@@ -8,14 +8,15 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from mse.api import load, loads, sample
+from mse.api import load, loads
 from mse.diagnostics import MseError
 from mse.ir import model as ir
 from mse.ir.evaluate import check_schedule
 from mse.ir.schedule import to_ticks
+from mse.sampling import sample
 from mse.solve.cpsat.solver import enumerate_schedules, solve_one
 from mse.solve.csp.solver import CspSolver, enumerate_grid
-from mse.solve.protocol import NoSolution, Pin, SolveRequest
+from mse.solve.protocol import CspOptions, NoSolution, Pin, SolveRequest
 from mse.timeline import Timeline
 from tests.strategies import models
 
@@ -28,7 +29,7 @@ ORACLE = settings(max_examples=80, deadline=None, suppress_health_check=list(Hea
 def test_csp_sample_is_on_the_grid_and_consistent() -> None:
     model = load(TINY)
     for seed in range(3):
-        timeline = sample(model, 3.0, seed=seed, solver="csp", grid=0.5)
+        timeline = sample(model, 3.0, seed=seed, solver="csp", csp=CspOptions(grid=0.5))
         assert isinstance(timeline, Timeline) and timeline.solver == "csp"
         assert check_schedule(model, timeline.to_schedule()) == []
         assert all(to_ticks(s.start) % 500 == 0 and to_ticks(s.stop) % 500 == 0 for s in timeline.signals)
@@ -75,9 +76,9 @@ def test_csp_feasible_implies_cpsat_feasible(model: ir.Model, seed: int, data: s
     # Requiring a few signals makes the question harder than "is the empty timeline fine".
     ids = [s.id for s in model.signals]
     require = tuple(data.draw(st.lists(st.sampled_from(ids), unique=True, max_size=len(ids))))
-    request = SolveRequest(duration=2.0, seed=seed, grid=0.5, time_limit=5.0, require=require)
+    request = SolveRequest(duration=2.0, seed=seed, time_limit=5.0, require=require, csp=CspOptions(grid=0.5))
     try:
-        grid_timeline = CspSolver().solve(model, request)[0]
+        grid_timeline = CspSolver().solve(model, request).schedules[0]
     except NoSolution:
         grid_timeline = None
     if grid_timeline is not None:

@@ -10,13 +10,14 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 import mse.api as api
+import mse.sampling as sampling
 from mse.cli import main
 from mse.ir import model as ir
 from mse.ir.evaluate import check_schedule
 from mse.ir.schedule import Schedule
-from mse.solve.default import DefaultSolver
-from mse.solve.greedy import GreedySolver
-from mse.solve.protocol import NoSolution, Pin, SolveRequest, get_solver
+from mse.solve.default import DefaultSolver, _Run
+from mse.solve.greedy.solver import GreedySolver, Tally
+from mse.solve.protocol import NoSolution, Pin, SolveRequest, Status, get_solver
 from tests.strategies import models
 
 SEQ = """<?xml version="1.0" encoding="UTF-8"?>
@@ -56,7 +57,7 @@ def test_a_signal_needing_another_before_it_is_sampled_by_the_walk() -> None:
     """docs/behaviour_sets.md's idiom: c is mandatory and needs b before it."""
     model = api.loads(SEQ, path="seq.xml")
     walk = GreedySolver()
-    for schedule in walk.solve(model, SolveRequest(duration=10, seed=1, count=30)):
+    for schedule in walk.solve(model, SolveRequest(duration=10, seed=1, count=30)).schedules:
         assert consistent(model, schedule)
         b, c = (next(o for o in schedule.occurrences if o.signal == name) for name in "bc")
         assert b.stop <= c.start
@@ -68,18 +69,19 @@ def test_a_signal_needing_another_before_it_is_sampled_by_the_walk() -> None:
 ])
 def test_required_signals_with_prerequisites_are_sampled_by_the_walk(name: str, signal: str) -> None:
     model = api.load(name)
-    for schedule in GreedySolver().solve(model, SolveRequest(duration=10, seed=3, count=10, require=(signal,))):
+    request = SolveRequest(duration=10, seed=3, count=10, require=(signal,))
+    for schedule in GreedySolver().solve(model, request).schedules:
         assert consistent(model, schedule)
         assert signal in {o.signal for o in schedule.occurrences}
 
 
 def test_timeline_json_records_method_and_mode() -> None:
     model = api.load("embarrassment")
-    timeline = api.sample(model, 10, seed=2)
+    timeline = sampling.sample(model, 10, seed=2)
     assert not isinstance(timeline, list)
     obj = timeline.to_json()
     assert obj["method"] == "walk" and obj["mode"] == "consistent" and obj["solver"] == "greedy"
-    free = api.sample(model, 10, seed=2, mode="constraint-less")
+    free = sampling.sample(model, 10, seed=2, mode="constraint-less")
     assert not isinstance(free, list)
     assert free.to_json()["mode"] == "constraint-less"
 
@@ -102,9 +104,9 @@ def test_no_timeline_is_proven_with_the_conflicting_lines() -> None:
 
 def test_pins_go_to_the_complete_solver() -> None:
     model = api.load("relief")
-    solver = DefaultSolver()
-    [schedule] = solver.solve(model, SolveRequest(duration=10, seed=1, pinned=(Pin("open_mouth", 1.0, 3.0),)))
-    assert solver.methods == ["cpsat"]
+    result = DefaultSolver().solve(model, SolveRequest(duration=10, seed=1, pinned=(Pin("open_mouth", 1.0, 3.0),)))
+    [schedule] = result.schedules
+    assert result.status is Status.FEASIBLE and result.methods == ("cpsat",)
     assert consistent(model, schedule)
     assert any(o.signal == "open_mouth" and (o.start, o.stop) == (1000, 3000) for o in schedule.occurrences)
 
@@ -113,11 +115,11 @@ def test_never_occurring_signals_occur_only_when_a_constraint_demands_them() -> 
     quiet = ir.Signal("q", "face", "q", 0.5, 1.0, probability_start=0.0, probability_end=0.0)
     loud = ir.Signal("l", "head", "l", 0.5, 1.0)
     alone = ir.Model("zero", (quiet, loud))
-    for schedule in DefaultSolver().solve(alone, SolveRequest(duration=5, seed=1, count=20)):
+    for schedule in DefaultSolver().solve(alone, SolveRequest(duration=5, seed=1, count=20)).schedules:
         assert "q" not in {o.signal for o in schedule.occurrences}
     needed = ir.Model("zero", (quiet, loud), (ir.Constraint("c1", ir.Exists("q")),))
     solver = DefaultSolver()
-    [schedule] = solver.solve(needed, SolveRequest(duration=5, seed=1))
+    [schedule] = solver.solve(needed, SolveRequest(duration=5, seed=1)).schedules
     assert "q" in {o.signal for o in schedule.occurrences} and consistent(needed, schedule)
 
 
@@ -129,22 +131,22 @@ def test_what_one_solve_learns_of_the_never_occurring_signals_holds_for_every_se
     quiet = ir.Signal("q", "face", "q", 0.5, 1.0, probability_start=0.0, probability_end=0.0)
     loud = ir.Signal("l", "head", "l", 0.5, 1.0)
     needed = ir.Model("zero", (quiet, loud), (ir.Constraint("c1", ir.Exists("q")),))
-    solver = DefaultSolver()
     calls: list[int] = []
-    complete = DefaultSolver._complete
+    complete = _Run._complete
 
-    def counted(model: ir.Model, request: SolveRequest, seed: int) -> Schedule:
+    def counted(run: _Run, request: SolveRequest, seed: int) -> Schedule:
         calls.append(seed)
-        return complete(model, request, seed)
+        return complete(run, request, seed)
 
-    monkeypatch.setattr(DefaultSolver, "_complete", staticmethod(counted))
-    schedules = solver.solve(needed, SolveRequest(duration=5, seed=1, count=6))
+    monkeypatch.setattr(_Run, "_complete", counted)
+    result = DefaultSolver().solve(needed, SolveRequest(duration=5, seed=1, count=6))
+    schedules = result.schedules
     assert len(calls) == 2  # the proof without q (seed 1), the existence check with q
-    assert solver.methods == ["walk"] * 6
+    assert result.methods == ("walk",) * 6
     assert all("q" in {o.signal for o in s.occurrences} and consistent(needed, s) for s in schedules)
     # the same timelines as one seed at a time
     for index, schedule in enumerate(schedules):
-        assert DefaultSolver().solve(needed, SolveRequest(duration=5, seed=1 + index))[0] == schedule
+        assert DefaultSolver().solve(needed, SolveRequest(duration=5, seed=1 + index)).schedules[0] == schedule
 
 
 def test_no_timeline_even_with_the_never_occurring_signals_is_proven_without_a_second_walk(
@@ -157,13 +159,13 @@ def test_no_timeline_even_with_the_never_occurring_signals_is_proven_without_a_s
     ))
     solver = DefaultSolver()
     walks: list[int] = []
-    walk = DefaultSolver._walk
+    walk = GreedySolver.one
 
-    def counted(self: DefaultSolver, model: ir.Model, request: SolveRequest, seed: int) -> Schedule:
+    def counted(self: GreedySolver, model: ir.Model, request: SolveRequest, seed: int, tally: Tally) -> Schedule:
         walks.append(seed)
-        return walk(self, model, request, seed)
+        return walk(self, model, request, seed, tally)
 
-    monkeypatch.setattr(DefaultSolver, "_walk", counted)
+    monkeypatch.setattr(GreedySolver, "one", counted)
     with pytest.raises(NoSolution) as caught:
         solver.solve(model, SolveRequest(duration=5, seed=1))
     assert caught.value.proven and "c1" in caught.value.reason and "c2" in caught.value.reason
@@ -203,7 +205,7 @@ def test_streamed_and_solved_timelines_are_both_consistent() -> None:
 def test_long_timelines_keep_repetitive_signals_going() -> None:
     """A repetitive signal starts at p per free second all along a long timeline."""
     signal = ir.Signal("r", "face", "r", 1.0, 1.0, probability_start=0.5, probability_end=0.5, repetitivity=1)
-    [schedule] = GreedySolver().solve(ir.Model("rep", (signal,)), SolveRequest(duration=600, seed=2))
+    [schedule] = GreedySolver().solve(ir.Model("rep", (signal,)), SolveRequest(duration=600, seed=2)).schedules
     starts = [o.start for o in schedule.occurrences]
     # free 1 s after each 1 s occurrence, then a start within about 1 / 0.5 s on average: ~3 s apart
     assert 150 < len(starts) < 300
@@ -221,10 +223,10 @@ def test_whenever_cpsat_finds_a_timeline_the_default_solver_returns_one(
         get_solver("cpsat").solve(model, request)
     except NoSolution:
         return
-    solver = DefaultSolver()
-    [schedule] = solver.solve(model, request)
+    result = DefaultSolver().solve(model, request)
+    [schedule] = result.schedules
     assert consistent(model, schedule)
-    assert solver.methods[0] in ("walk", "cpsat")
+    assert result.methods[0] in ("walk", "cpsat")
 
 
 def test_cli_json_carries_the_method(capsys: pytest.CaptureFixture[str], tmp_path: object) -> None:
@@ -236,16 +238,16 @@ def test_cli_json_carries_the_method(capsys: pytest.CaptureFixture[str], tmp_pat
     assert json.loads(capsys.readouterr().out)["method"] == "walk"
 
 
-def test_a_loop_of_one_solve_per_seed_reuses_the_request_and_still_validates() -> None:
-    """What a solve() learnt of its request is reused for another seed of the same request
-    only: the timelines are those of a --count run, and another request is checked again."""
+def test_a_loop_of_one_solve_per_seed_gives_the_count_run_and_validates_each_request() -> None:
+    """The solver keeps nothing between solves: a loop of one solve() per seed gives the
+    timelines of a --count run, and every request is checked."""
     model = api.load("relief")
     solver = DefaultSolver()
-    counted = solver.solve(model, SolveRequest(duration=10.0, seed=5, count=4))
-    one_by_one = [solver.solve(model, SolveRequest(duration=10.0, seed=5 + i))[0] for i in range(4)]
+    counted = solver.solve(model, SolveRequest(duration=10.0, seed=5, count=4)).schedules
+    one_by_one = tuple(solver.solve(model, SolveRequest(duration=10.0, seed=5 + i)).schedules[0] for i in range(4))
     assert [s.occurrences for s in one_by_one] == [s.occurrences for s in counted]
     forbidden = model.signals[0].id
-    for schedule in (solver.solve(model, SolveRequest(duration=10.0, seed=s, forbid=(forbidden,)))[0]
+    for schedule in (solver.solve(model, SolveRequest(duration=10.0, seed=s, forbid=(forbidden,))).schedules[0]
                      for s in range(3)):
         assert all(o.signal != forbidden for o in schedule.occurrences)
     with pytest.raises(Exception, match="unknown signal"):

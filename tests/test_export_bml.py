@@ -10,7 +10,8 @@ from lxml import etree
 
 from mse.diagnostics import MseError
 from mse.export import FORMAT_NAMES, ExportOptions, render
-from mse.export.lexemes import format_seconds, load_face_library, sanitize_id, unique_ids
+from mse.export.lexemes import format_seconds, sanitize_id, unique_ids
+from mse.export.realizer_libraries import load_face_library
 from mse.timeline import Timeline, TimelineSignal, loads_many
 
 FIXTURE = Path(__file__).resolve().parent / "fixtures" / "export" / "embarrassment_timeline.json"

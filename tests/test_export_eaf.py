@@ -8,6 +8,7 @@ import pytest
 from lxml import etree
 
 import mse.api as api
+import mse.sampling as sampling
 from mse.cli import main
 from mse.export import render
 from mse.learn.read_eaf import read_eaf
@@ -17,7 +18,7 @@ pympi = pytest.importorskip("pympi")
 
 
 def _timeline(seed: int = 5) -> Timeline:
-    result = api.sample(api.load("embarrassment"), 10.0, seed=seed)
+    result = sampling.sample(api.load("embarrassment"), 10.0, seed=seed)
     assert isinstance(result, Timeline)
     return result
 

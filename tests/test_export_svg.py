@@ -123,7 +123,8 @@ def test_real_bvh_clip_in_the_viewer(bandai_dir: Path) -> None:
 
 
 def _sampled(duration: float, seed: int) -> Timeline:
-    from mse.api import load, sample
+    from mse.api import load
+    from mse.sampling import sample
 
     result = sample(load("embarrassment"), duration, seed=seed)
     assert isinstance(result, Timeline)

@@ -12,14 +12,15 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 import mse.api as api
+import mse.sampling as sampling
 from mse.diagnostics import MseError
 from mse.ir import model as ir
 from mse.ir.evaluate import check_schedule
 from mse.ir.schedule import Schedule, to_ticks
 from mse.resources import bundled_names
-from mse.solve.greedy import GreedySolver
+from mse.solve.greedy.solver import GreedySolver
 from mse.solve.greedy.walk import CAREFUL_DEBTS
-from mse.solve.protocol import NoSolution, SolveRequest
+from mse.solve.protocol import GreedyOptions, NoSolution, SolveRequest
 from tests.strategies import models
 
 REPO = Path(__file__).resolve().parent.parent
@@ -37,7 +38,9 @@ def bundled(name: str) -> ir.Model:
 
 
 def solve(model: ir.Model, **fields: object) -> list[Schedule]:
-    return GreedySolver().solve(model, SolveRequest(**fields))  # type: ignore[arg-type]
+    options = {key: fields.pop(key) for key in ("max_restarts", "slot") if key in fields}
+    request = SolveRequest(**fields, greedy=GreedyOptions(**options))  # type: ignore[arg-type]
+    return list(GreedySolver().solve(model, request).schedules)
 
 
 def assert_consistent(model: ir.Model, schedule: Schedule) -> None:
@@ -238,8 +241,8 @@ def test_stream_yields_the_solved_timeline_in_start_order() -> None:
     request = SolveRequest(duration=10, seed=8)
     streamed = list(GreedySolver().stream(model, request))
     assert streamed == sorted(streamed)
-    assert tuple(sorted(streamed)) == tuple(sorted(GreedySolver().solve(model, request)[0].occurrences))
-    signals = list(api.iter_sample(model, 10, seed=8))
+    assert tuple(sorted(streamed)) == tuple(sorted(GreedySolver().solve(model, request).schedules[0].occurrences))
+    signals = list(sampling.iter_sample(model, 10, seed=8))
     assert [s.id for s in signals] == [o.signal for o in streamed]
 
 
@@ -293,10 +296,10 @@ HEAVY = ("ortools", "hmmlearn", "scipy", "sklearn")
 
 def test_greedy_path_imports_nothing_heavy() -> None:
     code = (
-        "import sys, json, mse.api as api\n"
+        "import sys, json, mse.api as api, mse.sampling as sampling\n"
         "from mse.resources import bundled_names\n"
         "m = api.load('embarrassment') if bundled_names() else None\n"
-        "if m is not None: api.sample(m, 10, seed=1, count=3)\n"
+        "if m is not None: list(sampling.iter_timelines(m, 10, seed=1, count=3))\n"
         f"print(json.dumps([n for n in {HEAVY!r} if n in sys.modules]))\n"
     )
     result = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, cwd=REPO, check=True)
@@ -353,8 +356,8 @@ def test_output_is_identical_across_processes() -> None:
     import os
 
     code = (
-        "import json, mse.api as api\n"
-        "t = api.sample(api.load('embarrassment'), 10, seed=3, count=20)\n"
+        "import json, mse.api as api, mse.sampling as sampling\n"
+        "t = sampling.iter_timelines(api.load('embarrassment'), 10, seed=3, count=20)\n"
         "print(json.dumps([x.to_json() for x in t]))\n"
     )
     outputs = []
@@ -370,13 +373,13 @@ def test_empty_timeline_debts_are_computed_once_per_plan_with_the_same_timelines
     # relief --require relief_smile owes from the start: the first walk computes the debts of
     # the empty timeline, the next ones reuse them; a fresh model (a fresh plan) agrees.
     request = SolveRequest(duration=10, seed=3, count=5, require=("relief_smile",))
-    first = GreedySolver().solve(api.load("relief"), request)
-    again = GreedySolver().solve(api.load("relief"), request)
+    first = GreedySolver().solve(api.load("relief"), request).schedules
+    again = GreedySolver().solve(api.load("relief"), request).schedules
     assert first == again
     model = api.load("relief")
-    one_by_one = [GreedySolver().solve(model, SolveRequest(duration=10, seed=3 + i, require=("relief_smile",)))[0]
-                  for i in range(5)]
-    assert one_by_one == first
+    one_by_one = [GreedySolver().solve(model, SolveRequest(duration=10, seed=3 + i, require=("relief_smile",)))
+                  .schedules[0] for i in range(5)]
+    assert one_by_one == list(first)
 
 
 def test_open_stop_trial_agrees_with_every_stop_and_leaves_the_state_alone() -> None:

@@ -13,7 +13,7 @@ from mse.ir import model as ir
 from mse.ir.evaluate import _all_violations, _compile, check_schedule, evaluate_expr, is_clean
 from mse.ir.schedule import Occurrence, Schedule, to_ticks
 from mse.resources import bundled_names
-from mse.solve.greedy import GreedySolver
+from mse.solve.greedy.solver import GreedySolver
 from mse.solve.protocol import SolveRequest
 from tests.strategies import models
 
@@ -70,7 +70,7 @@ def test_sampled_timelines_pass_the_full_check() -> None:
     for name in bundled_names():
         model = api.load(name)
         request = SolveRequest(duration=10, seed=5, count=20)
-        for schedule in GreedySolver().solve(model, request):
+        for schedule in GreedySolver().solve(model, request).schedules:
             assert is_clean(model, schedule)
             assert _all_violations(model, schedule) == []
 

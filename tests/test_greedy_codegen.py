@@ -14,18 +14,10 @@ from mse.api import load
 from mse.ir import model as ir
 from mse.ir.evaluate import check_schedule
 from mse.solve.greedy import engine
-from mse.solve.greedy.partial import (
-    AND_TABLE,
-    HOT_CALLS,
-    OR_TABLE,
-    Box,
-    CompiledConstraint,
-    _acceptance,
-    _generated,
-    compile_expr,
-    mask_and,
-    mask_or,
-)
+from mse.solve.greedy.closures import compile_expr
+from mse.solve.greedy.closures import generated as _generated
+from mse.solve.greedy.masks import AND_TABLE, OR_TABLE, Box, mask_and, mask_or
+from mse.solve.greedy.partial import HOT_CALLS, CompiledConstraint, _acceptance
 from mse.solve.greedy.plan import build_plan
 from mse.solve.greedy.solver import GreedySolver
 from mse.solve.greedy.windows import critical_points, critical_rules, critical_values
@@ -127,9 +119,9 @@ def _timelines(solver: object, name: str, count: int = 40) -> list[list[tuple[in
     model = load(name)
     found = get_solver("greedy").solve(model, SolveRequest(duration=10.0, count=count, seed=3)) if solver is None \
         else solver.solve(model, SolveRequest(duration=10.0, count=count, seed=3))  # type: ignore[attr-defined]
-    for schedule in found:
+    for schedule in found.schedules:
         assert not check_schedule(model, schedule)
-    return [[(o.start, o.stop, o.signal) for o in s.occurrences] for s in found]
+    return [[(o.start, o.stop, o.signal) for o in s.occurrences] for s in found.schedules]
 
 
 @pytest.mark.parametrize("name", ["anger", "pride", "cheerfulness"])

@@ -13,20 +13,9 @@ from hypothesis import strategies as st
 
 from mse.ir import model as ir
 from mse.ir.evaluate import evaluate_expr, is_violated
-from mse.solve.greedy.partial import (
-    Box,
-    CompiledConstraint,
-    F,
-    N,
-    T,
-    absent_gate,
-    compare_mask,
-    compile_expr,
-    mask_and,
-    mask_not,
-    mask_or,
-    relation_mask,
-)
+from mse.solve.greedy.closures import compile_expr
+from mse.solve.greedy.masks import Box, F, N, T, compare_mask, mask_and, mask_not, mask_or, relation_mask
+from mse.solve.greedy.partial import CompiledConstraint, absent_gate
 from mse.solve.greedy.windows import feasible, nearest, nearest_feasible
 from tests.strategies import models
 

@@ -14,10 +14,11 @@ from pathlib import Path
 
 import pytest
 
-from mse.api import compile_source, load, loads, sample
+from mse.api import compile_source, load, loads
 from mse.cli import main
 from mse.diagnostics import MseError
 from mse.limits import MAX_CONSTRAINT_CHARS, MAX_SIGNALS
+from mse.sampling import sample
 from mse.syntax.reader import MAX_FILE_BYTES
 
 FIXTURES = Path(__file__).parent / "fixtures" / "invalid"

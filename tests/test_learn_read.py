@@ -130,11 +130,11 @@ def test_entity_declarations_are_refused(tmp_path: Path) -> None:
 
 def test_timelines_are_a_corpus(tmp_path: Path) -> None:
     import mse.api as api
+    import mse.sampling as sampling
     from mse.timeline import dumps_jsonl
 
     model = api.load("relief")
-    timelines = api.sample(model, 6.0, seed=3, count=4)
-    assert isinstance(timelines, list)
+    timelines = sampling.iter_timelines(model, 6.0, seed=3, count=4)
     path = tmp_path / "t.jsonl"
     path.write_text(dumps_jsonl(timelines), encoding="utf-8")
     corpus, _ = read_corpus([path])

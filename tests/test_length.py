@@ -103,7 +103,7 @@ def test_misspelt_keyword_still_gets_a_suggestion() -> None:
 def test_every_backend_honours_length(solver: str, seed: int) -> None:
     constraints = ("exists(a)", "length(a) >= 2", "exists(b)", "equal(length(b), 1, 0.1)", "stop(a) - start(b) >= 0")
     model = loads(_doc(*constraints))
-    [schedule] = get_solver(solver).solve(model, SolveRequest(duration=8.0, seed=seed, time_limit=10.0))
+    [schedule] = get_solver(solver).solve(model, SolveRequest(duration=8.0, seed=seed, time_limit=10.0)).schedules
     assert is_consistent(model, schedule)
     lengths = {o.signal: o.stop - o.start for o in schedule.occurrences}
     assert lengths["a"] >= 2000 and 900 <= lengths["b"] <= 1100

@@ -11,7 +11,7 @@ import pytest
 
 from mse.diagnostics import MseError
 from mse.ir.model import Model, MotionLeaf, Signal
-from mse.motion.animate import MotionWarning, animate, motion_annotations
+from mse.motion.animate import MotionWarning, animate
 from mse.motion.base.bvh import read_bvh
 from mse.motion.base.library import load_library
 from mse.timeline import Timeline, TimelineSignal
@@ -44,7 +44,7 @@ def _timeline() -> Timeline:
 
 
 def test_annotations_before_animation() -> None:
-    assert motion_annotations(_model()) == {
+    assert _model().motion_annotations == {
         "look_down": {"action": "head_down"},
         "bow": {"action": "bow"},
     }

@@ -248,8 +248,8 @@ def test_docs_list_every_greta_mapping() -> None:
 
 
 def test_bundled_sets_sample_into_greta_bml_without_notes() -> None:
-    from mse.api import sample
     from mse.resources import bundled_names
+    from mse.sampling import sample
 
     for name in bundled_names():
         t = sample(load(name), 10.0, seed=5)

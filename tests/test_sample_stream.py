@@ -12,8 +12,9 @@ from pathlib import Path
 
 import pytest
 
-from mse.api import iter_timelines, load, sample
+from mse.api import load
 from mse.cli import main
+from mse.sampling import iter_timelines, sample
 from mse.timeline import Timeline
 
 
@@ -21,8 +22,7 @@ from mse.timeline import Timeline
 def test_count_output_is_the_rendering_of_all_timelines(fmt: str, capsys: pytest.CaptureFixture[str]) -> None:
     assert main(["sample", "relief", "--count", "3", "--seed", "4", "--format", fmt]) == 0
     text = capsys.readouterr().out
-    timelines = sample(load("relief"), 10.0, seed=4, count=3)
-    assert isinstance(timelines, list)
+    timelines = list(iter_timelines(load("relief"), 10.0, seed=4, count=3))
     if fmt == "json":
         assert text == json.dumps([t.to_json() for t in timelines], indent=2, ensure_ascii=False) + "\n"
     elif fmt == "jsonl":

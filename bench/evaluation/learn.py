@@ -38,6 +38,7 @@ from pathlib import Path
 from typing import Any
 
 import mse.api as api
+import mse.sampling as sampling
 from mse.ir import model as ir
 from mse.learn import LearnOptions, learn_corpus
 from mse.learn.implication import ImplicationChecker
@@ -65,9 +66,7 @@ def ground_truths(greta: bool) -> list[tuple[str, ir.Model]]:
 
 
 def sample(model: ir.Model, count: int, duration: float, seed: int) -> list[Timeline]:
-    result = api.sample(model, duration, seed=seed, count=count)
-    assert isinstance(result, list)
-    return result
+    return list(sampling.iter_timelines(model, duration, seed=seed, count=count))
 
 
 def implied_count(premise: ir.Model, targets: list[ir.Expr], duration: int) -> Counter[str]:

@@ -123,7 +123,7 @@ def long(name: str, duration: float, seed: int) -> dict[str, Any]:
         last = total - min((t for b, t in marks if b >= 3 * quarter), default=total)
         starts = [first, last]
     else:
-        [schedule] = solver.solve(model, request)
+        [schedule] = solver.solve(model, request).schedules
         for occurrence in schedule.occurrences:
             counts[occurrence.signal] = counts.get(occurrence.signal, 0) + 1
     return {"seconds": time.perf_counter() - began, "cpu": time.process_time() - used, "counts": counts,
@@ -168,7 +168,7 @@ def fidelity(source: str, solver_name: str, runs: int, duration: float) -> dict[
     schedules, failures = [], 0
     for seed in range(runs):
         try:
-            schedules += solver.solve(model, SolveRequest(duration=duration, seed=seed))
+            schedules += solver.solve(model, SolveRequest(duration=duration, seed=seed)).schedules
         except NoSolution:
             failures += 1
     return {"table": _tally(model, schedules, to_ticks(duration)), "failures": failures, "runs": runs}
@@ -221,7 +221,8 @@ def controls(source: str, solver_name: str, runs: int, duration: float) -> dict[
     violating = failures = 0
     for seed in range(runs):
         try:
-            [schedule] = solver.solve(model, SolveRequest(duration=duration, seed=seed, mode="constraint-less"))
+            request = SolveRequest(duration=duration, seed=seed, mode="constraint-less")
+            [schedule] = solver.solve(model, request).schedules
         except NoSolution:
             failures += 1
             continue
@@ -232,7 +233,7 @@ def controls(source: str, solver_name: str, runs: int, duration: float) -> dict[
         variant = dataclasses.replace(model, signals=tuple(muted if s.id == signal.id else s for s in model.signals))
         for seed in range(max(1, runs // 10)):
             try:
-                [schedule] = solver.solve(variant, SolveRequest(duration=duration, seed=seed))
+                [schedule] = solver.solve(variant, SolveRequest(duration=duration, seed=seed)).schedules
             except NoSolution:
                 zero_failures += 1
                 continue

@@ -25,9 +25,10 @@ from pathlib import Path
 import numpy as np
 
 from bench.baseline import run_python
-from mse.api import load, sample
+from mse.api import load
 from mse.export import ExportOptions
 from mse.export.video import VideoOptions, _encode, frame_times, iter_frames, painter, write_video
+from mse.sampling import sample
 from mse.timeline import Timeline
 
 

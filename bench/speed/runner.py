@@ -5,7 +5,8 @@ the same run, under the same load (``python -m bench.speed.sample --baseline REF
 A job is a list of items ``{"name", "model" (canonical IR JSON), "duration", "seeds",
 "solver", "warm"}``; the subprocess answers, per item, the CPU and wall time of sampling every
 seed (one request per seed, as ``mse sample --seed S`` would), how many timelines it returned
-and, when the solver counts them, its walks and backtracks.  An item may carry a ``budget`` in
+and, when the solver counts them, its walks and backtracks (read from the result where the version
+returns one, ``mse.solve.protocol.SolveResult``, else from the solver's attributes).  An item may carry a ``budget`` in
 seconds: once it is spent, its remaining seeds are skipped (and counted as such).  The script run in the
 subprocess uses only what both versions have: ``mse.ir.canonical.model_from_json``,
 ``mse.solve.protocol.get_solver`` and ``SolveRequest``.
@@ -47,15 +48,16 @@ for item in job:
             continue
         began, began_cpu = time.perf_counter(), time.process_time()
         try:
-            solver.solve(model, SolveRequest(duration=item["duration"], seed=seed))
+            result = solver.solve(model, SolveRequest(duration=item["duration"], seed=seed))
             ok += 1
-            methods.extend(getattr(solver, "methods", None) or ["?"])
+            report = result if hasattr(result, "solutions") else solver
+            methods.extend([m or "?" for m in getattr(report, "methods", None) or ["?"]])
+            attempts += getattr(report, "attempts", 0)
+            restarts += getattr(report, "restarts", 0)
         except NoSolution:
             methods.append("")
         times.append(time.perf_counter() - began)
         cpu_times.append(time.process_time() - began_cpu)
-        attempts += getattr(solver, "attempts", 0)
-        restarts += getattr(solver, "restarts", 0)
     results.append({"name": item["name"], "cpu": time.process_time() - cpu, "wall": time.perf_counter() - wall,
                     "ok": ok, "attempts": attempts, "restarts": restarts, "times": times, "cpu_times": cpu_times,
                     "skipped": skipped,

@@ -362,8 +362,7 @@ for occurrence in solver.stream(model, SolveRequest(duration=duration, seed=1)):
         marks[minute] = [now, rss()]
 total = time.perf_counter() - began
 print(json.dumps({"total": total, "first": first, "count": count, "before": before, "after": rss(),
-                  "peak": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024, "marks": marks,
-                  "methods": solver.methods}))
+                  "peak": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024, "marks": marks}))
 """
 
 
@@ -395,8 +394,8 @@ def bench_long(duration: float, names: Sequence[str]) -> None:
             rss10 = next((marks[m][1] for m in sorted(marks) if m >= 10), data["after"])
             first = data["first"] if data["first"] is not None else float("nan")
             print(f"{name:24s} {data['total']:7.2f} {duration / data['total']:7.0f} {first:8.3f} {data['count']:8d} "
-                  f"{data['before']:13.1f} {rss10:7.1f} {data['after']:6.1f}   {head:16.3f} / {tail:.3f}  "
-                  f"{','.join(sorted(set(data['methods'])))}", flush=True)
+                  f"{data['before']:13.1f} {rss10:7.1f} {data['after']:6.1f}   {head:16.3f} / {tail:.3f}",
+                  flush=True)
     print(load_line())
 
 
@@ -488,7 +487,7 @@ def bench_fidelity(count: int, cp_count: int, duration: float, draws: int, names
             schedules = []
             for seed in range(number):
                 with contextlib.suppress(NoSolution):
-                    schedules.extend(solver.solve(model, SolveRequest(duration=duration, seed=seed)))
+                    schedules.extend(solver.solve(model, SolveRequest(duration=duration, seed=seed)).schedules)
             sampled[solver_name] = marginals(model, schedules)
         print(f"-- {name}: target by {how} (acceptance {acceptance:.1%})")
         print(f"   {'signal':24s} {'target':>7s} {'walk':>6s} {'cpsat':>6s}   {'start':>6s} {'walk':>6s} {'cpsat':>6s}")
@@ -533,14 +532,14 @@ def bench_constraint_less(count: int) -> None:
         solver = get_solver("greedy")
         began = time.perf_counter()
         try:
-            schedules = solver.solve(model, SolveRequest(duration=10.0, seed=1, count=count, mode="constraint-less"))
+            result = solver.solve(model, SolveRequest(duration=10.0, seed=1, count=count, mode="constraint-less"))
         except NoSolution as failure:
             print(f"  {name:24s} failed: {failure.reason[:120]}")
             continue
         elapsed = time.perf_counter() - began
+        schedules, methods = result.schedules, result.methods
         violating = sum(1 for s in schedules if any(v.kind == "constraint" for v in check_schedule(model, s)))
         structural = sum(1 for s in schedules if any(v.kind != "constraint" for v in check_schedule(model, s)))
-        methods = getattr(solver, "methods", [])
         print(f"  {name:24s} violate >= 1 constraint: {violating}/{len(schedules)}, structural errors {structural}, "
               f"fallbacks {sum(1 for m in methods if m != 'walk')}, {elapsed / count * 1000:.2f} ms each")
 

@@ -18,6 +18,8 @@ COMMAND_MODULES: tuple[str, ...] = (
     "cmd_compile",
     "cmd_sample",
     "cmd_check",
+    "cmd_live",
+    "cmd_repair",
     "cmd_lint",
     "cmd_list",
     "cmd_export",

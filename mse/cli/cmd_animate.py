@@ -86,7 +86,7 @@ def _recorded_expression(timeline: Timeline, where: str) -> Model:
             message = f"the timeline's expression file {path} is gone: give --expression FILE"
             raise MseError([Diagnostic("E100", message, Span(where))])
         recorded = source.get("sha256")
-        from mse.fileio import read_input
+        from mse.input_files import read_input
 
         if recorded and hashlib.sha256(read_input(path)).hexdigest() != recorded:
             print(f"{path}: warning: changed since the timeline was sampled from it", file=sys.stderr)

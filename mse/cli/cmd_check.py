@@ -8,7 +8,7 @@ import sys
 from typing import TYPE_CHECKING, Any
 
 from mse.cli.common import print_error, read_timelines
-from mse.diagnostics import MseError
+from mse.diagnostics import Diagnostic, MseError, Span
 
 if TYPE_CHECKING:
     from mse.ir.evaluate import Violation
@@ -20,10 +20,12 @@ def register(subparsers: Any) -> None:
         help="check timelines against a behaviour set",
         description="Check one timeline, a JSON array of timelines, or JSON lines against a "
         "behaviour set. Prints each violated constraint with its file:line and a summary line "
-        "on stdout (--format json: one report object); exit 1 if any.",
+        "on stdout (--format json: one report object); exit 1 if any. A dialogue's timeline "
+        "(mse live) is checked episode by episode, each against its own set: 'mse check dialogue.json'.",
     )
-    parser.add_argument("source", help="a behaviour-set file or a bundled expression name")
-    parser.add_argument("timeline", help="timeline JSON file ('-' for stdin)")
+    parser.add_argument("source", help="a behaviour-set file or a bundled expression name (or, alone, a "
+                        "dialogue's timeline)")
+    parser.add_argument("timeline", nargs="?", help="timeline JSON file ('-' for stdin)")
     parser.add_argument("-q", "--quiet", action="store_true", help="print nothing when consistent")
     parser.add_argument("--speech", metavar="FILE",
                         help="the agent's speech for speech anchors (default: each timeline's 'utterances')")
@@ -40,9 +42,16 @@ def run(args: argparse.Namespace) -> int:
     from mse.api import check, load
     from mse.ir.anchors import read_speech, timeline_speech
 
+    if args.timeline is None:
+        return _run_dialogue(args)
     try:
         model = load(args.source)
         timelines = read_timelines(args.timeline)
+        if any(t.episodes for t in timelines):
+            where = "<stdin>" if args.timeline == "-" else args.timeline
+            message = (f"this is a dialogue's timeline (episodes, each with its own set): check it alone, "
+                       f"'mse check {args.timeline}'")
+            raise MseError([Diagnostic("E100", message, Span(where))])
         speech = read_speech(args.speech) if args.speech else None
         models = [timeline_speech(model, timeline, speech, args.timeline) for timeline in timelines]
     except MseError as error:
@@ -65,6 +74,45 @@ def run(args: argparse.Namespace) -> int:
         print(json.dumps(report, indent=2))
     elif not args.quiet:
         print(f"{ok} of {len(timelines)} timeline(s) consistent with {model.name}")
+    return 1 if failing else 0
+
+
+def _run_dialogue(args: argparse.Namespace) -> int:
+    """``mse check dialogue.json``: every timeline's episodes, each against its own set."""
+    from mse.dialogue.check import check_dialogue, model_loader
+
+    path = args.source
+    try:
+        timelines = read_timelines(path)
+        if not all(t.episodes for t in timelines):
+            where = "<stdin>" if path == "-" else path
+            message = ("this timeline has no episodes: give the behaviour set first "
+                       f"('mse check SET {path}'); a dialogue's timeline (mse live) is checked alone")
+            raise MseError([Diagnostic("E100", message, Span(where))])
+        loader = model_loader()
+        found = [check_dialogue(t, loader) for t in timelines]
+    except MseError as error:
+        return print_error(error)
+    failing = sum(1 for violations in found if violations)
+    if args.format == "json":
+        results = [
+            {"index": n + 1, "episodes": len(t.episodes), "consistent": not violations,
+             "violations": [{**_json([v.violation])[0], "episode": v.episode, "emotion": v.emotion}
+                            for v in violations]}
+            for n, (t, violations) in enumerate(zip(timelines, found, strict=True))
+        ]
+        print(json.dumps({"timelines": len(timelines), "consistent": len(timelines) - failing, "results": results},
+                         indent=2))
+    else:
+        for n, violations in enumerate(found):
+            label = f" [timeline {n + 1}]" if len(timelines) > 1 else ""
+            for violation in violations:
+                print(violation.render() + label)
+        if not args.quiet:
+            episodes = sum(len(t.episodes) for t in timelines)
+            bad = sum(len({v.episode for v in violations}) for violations in found)
+            print(f"{len(timelines) - failing} of {len(timelines)} dialogue(s) consistent "
+                  f"({episodes - bad} of {episodes} episodes)")
     return 1 if failing else 0
 
 

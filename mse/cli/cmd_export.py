@@ -11,7 +11,7 @@ import sys
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-from mse.cli.cmd_render import add_face_arguments
+from mse.cli.cmd_render import add_bml_block_arguments, add_face_arguments
 from mse.export import FORMAT_NAMES, VIDEO_FORMATS  # light: the exporters themselves load lazily
 
 if TYPE_CHECKING:
@@ -51,6 +51,7 @@ def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) ->
     )
     p.add_argument("--character-id", default="Agent", help="BML characterId (default: Agent)")
     add_face_arguments(p)
+    add_bml_block_arguments(p)
     p.add_argument(
         "--realizer",
         choices=("generic", "greta", "asap"),
@@ -91,6 +92,8 @@ def run(args: argparse.Namespace) -> int:
             library_dir=args.library_dir,
             head_library=args.head_library,
             lexicon=tuple(args.lexicon),
+            composition=args.composition,
+            block_id=args.bml_id,
         )
         to_folder = output is not None and (output.endswith(("/", "\\")) or Path(output).is_dir())
         if not to_folder:
@@ -152,7 +155,8 @@ def report_unmapped_faces(timelines: list[Timeline], options: ExportOptions, fmt
     """With --face-library, say which face lexemes the library lacks: they are exported as
     plain lexemes, without action units, which --bml-extensions would otherwise add.  For the
     greta profile a face is looked up by the Greta name it is written with."""
-    from mse.export.lexemes import Lexeme, load_face_library, modality_of, split_lexeme
+    from mse.export.lexemes import Lexeme, modality_of, split_lexeme
+    from mse.export.realizer_libraries import load_face_library
     from mse.export.realizers import realize_greta, realizer_for
 
     if options.face_library is None:

@@ -53,7 +53,7 @@ def _mapping(args: argparse.Namespace) -> Any:
     if args.mapping:
         import tomllib
 
-        from mse.fileio import decode_utf8, read_input
+        from mse.input_files import decode_utf8, read_input
 
         try:  # regular files only, capped, UTF-8 (mse.fileio)
             data = tomllib.loads(decode_utf8(read_input(args.mapping, what="mapping"), args.mapping, what="mapping"))

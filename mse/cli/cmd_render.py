@@ -55,6 +55,19 @@ def video_options(args: argparse.Namespace) -> Any:
     return VideoOptions(size=args.size, fps=args.fps, strip=not args.no_strip)
 
 
+def add_bml_block_arguments(parser: argparse.ArgumentParser | argparse._ArgumentGroup) -> None:
+    """``--composition`` and ``--bml-id`` of the BML block (shared by sample, export and live)."""
+    parser.add_argument(
+        "--composition",
+        type=str.upper,
+        choices=("MERGE", "APPEND", "REPLACE"),
+        default="MERGE",
+        help="BML block composition: how the realizer combines it with the blocks it is playing (default MERGE)",
+    )
+    parser.add_argument("--bml-id", metavar="ID", help="the BML block id (default: bml_<expression>; a dialogue's "
+                        "carries its seed and length)")
+
+
 def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     p = subparsers.add_parser(
         "render",

@@ -14,10 +14,10 @@ from typing import Any
 from mse.cli.common import add_quiet, emit, print_diagnostics, print_error, read_stdin_bytes
 from mse.diagnostics import Diagnostic, MseError, Span, argument_error
 from mse.limits import MAX_SECONDS, solve_duration_problem
+from mse.solve.objectives import DEFAULT_OBJECTIVE, OBJECTIVES
 
 BASE_FORMATS = ("table", "json", "jsonl")
 EXPORT_FORMATS = ("bml", "greta-bml", "svg", "html", "eaf")
-DEFAULT_OBJECTIVE = "profile"  # as mse.api.DEFAULT_OBJECTIVE (not imported: the CLI starts light)
 REALIZERS = ("generic", "greta", "asap")  # mse.export.realizers.REALIZERS (not imported: start-up time)
 VIDEO_FORMATS = ("mp4", "webm", "gif")
 SAMPLE_FORMATS = BASE_FORMATS + EXPORT_FORMATS + VIDEO_FORMATS
@@ -78,7 +78,7 @@ def register(subparsers: Any) -> None:
     exact = parser.add_argument_group("exact solvers (cpsat, csp)")
     exact.add_argument(
         "--objective",
-        choices=(DEFAULT_OBJECTIVE, "likely", "random", "most-signals", "fewest-signals"),
+        choices=(DEFAULT_OBJECTIVE, *OBJECTIVES),
         default=DEFAULT_OBJECTIVE,
         help="cpsat: profile (default) samples the signals' probability profiles; likely: the most probable "
         "timeline; random: ignore the probabilities; most-signals/fewest-signals: as many/few signals as possible",
@@ -100,9 +100,10 @@ def register(subparsers: Any) -> None:
         help="BML for this realizer (default: generic for bml, greta for greta-bml)",
     )
     out.add_argument("--library-dir", metavar="DIR", help="the realizer's libraries (Greta's BehaviorLexicon folder)")
-    from mse.cli.cmd_render import add_face_arguments, add_video_arguments
+    from mse.cli.cmd_render import add_bml_block_arguments, add_face_arguments, add_video_arguments
 
     add_face_arguments(out)
+    add_bml_block_arguments(out)
     add_video_arguments(parser.add_argument_group("video (--format mp4, webm, gif: as mse render)"))
     parser.set_defaults(handler=run)
 
@@ -180,21 +181,20 @@ def _pins(values: list[str]) -> tuple[Any, ...]:
 
 
 def _options(args: argparse.Namespace) -> dict[str, Any]:
-    options: dict[str, Any] = {
-        "max_restarts": args.max_restarts,
+    """The keyword options of :func:`mse.sampling.sample` (its ``SampleOptions``)."""
+    from mse.solve.protocol import CpSatOptions, CspOptions, GreedyOptions
+
+    return {
         "time_limit": args.time_limit,
-        "workers": args.workers,
-        "grid": args.grid,
         "diverse": args.diverse,
         "pinned": _pins(args.pin),
         "require": tuple(n for group in args.require for n in group),
         "forbid": tuple(n for group in args.forbid for n in group),
+        "objective": args.objective,
+        "greedy": GreedyOptions(slot=args.slot, max_restarts=args.max_restarts),
+        "cpsat": CpSatOptions(workers=args.workers),
+        "csp": CspOptions(grid=args.grid),
     }
-    if args.slot is not None:
-        options["slot"] = args.slot
-    if args.objective != DEFAULT_OBJECTIVE:
-        options["objective"] = args.objective
-    return options
 
 
 def _validate(args: argparse.Namespace) -> None:
@@ -250,8 +250,8 @@ def _seed(args: argparse.Namespace) -> int:
 def _stream(model: Any, args: argparse.Namespace) -> int:
     """JSON lines, one per occurrence as soon as it is decided; each line names the expression,
     the seed and the duration of its timeline (``--count``: timelines one after another)."""
-    from mse.api import iter_sample
     from mse.cli.sample_output import output_to
+    from mse.sampling import iter_sample
     from mse.solve.protocol import derive_seed
 
     seed = _seed(args)
@@ -273,9 +273,9 @@ def _stream(model: Any, args: argparse.Namespace) -> int:
 
 
 def _sample(model: Any, args: argparse.Namespace) -> int:
-    from mse.api import iter_timelines, sample
     from mse.cli.output_format import output_format
     from mse.cli.sample_output import is_folder, output_to, render_timelines, write_folder, write_many, write_video_file
+    from mse.sampling import iter_timelines
 
     given = output_format(args.format, args.output, SAMPLE_FORMATS)
     fmt = given or ("table" if sys.stdout.isatty() and not args.output else "json")
@@ -285,10 +285,8 @@ def _sample(model: Any, args: argparse.Namespace) -> int:
         with output_to(args.output, [p for p in (args.source,) if p]) as out:
             write_many(timelines_stream, fmt, out)
         return 0
-    result = sample(
-        model, args.duration, seed=args.seed, count=args.count, solver=args.solver, mode=args.mode, **_options(args)
-    )
-    timelines = result if isinstance(result, list) else [result]
+    timelines = list(iter_timelines(model, args.duration, seed=args.seed, count=args.count or 1,
+                                    solver=args.solver, mode=args.mode, **_options(args)))
     if args.animate:
         from pathlib import Path
 

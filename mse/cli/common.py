@@ -10,7 +10,8 @@ from collections.abc import Iterable
 from typing import TYPE_CHECKING, TextIO
 
 from mse.diagnostics import Diagnostic, MseError
-from mse.fileio import decode_utf8, read_capped, read_input, write_atomic
+from mse.fileio import write_atomic
+from mse.input_files import decode_utf8, read_capped, read_input
 from mse.limits import MAX_INPUT_BYTES
 
 if TYPE_CHECKING:

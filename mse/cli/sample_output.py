@@ -130,6 +130,8 @@ def export_options(args: argparse.Namespace) -> Any:
         library_dir=Path(args.library_dir) if args.library_dir else None,
         head_library=args.head_library,
         lexicon=tuple(args.lexicon),
+        composition=getattr(args, "composition", "MERGE"),
+        block_id=getattr(args, "bml_id", None),
     )
 
 

@@ -37,9 +37,29 @@ def plan_behaviours(timeline: Timeline) -> list[Behaviour]:
     ]
 
 
-def block_id(timeline: Timeline) -> str:
-    """The ``<bml id>``: an xs:ID (no leading digit) that is never the reserved ``bml``."""
+def block_id(timeline: Timeline, options: ExportOptions | None = None) -> str:
+    """The ``<bml id>``: an xs:ID (no leading digit) that is never the reserved ``bml``.
+
+    ``options.block_id`` when given (``--bml-id``); a dialogue's carries its seed and length
+    (``bml_dialogue_s7_8700ms``), so that dialogues sent one after another do not collide."""
+    if options is not None and options.block_id:
+        chosen = sanitize_id(options.block_id, prefix="")
+        return chosen if chosen != "bml" else "bml_"
+    if timeline.episodes:
+        seed = "x" if timeline.seed is None else str(timeline.seed)
+        stem = sanitize_id(f"{timeline.expression or 'dialogue'}_s{seed}_{round(timeline.duration * 1000)}ms",
+                           prefix="")
+        return "bml_" + stem
     return "bml_" + sanitize_id(timeline.expression or "timeline", prefix="")
+
+
+def amount(b: Behaviour, base: float | None = None) -> str | None:
+    """BML ``amount`` of a behaviour: ``base`` (1 when None) scaled by the occurrence's
+    intensity (:mod:`mse.envelope`); None when neither says anything (the writer's default)."""
+    intensity = b.signal.envelope.intensity if b.signal.envelope is not None else None
+    if intensity is None:
+        return None if base is None else format_seconds(base)
+    return format_seconds(round((1.0 if base is None else base) * intensity, 3))
 
 
 def composition(options: ExportOptions) -> str:

@@ -12,17 +12,11 @@ from __future__ import annotations
 from collections.abc import Mapping, Sequence
 
 from mse.diagnostics import Diagnostic, Span
-from mse.export.behaviours import Behaviour, block_id, composition, plan_behaviours, provenance, timing
+from mse.export.behaviours import Behaviour, amount, block_id, composition, plan_behaviours, provenance, timing
 from mse.export.greta_bml import greta_elements
-from mse.export.lexemes import (
-    ActionUnit,
-    FaceLibrary,
-    format_seconds,
-    load_face_library,
-    split_lexeme,
-    upper_token,
-)
+from mse.export.lexemes import format_seconds, split_lexeme, upper_token
 from mse.export.options import ExportOptions
+from mse.export.realizer_libraries import ActionUnit, FaceLibrary, load_face_library
 from mse.export.realizers import lexeme_table, realize_gaze, realizer_for
 from mse.export.xmltext import Comment, Element, document, element
 from mse.timeline import Timeline
@@ -119,15 +113,15 @@ def _face(b: Behaviour, realizer: str, library: FaceLibrary | None, extensions: 
                     "end": b.end,
                     "au": u.number,
                     "side": u.side,
-                    "amount": format_seconds(u.intensity),
+                    "amount": amount(b, u.intensity),
                 },
             )
             for u in units
         ]
-    name, amount = face_lexeme(realizer, b.lexeme.name, units)
+    name, strength = face_lexeme(realizer, b.lexeme.name, units)
     attrs = timing(b)
     attrs["lexeme"] = name
-    attrs["amount"] = FULL_AMOUNT if amount is None else format_seconds(amount)
+    attrs["amount"] = amount(b, strength) or FULL_AMOUNT
     return [element("faceLexeme", attrs)]
 
 
@@ -152,7 +146,8 @@ def _behaviour_elements(
     if b.modality == "gaze":
         return [_gaze(b, realizer, library, options)]
     if b.modality == "head":
-        return [element("head", {**timing(b), "lexeme": head_lexeme(realizer, b.lexeme.name), "amount": FULL_AMOUNT})]
+        return [element("head", {**timing(b), "lexeme": head_lexeme(realizer, b.lexeme.name),
+                                 "amount": amount(b) or FULL_AMOUNT})]
     if b.modality == "gesture":
         return [element("gesture", {**timing(b), "lexeme": name})]
     if b.modality in ("torso", "posture"):
@@ -236,6 +231,10 @@ def render_bml(timeline: Timeline, options: ExportOptions) -> str:
         library = optional_face_library(options)
         for b in behaviours:
             children.extend(_behaviour_elements(b, realizer, library, options))
+    if timeline.utterances:
+        from mse.export.speech_bml import with_speech
+
+        children = with_speech(timeline.utterances, behaviours, children, greta=realizer == "greta")
     if options.bml_constraints:
         children.extend(sync_constraints(children))
     if not any(isinstance(c, Element) for c in children):
@@ -244,7 +243,7 @@ def render_bml(timeline: Timeline, options: ExportOptions) -> str:
     attrs: dict[str, str | float | int | None] = {
         "xmlns": BML_NAMESPACE,
         "xmlns:ext": EXT_NAMESPACE if options.bml_extensions else None,
-        "id": block_id(timeline),
+        "id": block_id(timeline, options),
         "characterId": options.character_id,
         "composition": composition(options),
     }

@@ -22,10 +22,10 @@ from __future__ import annotations
 from collections.abc import Mapping, Sequence
 
 from mse.diagnostics import Diagnostic, Span
-from mse.export.behaviours import Behaviour, block_id, composition, plan_behaviours, provenance, timing
-from mse.export.lexemes import FaceLibrary, Lexeme, format_seconds, load_face_library
+from mse.export.behaviours import Behaviour, amount, block_id, composition, plan_behaviours, provenance, timing
+from mse.export.lexemes import Lexeme
 from mse.export.options import ExportOptions
-from mse.export.realizer_libraries import GretaLibraries
+from mse.export.realizer_libraries import FaceLibrary, GretaLibraries, load_face_library
 from mse.export.realizers import greta_libraries, realize_gaze, realize_greta, realizer_for
 from mse.export.xmltext import Comment, Element, document, element
 from mse.timeline import Timeline
@@ -57,12 +57,12 @@ def _faces(b: Behaviour, libraries: GretaLibraries | None, face: FaceLibrary | N
                     "id": f"{b.id}_au{u.number}",
                     "au": u.number,
                     "side": u.side,
-                    "amount": format_seconds(u.intensity),
+                    "amount": amount(b, u.intensity),
                 },
             )
             for u in units
         ]
-    return [element("faceLexeme", {**timing(b), "lexeme": realized.name, "amount": "1"})]
+    return [element("faceLexeme", {**timing(b), "lexeme": realized.name, "amount": amount(b) or "1"})]
 
 
 def left_out(b: Behaviour, libraries: GretaLibraries | None) -> str | None:
@@ -154,11 +154,16 @@ def greta_notes(timeline: Timeline, options: ExportOptions, where: str = "<expor
 
 def render_greta_bml(timeline: Timeline, options: ExportOptions) -> str:
     realizer_for("greta-bml", options.realizer)
-    children: list[Element | Comment | str] = list(greta_elements(plan_behaviours(timeline), options))
+    behaviours = plan_behaviours(timeline)
+    children: list[Element | Comment | str] = list(greta_elements(behaviours, options))
+    if timeline.utterances:
+        from mse.export.speech_bml import with_speech
+
+        children = with_speech(timeline.utterances, behaviours, children, greta=True)
     attrs: dict[str, str | float | int | None] = {
         "xmlns": GRETA_BML_NAMESPACE,
         "xmlns:ext": EXT_NAMESPACE if options.bml_extensions else None,
-        "id": block_id(timeline),
+        "id": block_id(timeline, options),
         "characterId": options.character_id,
         "composition": GRETA_COMPOSITION[composition(options)],
     }

@@ -1,4 +1,4 @@
-"""Lexeme names: splitting Greta references and BML ids (and, re-exported, the face library).
+"""Lexeme names: splitting Greta references and BML ids.
 
 A timeline lexeme is free text; Greta's style is ``class=name`` (``faceexp=smile``,
 ``gaze=look_down``, ``emotion=embarrassment_signal_10``) or a bare library id
@@ -10,10 +10,6 @@ from __future__ import annotations
 import re
 from collections.abc import Iterable, Mapping
 from dataclasses import dataclass
-
-# The Greta face library lives with the other realizer-library readers; re-exported here so
-# that ``from mse.export.lexemes import load_face_library`` keeps working.
-from mse.export.realizer_libraries import ActionUnit, FaceLibrary, load_face_library
 
 _NOT_ID_CHAR = re.compile(r"[^A-Za-z0-9_]+")
 
@@ -101,17 +97,3 @@ def format_seconds(value: float) -> str:
     text = f"{round(value, 3):.3f}".rstrip("0").rstrip(".")
     return "0" if text in ("", "-0") else text
 
-
-__all__ = [
-    "CLASS_MODALITY",
-    "ActionUnit",
-    "FaceLibrary",
-    "Lexeme",
-    "format_seconds",
-    "load_face_library",
-    "modality_of",
-    "sanitize_id",
-    "split_lexeme",
-    "unique_ids",
-    "upper_token",
-]

@@ -38,3 +38,5 @@ class ExportOptions:
     library_dir: Path | None = None
     head_library: Path | None = None
     lexicon: tuple[Path, ...] = ()
+    #: The ``<bml id>`` (``--bml-id``); None: from the timeline (see ``behaviours.block_id``).
+    block_id: str | None = None

@@ -196,7 +196,7 @@ def _error(code: str, message: str, where: str, line: int = 0, col: int = 0) -> 
 
 def read_library_xml(path: Path, what: str) -> etree._Element:
     """The root element of a realizer library, read as plain data (E100/E101/E104)."""
-    from mse.fileio import read_input
+    from mse.input_files import read_input
     from mse.syntax.safexml import parse_xml
 
     where = str(path)

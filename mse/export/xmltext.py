@@ -32,6 +32,8 @@ class Element:
     tag: str
     attributes: Attributes = field(default_factory=dict)
     children: tuple[Element | Comment | str, ...] = ()
+    #: Mixed content written on one line as given (speech text with marks: no white space added).
+    inline: bool = False
 
 
 @dataclass(frozen=True)
@@ -63,6 +65,8 @@ def render(node: Element | Comment | str, indent: str = "  ", depth: int = 0) ->
     opening = f"{pad}<{node.tag}{attribute_text(node.attributes)}"
     if not node.children:
         return opening + "/>"
+    if node.inline:
+        return opening + ">" + "".join(render(child, "", 0) for child in node.children) + f"</{node.tag}>"
     if all(isinstance(child, str) for child in node.children):
         text = "".join(escape(child) for child in node.children if isinstance(child, str))
         return f"{opening}>{text}</{node.tag}>"

@@ -103,6 +103,7 @@ def _signals(document: ast.Document, checker: BuildChecker) -> list[ir.Signal]:
         p_start = checker.number(attributes, "probability_start", 1.0, minimum=0.0, maximum=1.0, code="E206")
         p_end = checker.number(attributes, "probability_end", 1.0, minimum=0.0, maximum=1.0, code="E206")
         repetitivity = _repetitivity(attributes, checker)
+        intensity = checker.number(attributes, "intensity", 1.0, minimum=0.0, maximum=1.0, code="E204")
         max_occurrences = (
             checker.integer(attributes, "max_occurrences", 1, minimum=1, code="E204")
             if "max_occurrences" in attributes
@@ -129,6 +130,7 @@ def _signals(document: ast.Document, checker: BuildChecker) -> list[ir.Signal]:
                 max_occurrences=max_occurrences,
                 motion=_motion(declaration.motion, checker),
                 span=id_attribute.span,
+                intensity=intensity,
             )
         )
     return result

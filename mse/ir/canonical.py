@@ -68,6 +68,8 @@ def _signal_json(signal: ir.Signal) -> dict[str, Any]:
     }
     if signal.max_occurrences is not None:
         entry["max_occurrences"] = signal.max_occurrences
+    if signal.intensity != 1.0:
+        entry["intensity"] = signal.intensity
     if signal.motion is not None:
         entry["motion"] = {"action": signal.motion.action, **dict(signal.motion.attributes)}
     entry["source"] = _source(signal.span)

@@ -108,6 +108,7 @@ def model_from_trusted_json(obj: Any) -> ir.Model:
                     max_occurrences=entry.get("max_occurrences"),
                     motion=_motion(entry.get("motion"), span),
                     span=span,
+                    intensity=float(entry.get("intensity", 1.0)),
                 )
             )
         constraints = []

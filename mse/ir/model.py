@@ -203,6 +203,9 @@ class Signal:
     max_occurrences: int | None = None
     motion: MotionLeaf | None = None
     span: Span = field(default=NO_SPAN, compare=False, repr=False)
+    #: How strongly the signal is shown, in [0, 1] (an occurrence's intensity is its episode's
+    #: times this; mse.envelope).  Does not change where it occurs.
+    intensity: float = 1.0
 
     @property
     def repetitive(self) -> bool:
@@ -257,3 +260,13 @@ class Model:
     def signal_info(self) -> Mapping[str, tuple[str, str]]:
         """id -> (modality, lexeme), as :func:`mse.timeline.from_schedule` wants it."""
         return {s.id: (s.modality, s.lexeme) for s in self.signals}
+
+    @cached_property
+    def motion_annotations(self) -> Mapping[str, Mapping[str, str]]:
+        """id -> ``{"action": ...}`` for every motion-leaf signal (timeline entries carry it).
+
+        >>> from mse.api import load
+        >>> load("embarrassment").motion_annotations["bow"]
+        {'action': 'bow'}
+        """
+        return {s.id: {"action": s.motion.action} for s in self.signals if s.motion is not None}

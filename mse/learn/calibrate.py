@@ -12,7 +12,7 @@ by (half) the difference, and keep the round whose samples are closest to the co
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, replace
 
 from mse import progress
@@ -37,7 +37,7 @@ def corpus_profile(corpus: Corpus) -> Profile:
     )
 
 
-def schedules_profile(schedules: list[Schedule], signals: list[str]) -> Profile:
+def schedules_profile(schedules: Sequence[Schedule], signals: list[str]) -> Profile:
     return _profile([(s.duration, [(o.signal, o.start) for o in s.occurrences]) for s in schedules], signals)
 
 
@@ -81,7 +81,7 @@ def calibrate(
     for round_number in progress.each(range(rounds + 1), "calibrate", unit="round"):
         try:
             schedules = solver.solve(current, SolveRequest(duration=duration, seed=seed + round_number * samples,
-                                                           count=samples))
+                                                           count=samples)).schedules
         except MseError as error:
             notes.append(f"calibration stopped: the learned set could not be sampled ({error})")
             break

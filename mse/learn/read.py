@@ -82,7 +82,7 @@ MAX_CORPUS_BYTES = 128 * 1024 * 1024
 def _read(path: Path, kind: str) -> tuple[bytes | None, list[Diagnostic]]:
     if kind == "eaf":
         return read_bytes(path)
-    from mse.fileio import read_input
+    from mse.input_files import read_input
 
     try:  # regular files only, never more than the limit (mse.fileio)
         return read_input(path, limit=MAX_CORPUS_BYTES), []

@@ -59,11 +59,6 @@ class MotionWarning(UserWarning):
     """A motion leaf was served by a fallback (starter library, another style)."""
 
 
-def motion_annotations(model: Model) -> dict[str, dict[str, Any]]:
-    """``{"action": ...}`` for every motion-leaf signal, keyed by signal id."""
-    return {s.id: {"action": s.motion.action} for s in model.signals if s.motion is not None}
-
-
 def _where(leaf: MotionLeaf) -> str:
     span: Span = leaf.span
     return "" if span.path == "<none>" else f"{span.render()}: "

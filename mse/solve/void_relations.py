@@ -82,7 +82,7 @@ def sampled_void_relations(model: ir.Model, duration: float, seed: int = 0) -> l
     from mse.solve.protocol import SolveRequest
 
     try:
-        schedules = GreedySolver().solve(model, SolveRequest(duration=duration, seed=seed, count=SAMPLES))
+        result = GreedySolver().solve(model, SolveRequest(duration=duration, seed=seed, count=SAMPLES))
     except MseError:  # no timeline: the infeasibility rules speak for the set
         return []
-    return void_relations(model, schedules, duration)
+    return void_relations(model, [solution.schedule for solution in result.solutions], duration)

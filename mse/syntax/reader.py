@@ -1,6 +1,6 @@
 """Reading a native behaviour-set file: safe XML, the schema, and a positioned AST.
 
-Safety: files are read through :func:`mse.fileio.read_input` (regular files only, at most
+Safety: files are read through :func:`mse.input_files.read_input` (regular files only, at most
 MAX_INPUT_BYTES); lxml parses without entity substitution, DTD loading or network, with
 libxml2's entity-amplification limits.  The decision on entities is taken on the *parsed*
 DOCTYPE: a document that declares any entity, or refers to one that is not predefined, is
@@ -18,7 +18,7 @@ from pathlib import Path
 from lxml import etree
 
 from mse.diagnostics import Diagnostic, MseError, Span
-from mse.fileio import read_input
+from mse.input_files import read_input
 from mse.limits import MAX_CONSTRAINT_CHARS, MAX_CONSTRAINT_TEXT, MAX_ELEMENTS, MAX_SIGNALS
 from mse.resources import grammar_dir
 from mse.syntax import ast

@@ -80,7 +80,7 @@ def _entity_problem(root: etree._Element, source: SourceText) -> Diagnostic | No
 def _escape_hint(message: str, data: bytes, line: int, column: int) -> str:
     """How to write the character that broke the parse, when it is a bare ``<`` or ``&`` in
     text (constraints use both: ``start(a) <= 2``, ``a and b`` is fine but ``&&`` is not)."""
-    if "StartTag: invalid element name" in message:
+    if "StartTag: invalid element name" in message and line > 1:  # inside a document, not its start
         return "; a '<' inside text must be written '&lt;' (e.g. start(a) &lt;= 2)"
     if "EntityRef: expecting ';'" in message or "xmlParseEntityRef: no name" in message:
         return "; a '&' inside text must be written '&amp;'"

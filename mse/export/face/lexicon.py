@@ -21,7 +21,8 @@ from typing import Any
 
 from mse.diagnostics import Diagnostic, MseError, Span
 from mse.export.face.actions import Action, unit_targets
-from mse.export.lexemes import ActionUnit, FaceLibrary, Lexeme, load_face_library, modality_of, split_lexeme
+from mse.export.lexemes import Lexeme, modality_of, split_lexeme
+from mse.export.realizer_libraries import ActionUnit, FaceLibrary, load_face_library
 
 _GROUPS: Mapping[str, Mapping[str, str]] = {
     "head": {"yaw": "head_yaw", "pitch": "head_pitch", "roll": "head_roll", "forward": "head_forward"},
@@ -128,7 +129,7 @@ def parse_table(text: str, source: str, where: str) -> dict[str, Action]:
 
 
 def load_table(path: Path) -> dict[str, Action]:
-    from mse.fileio import decode_utf8, read_input
+    from mse.input_files import decode_utf8, read_input
 
     # Regular files only, size-capped, UTF-8 (mse.fileio: the one reader of files).
     text = decode_utf8(read_input(path, what="lexeme table"), str(path), what="lexeme table")

@@ -2,7 +2,8 @@
 
 Each occurrence whose lexeme resolves (:mod:`mse.export.face.lexicon`) becomes a
 :class:`Key`; its weight over time is an envelope (0 at start and stop, a smoothstep up
-during ``attack``, 1 at the apex, a smoothstep down during ``release``), multiplied by an
+during ``attack``, 1 at the apex, a smoothstep down during ``release``; :mod:`mse.envelope`
+gives the phases, or the occurrence's own envelope and intensity when it carries one), multiplied by an
 oscillation (nods, shakes) or replaced by pulses (blinks).  Channel values are the sum of
 weight x target over the keys, action units clamped to [0, 1], so overlapping expressions
 blend.  ``face.js`` computes the same from :meth:`Track.to_json`.
@@ -11,28 +12,17 @@ blend.  ``face.js`` computes the same from :meth:`Track.to_json`.
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping
 from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 
+from mse.envelope import phases
 from mse.export.face.actions import Action
 from mse.export.face.lexicon import Resolver
 from mse.export.face.rig import FloatArray, Rig
 from mse.export.lexemes import modality_of, split_lexeme
-from mse.timeline import Timeline
-
-#: Default (attack, release) in seconds per modality; never more than 40 % of the occurrence.
-TIMING: Mapping[str, tuple[float, float]] = {
-    "face": (0.3, 0.3),
-    "gaze": (0.12, 0.12),
-    "head": (0.35, 0.35),
-    "torso": (0.6, 0.6),
-    "posture": (0.6, 0.6),
-}
-DEFAULT_TIMING = (0.3, 0.3)
-MAX_PHASE_SHARE = 0.4
+from mse.timeline import Timeline, TimelineSignal
 
 
 @dataclass(frozen=True)
@@ -141,12 +131,11 @@ def key_weight(key: Key, times: FloatArray) -> FloatArray:
     return weight
 
 
-def _timing(action: Action, modality: str, span: float) -> tuple[float, float]:
-    attack, release = TIMING.get(modality, DEFAULT_TIMING)
-    attack = action.attack if action.attack is not None else attack
-    release = action.release if action.release is not None else release
-    limit = MAX_PHASE_SHARE * span
-    return min(attack, limit), min(release, limit)
+def _timing(action: Action, modality: str, signal: TimelineSignal) -> tuple[float, float]:
+    """The occurrence's own envelope (a dialogue's occurrences carry one), else the lexeme's."""
+    if signal.envelope is not None:
+        return signal.envelope.attack, signal.envelope.release
+    return phases(modality, signal.stop - signal.start, action.attack, action.release)
 
 
 def build_track(timeline: Timeline, rig: Rig, resolver: Resolver) -> Track:
@@ -180,7 +169,8 @@ def build_track(timeline: Timeline, rig: Rig, resolver: Resolver) -> Track:
         targets: dict[int, float] = {}
         for channel, value in action.targets:
             targets[index[channel]] = targets.get(index[channel], 0.0) + value
-        attack, release = _timing(action, modality, signal.stop - signal.start)
+        attack, release = _timing(action, modality, signal)
+        scale = signal.envelope.intensity if signal.envelope is not None else 1.0
         keys.append(
             Key(
                 signal.id,
@@ -190,7 +180,7 @@ def build_track(timeline: Timeline, rig: Rig, resolver: Resolver) -> Track:
                 signal.stop,
                 round(attack, 4),
                 round(release, 4),
-                tuple((c, round(v, 4)) for c, v in sorted(targets.items())),
+                tuple((c, round(v * scale, 4)) for c, v in sorted(targets.items())),
                 action.repeat,
                 action.oscillate,
             )

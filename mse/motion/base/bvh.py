@@ -36,7 +36,8 @@ from functools import cached_property
 import numpy as np
 
 from mse.diagnostics import Diagnostic, MseError, Span
-from mse.fileio import read_input, write_atomic
+from mse.fileio import write_atomic
+from mse.input_files import read_input
 from mse.limits import (
     MAX_BVH_BYTES,
     MAX_CHANNEL_VALUE,

@@ -43,7 +43,7 @@ from mse.motion.base.bodyparts import BodyMap, body_map
 from mse.motion.base.bvh import Motion
 from mse.motion.base.contacts import contact_joints
 from mse.motion.base.kinematics import FloatArray
-from mse.motion.base.lma import UP_AXIS, arm_length
+from mse.motion.base.lma import UP_AXIS, arm_length, body_frame
 
 MEASURES: tuple[str, ...] = (
     "head_dip",
@@ -109,19 +109,11 @@ class Body:
     scale: float  # arm length (file units)
 
 
-def _body_frame(positions: FloatArray, body: BodyMap) -> FloatArray:
-    lateral = positions[0, body.left_hip] - positions[0, body.right_hip]
-    lateral[UP_AXIS] = 0.0
-    norm = float(np.linalg.norm(lateral))
-    lateral = lateral / norm if norm > 1e-9 else np.array([1.0, 0.0, 0.0])
-    up = np.zeros(3)
-    up[UP_AXIS] = 1.0
-    forward = np.cross(lateral, up)
-    basis = np.stack([lateral, up, forward])
-    origin = 0.5 * (positions[0, body.left_hip] + positions[0, body.right_hip])
+def _hip_origin(positions: FloatArray, body: BodyMap) -> FloatArray:
+    """The first-frame midpoint of the hips, at height 0."""
+    origin: FloatArray = 0.5 * (positions[0, body.left_hip] + positions[0, body.right_hip])
     origin[UP_AXIS] = 0.0
-    result: FloatArray = (positions - origin) @ basis.T
-    return result
+    return origin
 
 
 def body_of(motion: Motion, path: str = "<motion>") -> Body:
@@ -130,7 +122,8 @@ def body_of(motion: Motion, path: str = "<motion>") -> Body:
     body = body_map(skeleton, path)
     positions = motion.positions()
     feet = contact_joints(skeleton)
-    return Body(_body_frame(positions, body), motion.frame_time, body, feet, body.torso, arm_length(positions, body))
+    local = body_frame(positions, body, _hip_origin(positions, body))
+    return Body(local, motion.frame_time, body, feet, body.torso, arm_length(positions, body))
 
 
 def _wave(relative: FloatArray, frame_time: float) -> tuple[float, float]:

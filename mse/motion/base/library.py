@@ -36,7 +36,7 @@ from pathlib import Path
 from typing import Any
 
 from mse.diagnostics import Diagnostic, MseError, Span
-from mse.fileio import decode_utf8, read_input, read_json
+from mse.input_files import decode_utf8, read_input, read_json
 from mse.limits import MAX_CSV_FIELD
 from mse.motion.base.bvh import Motion, read_bvh
 

@@ -74,6 +74,22 @@ class LmaFeatures:
         return np.array(values, dtype=np.float64)
 
 
+def body_frame(positions: FloatArray, body: BodyMap, origin: FloatArray) -> FloatArray:
+    """Positions relative to ``origin``, rotated so that the body's first-frame forward axis
+    is +Z and up is +Y (performers face different ways): rows of the basis are the new X
+    (left), Y (up) and Z (forward)."""
+    lateral = positions[0, body.left_hip] - positions[0, body.right_hip]
+    lateral[UP_AXIS] = 0.0
+    norm = float(np.linalg.norm(lateral))
+    lateral = lateral / norm if norm > 1e-9 else np.array([1.0, 0.0, 0.0])
+    up = np.zeros(3)
+    up[UP_AXIS] = 1.0
+    forward = np.cross(lateral, up)
+    basis = np.stack([lateral, up, forward])
+    result: FloatArray = (positions - origin) @ basis.T
+    return result
+
+
 def arm_length(positions: FloatArray, body: BodyMap) -> float:
     upper = np.linalg.norm(positions[:, body.right_elbow] - positions[:, body.right_shoulder], axis=-1)
     lower = np.linalg.norm(positions[:, body.right_wrist] - positions[:, body.right_elbow], axis=-1)
@@ -81,8 +97,8 @@ def arm_length(positions: FloatArray, body: BodyMap) -> float:
     return length if length > 1e-9 else 1.0
 
 
-def _derivative(signal: FloatArray, frame_time: float) -> FloatArray:
-    """Low-pass filtered time derivative along axis 0 (zero-phase)."""
+def filtered_derivative(signal: FloatArray, frame_time: float) -> FloatArray:
+    """Low-pass filtered time derivative along axis 0 (zero-phase, :data:`_CUTOFF_HZ`)."""
     if len(signal) < 2:
         return np.zeros_like(signal)
     derivative: FloatArray = np.gradient(signal, frame_time, axis=0)
@@ -95,8 +111,8 @@ def _curvature(path: FloatArray, frame_time: float) -> float:
     centred = path - path.mean(axis=0)
     _, _, components = np.linalg.svd(centred, full_matrices=False)
     plane = centred @ components[:2].T
-    first = _derivative(plane, frame_time)
-    second = _derivative(first, frame_time)
+    first = filtered_derivative(plane, frame_time)
+    second = filtered_derivative(first, frame_time)
     cross = np.abs(first[:, 0] * second[:, 1] - first[:, 1] * second[:, 0])
     speed_sq = first[:, 0] ** 2 + first[:, 1] ** 2
     return float(np.mean(cross / (speed_sq + _CURVATURE_EPSILON) ** 1.5))
@@ -113,9 +129,9 @@ def lma_features(motion: Motion, *, path: str = "<motion>") -> LmaFeatures:
 def lma_from_positions(positions: FloatArray, frame_time: float, body: BodyMap) -> LmaFeatures:
     """Components from normalised world positions (F, J, 3)."""
     points = positions[:, list(body.part_indices())]  # (F, 6, 3) in PARTS order
-    velocity = _derivative(points, frame_time)
-    acceleration = _derivative(velocity, frame_time)
-    jerk = _derivative(acceleration, frame_time)
+    velocity = filtered_derivative(points, frame_time)
+    acceleration = filtered_derivative(velocity, frame_time)
+    jerk = filtered_derivative(acceleration, frame_time)
     energy = np.sum(velocity**2, axis=-1)  # (F, 6), unit masses
     accel = np.linalg.norm(acceleration, axis=-1)
     jerk_norm = np.linalg.norm(jerk, axis=-1)

@@ -28,43 +28,22 @@ import numpy as np
 from mse.extras import require
 from mse.motion.base.bodyparts import body_map
 from mse.motion.base.bvh import Motion
-from mse.motion.base.filters import zero_phase_lowpass
 from mse.motion.base.kinematics import FloatArray
-from mse.motion.base.lma import UP_AXIS, arm_length, lma_from_positions
+from mse.motion.base.lma import UP_AXIS, arm_length, body_frame, filtered_derivative, lma_from_positions
 
 #: C grid of the classifier (1/λ of the L2 penalty)
 C_GRID = (0.1, 0.3, 1.0)
 #: actions with fewer training clips have no usable per-action spread
 MIN_ACTION_CLIPS = 3
-_CUTOFF_HZ = 6.0
 #: a frame is "in motion" when the summed point speed exceeds this share of its maximum
 _MOVING_SHARE = 0.25
 
 
-def _derivative(signal: FloatArray, frame_time: float) -> FloatArray:
-    if len(signal) < 2:
-        return np.zeros_like(signal)
-    derivative: FloatArray = np.gradient(signal, frame_time, axis=0)
-    return zero_phase_lowpass(derivative, frame_time, _CUTOFF_HZ)
-
-
-def _body_frame(positions: FloatArray, left_hip: int, right_hip: int, root: int) -> FloatArray:
-    """Positions relative to the first-frame root on the floor, rotated so that the body's
-    first-frame forward axis is +Z and up is +Y (performers face different ways)."""
-    lateral = positions[0, left_hip] - positions[0, right_hip]
-    lateral[UP_AXIS] = 0.0
-    norm = float(np.linalg.norm(lateral))
-    lateral = lateral / norm if norm > 1e-9 else np.array([1.0, 0.0, 0.0])
-    up = np.zeros(3)
-    up[UP_AXIS] = 1.0
-    forward = np.cross(lateral, up)
-    basis = np.stack([lateral, up, forward])  # rows: new X (left), Y (up), Z (forward)
-    origin = positions[0, root].copy()
-    origin[UP_AXIS] = 0.0
-    floor = positions[..., UP_AXIS].min()
-    origin[UP_AXIS] = floor
-    result: FloatArray = (positions - origin) @ basis.T
-    return result
+def _floor_origin(positions: FloatArray, root: int) -> FloatArray:
+    """The first-frame root, on the floor (the clip's lowest point)."""
+    origin: FloatArray = positions[0, root].copy()
+    origin[UP_AXIS] = positions[..., UP_AXIS].min()
+    return origin
 
 
 def style_descriptor(motion: Motion, *, path: str = "<motion>") -> FloatArray:
@@ -74,11 +53,11 @@ def style_descriptor(motion: Motion, *, path: str = "<motion>") -> FloatArray:
     positions = raw / arm_length(raw, body)
     dt = motion.frame_time
     lma = np.log1p(np.maximum(lma_from_positions(positions, dt, body).vector(), 0.0))
-    local = _body_frame(positions, body.left_hip, body.right_hip, 0)
+    local = body_frame(positions, body, _floor_origin(positions, 0))
     points = local[:, list(body.part_indices())]  # (F, 6, 3)
-    velocity = _derivative(points, dt)
-    acceleration = _derivative(velocity, dt)
-    jerk = _derivative(acceleration, dt)
+    velocity = filtered_derivative(points, dt)
+    acceleration = filtered_derivative(velocity, dt)
+    jerk = filtered_derivative(acceleration, dt)
     speed = np.linalg.norm(velocity, axis=-1)
     dynamics = np.concatenate(
         [

@@ -27,7 +27,8 @@ from typing import Any
 import numpy as np
 
 from mse.diagnostics import Diagnostic, MseError, Span
-from mse.fileio import read_input, write_atomic
+from mse.fileio import write_atomic
+from mse.input_files import read_input
 from mse.limits import MAX_FRAME_TIME, MAX_MODEL_BYTES, MAX_MOTION_SECONDS, MIN_FRAME_TIME
 from mse.motion.base.bvh import Skeleton
 from mse.motion.hsmm.model import HsmmModel, UnitModel

@@ -1,5 +1,1 @@
-"""The exact CP-SAT backend (OR-Tools, imported only inside functions): docs/solvers.md."""
-
-from mse.solve.cpsat.solver import CpSatSolver
-
-__all__ = ["CpSatSolver"]
+"""The exact CP-SAT backend (OR-Tools, imported only inside functions): docs/solvers.md (the backend: solver.py)."""

@@ -126,7 +126,7 @@ class _Linter:
         """Harvest a few sampled timelines (the first, made sparse, becomes the oracle's base);
         False, with E401 or W401 reported, when there is none."""
         from mse.solve.cpsat.solver import solve_one
-        from mse.solve.protocol import NoSolution, SolveRequest
+        from mse.solve.protocol import CpSatOptions, NoSolution, SolveRequest
 
         for seed in range(SAMPLES):
             # Any consistent timeline will do: a short search, no position stage, no sweeps.
@@ -134,7 +134,7 @@ class _Linter:
             # as generous as `mse sample`'s default, so a busy machine does not turn a
             # feasible set into "undecided".
             request = SolveRequest(duration=self.duration, seed=seed, time_limit=max(SAMPLE_TIME, 4 * self.query_time),
-                                   options={"work": SAMPLE_WORK, "positions": False, "sweeps": 0, "first": True})
+                                   cpsat=CpSatOptions(work=SAMPLE_WORK, positions=False, sweeps=0, first=True))
             try:
                 intervals = intervals_of(solve_one(self.model, request, seed))
             except NoSolution as error:

@@ -23,7 +23,7 @@ else:
     Lit = object
     Edge = object
 
-ItemKind = Literal["constraint", "duration", "occurrence rule", "pin", "require", "forbid"]
+ItemKind = Literal["constraint", "duration", "occurrence rule", "pin", "require", "forbid", "keep"]
 
 
 @dataclass(frozen=True, slots=True)

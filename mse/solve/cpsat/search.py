@@ -56,7 +56,7 @@ def stage_solver(request: SolveRequest, seed: int, deadline: float, work: float,
     * ``mixed`` (preferences, --diverse): the LP relaxation proves the optimum at once."""
     from ortools.sat.python import cp_model
 
-    solver = make_solver(max(0.01, deadline - time.monotonic()), request.workers, seed, light=True)
+    solver = make_solver(max(0.01, deadline - time.monotonic()), request.cpsat.workers, seed, light=True)
     if large:
         solver.parameters.search_branching = cp_model.HINT_SEARCH
         solver.parameters.stop_after_first_solution = True
@@ -82,7 +82,7 @@ def run_search(enc: Encoding, request: SolveRequest, seed: int, deadline: float,
     status = solver.solve(enc.cp)
     if status != cp_model.UNKNOWN:
         return status, solver
-    solver = make_solver(max(0.01, deadline - time.monotonic()), request.workers, seed)
+    solver = make_solver(max(0.01, deadline - time.monotonic()), request.cpsat.workers, seed)
     solver.parameters.stop_after_first_solution = True
     return solver.solve(enc.cp), solver
 
@@ -110,7 +110,7 @@ def best_positions(enc: Encoding, request: SolveRequest, seed: int, deadline: fl
                 for edge in (slot.start, slot.stop, slot.length):
                     cp.add_hint(var(edge), values[var(edge).index])
     cp.maximize(sum(stages.second(cp)))
-    work = float(request.options.get("work", POSITION_WORK))  # type: ignore[arg-type]
+    work = request.cpsat.work if request.cpsat.work is not None else POSITION_WORK
     solver = stage_solver(request, seed, deadline, work, large=large, stage="positions")
     status = solver.solve(cp)
     if status in (cp_model.OPTIMAL, cp_model.FEASIBLE):

@@ -40,9 +40,8 @@ from mse.solve.cpsat.engine import make_solver
 from mse.solve.cpsat.explain import whole_set_span
 from mse.solve.cpsat.horizon import Committed
 from mse.solve.cpsat.prior import SlotPrior, frame_priors
-from mse.solve.cpsat.search import POSITION_WORK as POSITION_WORK  # re-exported: the budgets sit together
 from mse.solve.cpsat.search import best_positions, decided_occurrences, hint_later, run_search
-from mse.solve.protocol import NoSolution, SolveRequest, check_request, derive_seed
+from mse.solve.protocol import NoSolution, Solution, SolveRequest, SolveResult, check_request, derive_seed, solve_all
 
 #: Timelines up to this many ticks are decided in one frame.
 SINGLE_FRAME = 30_000
@@ -65,14 +64,18 @@ class CpSatSolver:
     name = "cpsat"
     supports = frozenset({"pin", "require", "forbid", "objective", "diverse", "constraint-less", "stream"})
 
-    def solve(self, model: ir.Model, request: SolveRequest) -> list[Schedule]:
+    def solutions(self, model: ir.Model, request: SolveRequest) -> Iterator[Solution]:
+        """The timelines one by one; with ``diverse`` each depends on those before it."""
         _validate(model, request)
         schedules: list[Schedule] = []
         for index in range(max(1, request.count)):
             seed = derive_seed(request.seed, index)
             previous = schedules if request.diverse else []
             schedules.append(solve_one(model, request, seed, previous))
-        return schedules
+            yield Solution(schedules[-1], seed)
+
+    def solve(self, model: ir.Model, request: SolveRequest) -> SolveResult:
+        return solve_all(self, model, request)
 
     def stream(self, model: ir.Model, request: SolveRequest) -> Iterator[Occurrence]:
         """The occurrences of one timeline in start order, window by window: each is handed
@@ -179,7 +182,7 @@ def _refined(model: ir.Model, request: SolveRequest, seed: int, schedule: Schedu
     """Gibbs sweeps from CP-SAT's timeline towards the exact target (:mod:`refine`)."""
     from mse.solve.cpsat.refine import refine
 
-    sweeps = int(request.options.get("sweeps", REFINE_SWEEPS))  # type: ignore[call-overload]
+    sweeps = request.cpsat.sweeps if request.cpsat.sweeps is not None else REFINE_SWEEPS
     return refine(model, schedule, random.Random(f"refine/{seed}"), violate=request.mode == "constraint-less",
                   keep=[p.signal for p in request.pinned], require=request.require, forbid=request.forbid,
                   sweeps=sweeps)
@@ -290,14 +293,14 @@ def _solve_frame(
         stages = set_objective(enc, request.objective, seed, priors, previous, request.require)
         hint_later(enc, later_hints)
         large = (sum(len(enc.decided(s.id)) for s in model.signals) > LARGE_SLOTS
-                 or bool(request.options.get("first", False)))
+                 or request.cpsat.first)
         work = DIVERSE_WORK if previous else LARGE_WORK if large else SAMPLE_WORK
-        work = float(request.options.get("work", work))  # type: ignore[arg-type]
+        work = request.cpsat.work if request.cpsat.work is not None else work
         mixed = bool(previous) or request.objective in ("most-signals", "fewest-signals")
         status, solver = run_search(enc, request, seed, deadline, work, large=large,
                               stage="mixed" if mixed else "options")
         if status in (cp_model.OPTIMAL, cp_model.FEASIBLE):
-            if (stages.positions and not large and request.options.get("positions", True)
+            if (stages.positions and not large and request.cpsat.positions
                     and stages.position_cost(solver) > 0):
                 return best_positions(enc, request, seed, deadline, solver, stages, large=large)
             return decided_occurrences(enc, solver)
@@ -330,7 +333,7 @@ def _proven_infeasible(model: ir.Model, request: SolveRequest) -> NoSolution:
         message = (f"no timeline of {request.duration:g} s violates a constraint of {model.name!r}: "
                    "every constraint holds in every timeline that meets the request")
         return NoSolution([Diagnostic("W401", message, whole_set_span(model))], proven=True, reason=message)
-    if not request.options.get("explain", True):  # the caller only needs the verdict
+    if not request.cpsat.explain:  # the caller only needs the verdict
         message = f"no timeline of {request.duration:g} s exists"
         return NoSolution([Diagnostic("E401", message, whole_set_span(model))], proven=True, reason=message)
     explanation = explain(

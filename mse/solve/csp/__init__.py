@@ -1,5 +1,1 @@
-"""The python-constraint grid search, used as an oracle in tests: docs/solvers.md."""
-
-from mse.solve.csp.solver import CspSolver
-
-__all__ = ["CspSolver"]
+"""The python-constraint grid search, used as an oracle in tests: docs/solvers.md (the backend: solver.py)."""

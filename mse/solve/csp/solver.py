@@ -22,7 +22,7 @@ from mse.ir import model as ir
 from mse.ir.evaluate import check_schedule, constraint_status
 from mse.ir.schedule import Occurrence, Schedule, to_ticks
 from mse.solve.bounds import length_bounds, semantic_limit
-from mse.solve.protocol import NoSolution, SolveRequest, derive_seed
+from mse.solve.protocol import CspOptions, NoSolution, Solution, SolveRequest, SolveResult, derive_seed, solve_all
 
 #: Larger sets are refused: exhaustive search is exponential in the number of signals.
 MAX_SIGNALS = 8
@@ -72,7 +72,7 @@ class _Search:
                                  f"has {len(model.signals)}: use --solver cpsat")
         self.model = model
         self.duration = to_ticks(request.duration)
-        self.step = to_ticks(request.grid)
+        self.step = to_ticks(request.csp.grid)
         if self.step <= 0 or self.duration <= 0:
             raise argument_error("the grid step and the duration must be positive")
         self.deadline = time.monotonic() + request.time_limit
@@ -86,7 +86,7 @@ class _Search:
             wanted = (to_ticks(pin.start), to_ticks(pin.stop))
             if wanted[0] % self.step or wanted[1] % self.step:
                 raise argument_error(f"pin {pin.signal}@{pin.start:g}-{pin.stop:g} is not on the "
-                                     f"{request.grid:g} s grid")
+                                     f"{request.csp.grid:g} s grid")
             self.domains[pin.signal] = [v for v in self.domains[pin.signal] if wanted in v]
 
     def _check(self, test: Callable[..., bool]) -> Callable[..., bool]:
@@ -149,14 +149,14 @@ class CspSolver:
     name = "csp"
     supports = frozenset({"grid", "pin", "require", "forbid", "constraint-less"})
 
-    def solve(self, model: ir.Model, request: SolveRequest) -> list[Schedule]:
+    def solutions(self, model: ir.Model, request: SolveRequest) -> Iterator[Solution]:
         from mse.solve.protocol import check_request
 
         check_request(model, request)
         search = _Search(model, request)
-        schedules: list[Schedule] = []
         for index in range(max(1, request.count)):
-            rng = random.Random(derive_seed(request.seed, index))
+            seed = derive_seed(request.seed, index)
+            rng = random.Random(seed)
             try:
                 found = next(search.solutions(rng), None)
             except _OutOfTime:
@@ -168,19 +168,21 @@ class CspSolver:
                 violations = [v for v in violations if v.kind != "constraint"]
             if violations:
                 raise RuntimeError(f"csp produced an inconsistent timeline (a bug): {violations}")
-            schedules.append(found)
-        return schedules
+            yield Solution(found, seed)
+
+    def solve(self, model: ir.Model, request: SolveRequest) -> SolveResult:
+        return solve_all(self, model, request)
 
     def stream(self, model: ir.Model, request: SolveRequest) -> Iterator[Occurrence]:
-        yield from self.solve(model, request)[0].occurrences
+        yield from next(self.solutions(model, request)).schedule.occurrences
 
 
 def _no_solution(model: ir.Model, request: SolveRequest, *, proven: bool) -> NoSolution:
     if proven:
-        message = (f"no timeline of {request.duration:g} s on the {request.grid:g} s grid "
+        message = (f"no timeline of {request.duration:g} s on the {request.csp.grid:g} s grid "
                    "(exhaustive search); a finer grid or --solver cpsat may still find one")
     else:
-        message = (f"the csp search on the {request.grid:g} s grid did not finish within "
+        message = (f"the csp search on the {request.csp.grid:g} s grid did not finish within "
                    f"{request.time_limit:g} s: use a coarser --grid or --solver cpsat")
     # Only a proof for the grid, never for the 1 ms semantics: proven stays False.
     return NoSolution([Diagnostic("W401", message, Span(model.path))], proven=False, reason=message)
@@ -190,7 +192,7 @@ def enumerate_grid(
     model: ir.Model, duration: float, grid: float, *, limit: int = 100_000, time_limit: float = 60.0
 ) -> list[Schedule]:
     """Every consistent schedule on the grid (up to ``limit``), in search order."""
-    search = _Search(model, SolveRequest(duration=duration, grid=grid, time_limit=time_limit))
+    search = _Search(model, SolveRequest(duration=duration, time_limit=time_limit, csp=CspOptions(grid)))
     found: list[Schedule] = []
     for schedule in search.solutions(None):
         found.append(schedule)

@@ -1,5 +1,1 @@
-"""The greedy stochastic sampler of the paper (§4.3): docs/sampler.md."""
-
-from mse.solve.greedy.solver import GreedySolver
-
-__all__ = ["GreedySolver"]
+"""The greedy stochastic sampler of the paper (§4.3): docs/sampler.md (the backend: solver.py)."""

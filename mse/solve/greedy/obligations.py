@@ -5,7 +5,8 @@ for, searched with the partial checks of state.py; engine.py calls them after ea
 from __future__ import annotations
 
 from mse.solve.greedy.debts import Doomed, latest_start
-from mse.solve.greedy.partial import Box, CompiledConstraint
+from mse.solve.greedy.masks import Box
+from mse.solve.greedy.partial import CompiledConstraint
 from mse.solve.greedy.plan import InitialDebts, SignalPlan
 from mse.solve.greedy.state import State
 from mse.solve.greedy.windows import latest_feasible

@@ -16,7 +16,9 @@ from __future__ import annotations
 from collections.abc import Mapping, Sequence
 
 from mse.ir import model as ir
-from mse.solve.greedy.partial import CompiledConstraint, T, compile_expr
+from mse.solve.greedy.closures import compile_expr
+from mse.solve.greedy.masks import T
+from mse.solve.greedy.partial import CompiledConstraint
 
 
 def _conjuncts(expr: ir.Expr) -> list[ir.Expr]:

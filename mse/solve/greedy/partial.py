@@ -28,32 +28,7 @@ from typing import Any
 from mse.ir import model as ir
 from mse.solve.greedy.closures import compile_expr, lift
 from mse.solve.greedy.closures import generated as _generated
-from mse.solve.greedy.masks import (
-    AND_TABLE,
-    IMPLIES_TABLE,
-    NOT_TABLE,
-    OR_TABLE,
-    RELATION_MASKS,
-    Box,
-    Env,
-    F,
-    N,
-    Node,
-    T,
-    compare_mask,
-    mask_and,
-    mask_not,
-    mask_or,
-    relation_mask,
-)
-
-# The names importers take from here (the partial check's one entry point): the mask
-# arithmetic lives in masks.py, the compilation of expressions in closures.py.
-__all__ = [
-    "AND_TABLE", "HOT_CALLS", "IMPLIES_TABLE", "MAX_WORLD_SIGNALS", "NOT_TABLE", "OR_TABLE", "RELATION_MASKS",
-    "WORLD_BUDGET", "Box", "CompiledConstraint", "Env", "F", "N", "Node", "T", "absent_gate", "compare_mask",
-    "compile_expr", "mask_and", "mask_not", "mask_or", "relation_mask",
-]
+from mse.solve.greedy.masks import Box, Env, N, Node, T
 
 #: Worlds are enumerated over at most this many optional signals per constraint; for more,
 #: the lifted evaluation decides (``CompiledConstraint.in_other_world``).

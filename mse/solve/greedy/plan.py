@@ -13,15 +13,14 @@ from __future__ import annotations
 import itertools
 import math
 import weakref
+from collections import OrderedDict
 from collections.abc import Sequence
 from typing import NamedTuple
 
 from mse.ir import model as ir
 from mse.ir.profile import RATE_UNIT
 from mse.ir.schedule import to_ticks
-from mse.solve.greedy.edges import Edge as Edge  # re-exported: windows.py and others take it from here
-from mse.solve.greedy.edges import StartBound as StartBound
-from mse.solve.greedy.edges import edges_of, start_bounds_of
+from mse.solve.greedy.edges import Edge, StartBound, edges_of, start_bounds_of
 from mse.solve.greedy.order import needs_before
 from mse.solve.greedy.partial import CompiledConstraint, absent_gate
 
@@ -285,18 +284,24 @@ def build_plan(model: ir.Model, duration: int, slot: float, with_constraints: bo
 
 
 # A model is cached by identity (hashing a whole model per call would cost more than it saves);
-# the weak reference drops the entry's meaning when the model is garbage collected.
-_CACHE: dict[tuple[int, int, float, bool], tuple[weakref.ref[ir.Model], Plan]] = {}
-_CACHE_LIMIT = 256
+# the weak reference drops the entry's meaning when the model is garbage collected.  The least
+# recently used plan goes first.  A caller that plans a length once (a dialogue's announced
+# episode, mse live) asks for no caching: 256 such plans held ~27 MB.
+_CACHE: OrderedDict[tuple[int, int, float, bool], tuple[weakref.ref[ir.Model], Plan]] = OrderedDict()
+_CACHE_LIMIT = 32
 
 
-def plan_for(model: ir.Model, duration: int, slot: float, with_constraints: bool = True) -> Plan:
+def plan_for(model: ir.Model, duration: int, slot: float, with_constraints: bool = True, *,
+             cache: bool = True) -> Plan:
     key = (id(model), duration, slot, with_constraints)
     entry = _CACHE.get(key)
     if entry is not None and entry[0]() is model:
+        _CACHE.move_to_end(key)
         return entry[1]
     plan = build_plan(model, duration, slot, with_constraints)
-    if len(_CACHE) >= _CACHE_LIMIT:
-        _CACHE.clear()
+    if not cache:
+        return plan
     _CACHE[key] = (weakref.ref(model), plan)
+    while len(_CACHE) > _CACHE_LIMIT:
+        _CACHE.popitem(last=False)
     return plan

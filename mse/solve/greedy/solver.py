@@ -3,7 +3,7 @@
 A walk ends only when nothing is owed, which its exact checks of the placed points establish
 (``GreedySolver.verify`` re-checks with :func:`mse.ir.evaluate.check_schedule`).  A walk that
 paints itself into a corner backtracks to its last checkpoint (walk.py; the same seeded random
-stream continues, so the result depends on the seed alone), at most ``request.max_restarts``
+stream continues, so the result depends on the seed alone), at most ``request.greedy.max_restarts``
 times without getting further, then :class:`NoSolution` (not a proof) names the constraints
 that were never met.  ``mode="constraint-less"`` is the paper's control
 condition (§5.3): same signals, durations and probability profiles, constraints ignored, and
@@ -15,6 +15,7 @@ from __future__ import annotations
 import random
 from collections import Counter
 from collections.abc import Iterator
+from dataclasses import dataclass
 
 from mse.diagnostics import Diagnostic, Span, argument_error
 from mse.ir import model as ir
@@ -24,18 +25,19 @@ from mse.solve.greedy.debts import Doomed
 from mse.solve.greedy.engine import Attempt
 from mse.solve.greedy.plan import DEFAULT_SLOT, Plan, plan_for
 from mse.solve.greedy.walk import OutOfBudget, walk, walk_steps
-from mse.solve.protocol import NoSolution, SolveRequest, derive_seed
+from mse.solve.protocol import NoSolution, Solution, SolveRequest, SolveResult, derive_seed, solve_all
 
 
 def validate(model: ir.Model, request: SolveRequest) -> None:
     if not request.duration > 0 or to_ticks(request.duration) < 1:
         raise argument_error(f"duration must be a positive number of seconds, not {request.duration!r}")
-    if request.slot is not None and not request.slot > 0:
-        raise argument_error(f"slot must be a positive number of seconds, not {request.slot!r}")
+    options = request.greedy
+    if options.slot is not None and not options.slot > 0:
+        raise argument_error(f"slot must be a positive number of seconds, not {options.slot!r}")
     if request.count < 1:
         raise argument_error(f"count must be at least 1, not {request.count}")
-    if request.max_restarts < 0:
-        raise argument_error(f"max_restarts must be at least 0, not {request.max_restarts}")
+    if options.max_restarts < 0:
+        raise argument_error(f"max_restarts must be at least 0, not {options.max_restarts}")
     if request.mode not in ("consistent", "constraint-less"):
         raise argument_error(f"unknown mode {request.mode!r} (known: consistent, constraint-less)")
     unknown = sorted({*request.require, *request.forbid} - set(model.signal_by_id))
@@ -53,6 +55,15 @@ def validate(model: ir.Model, request: SolveRequest) -> None:
         )
 
 
+@dataclass
+class Tally:
+    """Walks started and backtracks taken, counted by :meth:`GreedySolver.one` (also when it
+    fails) for the caller that made it."""
+
+    attempts: int = 0
+    restarts: int = 0
+
+
 class GreedySolver:
     """The walk alone (``name = "walk"``): streaming, seeded, constraint-less control mode.
 
@@ -67,15 +78,14 @@ class GreedySolver:
     #: re-check every output with the evaluator, and turn this on to exercise the net).
     verify = False
 
-    def __init__(self) -> None:
-        #: Walks and backtracks of the last :meth:`solve` (the bench reads them).
-        self.attempts = 0
-        self.restarts = 0
-
-    def solve(self, model: ir.Model, request: SolveRequest) -> list[Schedule]:
+    def solutions(self, model: ir.Model, request: SolveRequest) -> Iterator[Solution]:
         validate(model, request)
-        self.attempts = self.restarts = 0
-        return [self.one(model, request, derive_seed(request.seed, i)) for i in range(request.count)]
+        for index in range(request.count):
+            seed, tally = derive_seed(request.seed, index), Tally()
+            yield Solution(self.one(model, request, seed, tally), seed, None, tally.attempts, tally.restarts)
+
+    def solve(self, model: ir.Model, request: SolveRequest) -> SolveResult:
+        return solve_all(self, model, request)
 
     def stream(self, model: ir.Model, request: SolveRequest) -> Iterator[Occurrence]:
         """The occurrences of one timeline in start order, each batch handed out as soon as
@@ -87,9 +97,8 @@ class GreedySolver:
             yield from sorted(self.one(model, request, seed).occurrences)
             return
         _, attempt = self._attempt(model, request, seed)
-        self.attempts, backtracks = 1, [0]
         try:
-            steps = walk_steps(attempt, request.max_restarts, stream=True, backtracks=backtracks)
+            steps = walk_steps(attempt, request.greedy.max_restarts, stream=True)
             while True:
                 try:
                     batch = next(steps)
@@ -99,21 +108,22 @@ class GreedySolver:
                 yield from sorted(batch)
         except (Doomed, OutOfBudget) as failure:
             raise self._failure(model, request, seed, _reasons(failure)) from None
-        finally:
-            self.restarts = backtracks[0]
 
     # -- one timeline -----------------------------------------------------------------------------
     def _attempt(self, model: ir.Model, request: SolveRequest, seed: int) -> tuple[Plan, Attempt]:
         duration = to_ticks(request.duration)
-        slot = request.slot if request.slot is not None else DEFAULT_SLOT
+        slot = request.greedy.slot if request.greedy.slot is not None else DEFAULT_SLOT
         free = request.mode == "constraint-less"
-        plan = plan_for(model, duration, slot, with_constraints=not free)
+        plan = plan_for(model, duration, slot, with_constraints=not free, cache=request.greedy.cache_plan)
         attempt = Attempt(plan, random.Random(seed), frozenset(request.forbid), frozenset(request.require))
         return plan, attempt
 
-    def one(self, model: ir.Model, request: SolveRequest, seed: int) -> Schedule:
+    def one(self, model: ir.Model, request: SolveRequest, seed: int, tally: Tally | None = None) -> Schedule:
         """One timeline of the walk for ``seed``; :class:`NoSolution` (not a proof) when the
-        walk fails ``request.max_restarts`` times without getting further."""
+        walk fails ``request.greedy.max_restarts`` times without getting further.  Its walks
+        and backtracks are added to ``tally``."""
+        tally = tally if tally is not None else Tally()
+        max_restarts = request.greedy.max_restarts
         plan, attempt = self._attempt(model, request, seed)
         free = request.mode == "constraint-less"
         rng = attempt.rng
@@ -121,18 +131,18 @@ class GreedySolver:
         unmet: Counter[str] = Counter()
         # The walk backtracks by itself; a new walk starts only in constraint-less mode (a prior
         # sample that violates nothing) or after a sampler bug caught by the final check.
-        for fresh in range(request.max_restarts + 1 if free else 3):
+        for fresh in range(max_restarts + 1 if free else 3):
             if fresh:
                 attempt = Attempt(plan, rng, forbid, require)
-            self.attempts += 1
+            tally.attempts += 1
             backtracks = [0]
             try:
-                occurrences = walk(attempt, request.max_restarts, backtracks)
+                occurrences = walk(attempt, max_restarts, backtracks)
             except (Doomed, OutOfBudget) as failure:
-                self.restarts += backtracks[0]
+                tally.restarts += backtracks[0]
                 unmet.update(_reasons(failure))
                 break
-            self.restarts += backtracks[0] + (fresh > 0)
+            tally.restarts += backtracks[0] + (fresh > 0)
             schedule = Schedule.of(plan.duration, occurrences)
             if not free and not self.verify:
                 # The walk ended settled: every constraint was re-evaluated, exactly on the
@@ -158,7 +168,7 @@ class GreedySolver:
         what = "timeline violating a constraint" if request.mode == "constraint-less" else "consistent timeline"
         head = (
             f"the greedy walk found no {what} of {request.duration:g} s for {model.name!r} "
-            f"(seed {seed}, {request.max_restarts} backtracks without progress)"
+            f"(seed {seed}, {request.greedy.max_restarts} backtracks without progress)"
         )
         by_id = {c.id: c for c in model.constraints}
         diagnostics: list[Diagnostic] = []

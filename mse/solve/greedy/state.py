@@ -12,7 +12,7 @@ import math
 import random
 
 from mse.ir.schedule import Occurrence
-from mse.solve.greedy.partial import Box
+from mse.solve.greedy.masks import Box
 from mse.solve.greedy.plan import PartnerBounds, Plan, SignalPlan
 from mse.solve.greedy.windows import Intervals, critical_rules, critical_values, feasible
 

@@ -11,7 +11,8 @@ from __future__ import annotations
 import random
 from collections.abc import Callable, Iterable, Mapping, Sequence
 
-from mse.solve.greedy.plan import CriticalRules, Edge, SignalPlan
+from mse.solve.greedy.edges import Edge
+from mse.solve.greedy.plan import CriticalRules, SignalPlan
 
 Intervals = list[tuple[int, int]]
 

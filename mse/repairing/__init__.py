@@ -1,0 +1,1 @@
+"""Repairing a proposed expression into the nearest consistent timeline (docs/repair.md)."""
