@@ -7,6 +7,7 @@ from __future__ import annotations
 import json
 import subprocess
 import sys
+from dataclasses import replace
 from html import escape
 from pathlib import Path
 
@@ -325,3 +326,26 @@ def test_episode_speech_is_the_overlapping_utterances_in_the_episode_time() -> N
     assert episode_speech([first, second], 2.0, 4.5) is None  # touching is not overlapping
     spanning = episode_speech([first, second], 1.5, None)
     assert spanning is not None and spanning.start == -0.5 and [w.text for w in spanning.stressed] == ["yes", "way"]
+
+
+def test_a_dialogue_checks_each_episode_against_the_speech_overlapping_it() -> None:
+    """Episodes resolve their anchors with episode_speech: the utterances that overlap them, in
+    the episode's own time; a timeline's utterances follow it through shift and then."""
+    from mse.api import load
+    from mse.dialogue.check import check_dialogue
+
+    talking = load(FIXTURES / "talking.xml")
+    raw = json.loads((FIXTURES / "utterance.json").read_text())
+    resolved = resolve_anchors(talking, utterance_from_json(raw, ir.NO_SPAN))
+    spoken = sample(resolved, 4.0, seed=5, solver="cpsat")
+    assert not isinstance(spoken, list)
+    spoken = replace(spoken, extra={**spoken.extra, "utterances": [{**raw, "text": "I can't believe you did that"}]})
+    before = sample(load("relief"), 3.0, seed=1)
+    assert not isinstance(before, list)
+    dialogue = before.then(spoken)  # the talking episode starts at 3 s, its utterance at 3.4 s
+    assert dialogue.utterances[0]["start"] == 3.4
+    assert check_dialogue(dialogue) == []
+    gaze = next(s for s in dialogue.signals if s.episode == 1 and s.id == "gaze_away")
+    late = [replace(s, start=s.start + 0.5) if s is gaze else s for s in dialogue.signals]  # 0.5 s after the turn
+    violated = check_dialogue(replace(dialogue, signals=tuple(late)))
+    assert [(v.episode, v.violation.constraint) for v in violated] == [(1, "away_at_turn")]
