@@ -329,12 +329,14 @@ def lint(
 
                 found.extend(lint_realizer(model, libraries))
             if deep:
+                from mse.ir.anchors import without_anchored
                 from mse.solve.cpsat.deep_lint import deep_lint
 
-                found.extend(deep_lint(model, duration, budget=deep_budget))
+                solvable = without_anchored(model)  # speech is a request's: N313 says so
+                found.extend(deep_lint(solvable, duration, budget=deep_budget))
                 from mse.solve.void_relations import sampled_void_relations
 
-                found.extend(sampled_void_relations(model, duration))
+                found.extend(sampled_void_relations(solvable, duration))
 
     def wanted(diagnostic: Diagnostic) -> bool:
         if diagnostic.is_error:

@@ -77,6 +77,8 @@ CODES: dict[str, str] = {
     "E216": "a signal's length compared with something other than a number",
     "E217": "invalid dialogue script (event, order, utterance or word timing)",
     "E218": "invalid repair proposal (structure, names, times, word timings)",
+    "E219": "speech anchor with no speech given (speech.start, speech.stop, stressed)",
+    "E220": "invalid speech (structure, times, word timing, stressed words)",
     # W3xx: static lint
     "W300": "no behaviour-set file found",
     "W301": "inactive signal (both probabilities are 0)",
@@ -95,6 +97,7 @@ CODES: dict[str, str] = {
     "W310": "motion action unknown to the starter library",
     "W311": "max_occurrences without repetitivity=\"1\"",
     "W312": "exclusive modality that no signal uses",
+    "N313": "constraint anchored to the agent's speech (sampling and checking need speech)",
     # E4xx / W4xx: solver-backed lint
     "W400": "solver-backed questions left undecided (lint time budget spent)",
     "E401": "no consistent timeline (proven, with a minimal explanation)",

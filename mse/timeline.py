@@ -136,7 +136,9 @@ class Timeline:
         if self.source is not None:
             episode["source"] = dict(self.source)
         signals = [replace(s, episode=0) for s in self.signals]
-        return replace(self, signals=tuple(signals), extra={**self.extra, "episodes": [episode], "utterances": []})
+        utterances = list(self.utterances)  # what was said during it (speech anchors read it)
+        extra = {**self.extra, "episodes": [episode], "utterances": utterances}
+        return replace(self, signals=tuple(signals), extra=extra)
 
     def shift(self, offset: float) -> Timeline:
         """This timeline ``offset`` seconds later (a dialogue's episodes and utterances too);

@@ -39,6 +39,7 @@ from lxml import etree
 
 from mse.api import compile_source, loads
 from mse.diagnostics import CODES, MseError
+from mse.ir.anchors import Speech, Word, resolve_anchors, uses_anchors
 from mse.ir.canonical import model_dumps
 from mse.ir.evaluate import check_schedule
 from mse.ir.lint import STATIC_RULES, lint_model
@@ -119,6 +120,14 @@ def _exercise_model(model: Any, seed: int) -> None:
     lint_model(model, STATIC_RULES)
     if len(model.signals) > 12 or len(model.constraints) > 12:
         return  # a solver on a big random set is a performance question, not this one
+    if uses_anchors(model):
+        try:
+            resolve_anchors(model, None)
+        except MseError as error:
+            _check_diagnostics(error.diagnostics, NAME)
+        else:
+            _require(False, "anchors without speech were accepted")
+        model = resolve_anchors(model, FUZZ_SPEECH)
     try:
         timeline = sample(model, 4.0, seed=seed, greedy=GreedyOptions(max_restarts=3))
     except NoSolution:
@@ -144,6 +153,9 @@ def xml_document(data: bytes, seed: int = 0) -> None:
     if model is not None:
         _exercise_model(model, seed)
 
+
+#: The speech anchored constraints are resolved with: two stressed words of three.
+FUZZ_SPEECH = Speech(0.5, 3.0, (Word("so", 0.5, 1.0, True), Word("very", 1.0, 2.0), Word("true", 2.0, 3.0, True)))
 
 SIGNALS = (
     '<signal id="a" modality="face" min_duration="0.5" max_duration="3"/>'
@@ -257,6 +269,7 @@ HOSTILE_TOKENS = (
     "</constraints>", "<motion action='jig'/>", " exclusive='true'", " repetitivity='1'", " max_occurrences='3'",
     "exists(", "includes(a,", "start(a)", "stop(b)", "duration", "implies", "or", "and", "not", "<=", ">=",
     "equal(start(a), stop(b), ", "lessthan(", "morethan(", "-", "+", ",",
+    "speech.start", "speech.stop", "stressed", "stressed.stop", "speech.", "stressed.",
 )  # fmt: skip
 _TOKEN = re.compile(r"<[^<>]{0,200}>|&[#\w]{1,12};|[0-9][0-9.eE+-]*|\w+|\s+|.", re.DOTALL)
 
@@ -315,9 +328,11 @@ _NUMBERS = st.one_of(
 def _term() -> st.SearchStrategy[str]:
     offset = st.tuples(st.sampled_from(("+", "-")), _NUMBERS).map(lambda p: f" {p[0]} {p[1]}")
     edge = st.tuples(st.sampled_from(("start", "stop")), _NAMES, st.lists(offset, max_size=2))
+    anchor = st.sampled_from(("speech.start", "speech.stop", "stressed", "stressed.start", "stressed.stop"))
     return st.one_of(
         edge.map(lambda e: f"{e[0]}({e[1]}){''.join(e[2])}"),
         st.lists(offset, max_size=2).map(lambda o: "duration" + "".join(o)),
+        st.tuples(anchor, st.lists(offset, max_size=2)).map(lambda a: a[0] + "".join(a[1])),
         _NUMBERS,
     )
 

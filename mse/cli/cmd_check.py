@@ -27,6 +27,8 @@ def register(subparsers: Any) -> None:
                         "dialogue's timeline)")
     parser.add_argument("timeline", nargs="?", help="timeline JSON file ('-' for stdin)")
     parser.add_argument("-q", "--quiet", action="store_true", help="print nothing when consistent")
+    parser.add_argument("--speech", metavar="FILE",
+                        help="the agent's speech for speech anchors (default: each timeline's 'utterances')")
     parser.add_argument(
         "--format",
         choices=("text", "json"),
@@ -38,6 +40,7 @@ def register(subparsers: Any) -> None:
 
 def run(args: argparse.Namespace) -> int:
     from mse.api import check, load
+    from mse.ir.anchors import read_speech, timeline_speech
 
     if args.timeline is None:
         return _run_dialogue(args)
@@ -49,6 +52,8 @@ def run(args: argparse.Namespace) -> int:
             message = (f"this is a dialogue's timeline (episodes, each with its own set): check it alone, "
                        f"'mse check {args.timeline}'")
             raise MseError([Diagnostic("E100", message, Span(where))])
+        speech = read_speech(args.speech) if args.speech else None
+        models = [timeline_speech(model, timeline, speech, args.timeline) for timeline in timelines]
     except MseError as error:
         return print_error(error)
     failing = 0
@@ -56,7 +61,7 @@ def run(args: argparse.Namespace) -> int:
     for index, timeline in enumerate(timelines):
         label = f"timeline {index + 1}" if len(timelines) > 1 else "timeline"
         _say_rounded(timeline, label, args.timeline)
-        violations = check(model, timeline)
+        violations = check(models[index], timeline)
         if violations:
             failing += 1
             for violation in violations if args.format == "text" else ():

@@ -62,6 +62,9 @@ def register(subparsers: Any) -> None:
         help="consistent (default) or constraint-less: ignore the constraints, the paper's control condition",
     )
     parser.add_argument("--stream", action="store_true", help="print each signal as a JSON line once decided")
+    parser.add_argument("--speech", metavar="FILE",
+                        help="the agent's speech (JSON: start, stop, words, stress) for speech.start, "
+                        "speech.stop and stressed in constraints")
     parser.add_argument("--realtime", action="store_true", help="with --stream: pace the lines to the clock")
     parser.add_argument("--slot", type=float, help="greedy: time-stamp length in seconds (default about 1)")
     parser.add_argument("--max-restarts", type=int, default=20,
@@ -221,7 +224,10 @@ def run(args: argparse.Namespace) -> int:
 
     try:
         _validate(args)
+        from mse.ir.anchors import read_speech, resolve_anchors
+
         model = load_model_argument(args.source)
+        model = resolve_anchors(model, read_speech(args.speech) if args.speech else None)
         if args.stream:
             return _stream(model, args)
         return _sample(model, args)

@@ -7,6 +7,7 @@ from collections.abc import Callable, Mapping
 from typing import Any
 
 from mse.diagnostics import Diagnostic, MseError, Span
+from mse.ir.anchors import episode_speech, resolve_anchors, utterances_from_json
 from mse.ir.evaluate.episodes import Episode, EpisodeViolation, check_episodes
 from mse.ir.model import Model
 from mse.ir.schedule import Occurrence, to_ticks
@@ -49,6 +50,7 @@ def episodes_of(timeline: Timeline, model_of: Callable[[Mapping[str, Any]], Mode
         raise MseError([Diagnostic("E212", message, Span("<timeline>"))])
     result = []
     known = set()
+    utterances = utterances_from_json(timeline.extra.get("utterances", []), Span("<timeline>"))
     for entry in timeline.episodes:
         index = entry.get("index")
         label = f"episode {index}"
@@ -72,7 +74,8 @@ def episodes_of(timeline: Timeline, model_of: Callable[[Mapping[str, Any]], Mode
         result.append(Episode(
             index=index,
             emotion=str(entry.get("emotion", "")),
-            model=model_of(entry),
+            # speech anchors read the utterances overlapping the plan, in the episode's own time
+            model=resolve_anchors(model_of(entry), episode_speech(utterances, start, plan_stop)),
             start=to_ticks(start),
             stop=to_ticks(stop),
             plan_stop=to_ticks(plan_stop),

@@ -49,6 +49,9 @@ class ConstraintResolver:
         assert not isinstance(node, ast.DifferenceNode), "differences are built by _difference"
         if isinstance(node, ast.DurationNode):
             return ir.DurationTime(self.ticks(node.offset, node.span, "offset"), node.span)
+        if isinstance(node, ast.SpeechTimeNode):
+            anchor: ir.Anchor = node.anchor  # type: ignore[assignment]  # the parser spells only these
+            return ir.SpeechTime(anchor, self.ticks(node.offset, node.span, "offset"), node.span)
         return ir.Constant(self.ticks(node.value, node.span, "time"), node.span)
 
     @staticmethod

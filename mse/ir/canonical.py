@@ -33,6 +33,8 @@ def _term_json(term: ir.Term) -> dict[str, Any]:
         return {term.edge: term.signal, "offset": term.offset / 1000}
     if isinstance(term, ir.DurationTime):
         return {"duration": True, "offset": term.offset / 1000}
+    if isinstance(term, ir.SpeechTime):
+        return {"speech": term.anchor, "offset": term.offset / 1000}
     return {"value": term.value / 1000}
 
 

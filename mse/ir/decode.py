@@ -43,6 +43,8 @@ def _term(node: dict[str, Any]) -> ir.Term:
             return ir.SignalTime(str(node[edge]), edge, to_ticks(float(node.get("offset", 0))))
     if node.get("duration"):
         return ir.DurationTime(to_ticks(float(node.get("offset", 0))))
+    if node.get("speech") in ("start", "stop", "stressed_start", "stressed_stop"):
+        return ir.SpeechTime(node["speech"], to_ticks(float(node.get("offset", 0))))
     if "value" in node:
         return ir.Constant(to_ticks(float(node["value"])))
     raise DecodeError(f"not a term: {node!r}")

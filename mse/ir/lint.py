@@ -10,7 +10,7 @@ from collections.abc import Callable, Collection, Iterable, Iterator
 
 from mse.diagnostics import Diagnostic
 from mse.ir import model as ir
-from mse.ir.printer import expr_text
+from mse.ir.printer import expr_text, term_text
 from mse.ir.relations import RELATIONS, is_symmetric
 
 #: Lexeme classes (the part before '=') and the modality each one belongs to.
@@ -188,6 +188,24 @@ def unknown_motion_actions(known: Collection[str]) -> Rule:
     return rule
 
 
+def speech_anchored(model: ir.Model) -> Iterator[Diagnostic]:
+    """A note, not a warning: a set written for talking agents is right to use its speech;
+    lint has no request, so it can only say what sampling and checking will need."""
+    for constraint in model.constraints:
+        for node in ir.walk(constraint.expr):
+            if isinstance(node, ir.Compare):
+                term = node.left if isinstance(node.left, ir.SpeechTime) else node.right
+                if isinstance(term, ir.SpeechTime):
+                    yield Diagnostic(
+                        "N313",
+                        f"constraint {constraint.id!r} refers to the agent's speech ({term_text(term)}): "
+                        "sampling and checking it need speech (--speech FILE, or a timeline's 'utterances'); "
+                        "solver-backed lint leaves it out",
+                        term.span if term.span.line > 0 else constraint.span,
+                    )
+                    break
+
+
 STATIC_RULES: tuple[Rule, ...] = (
     inactive_signals,
     self_relations,
@@ -197,6 +215,7 @@ STATIC_RULES: tuple[Rule, ...] = (
     unknown_modalities,
     max_occurrences_without_repetition,
     unused_exclusive_modalities,
+    speech_anchored,
 )
 
 

@@ -23,6 +23,7 @@ KNOWN_MODALITIES: frozenset[str] = frozenset({"face", "head", "gaze", "gesture",
 Edge = Literal["start", "stop"]
 RelationKind = Literal["includes", "excludes", "precedes", "rightincludes"]
 CompareOp = Literal["<", ">", "=", "<=", ">="]
+Anchor = Literal["start", "stop", "stressed_start", "stressed_stop"]
 
 
 # -- terms ------------------------------------------------------------------------------
@@ -52,7 +53,20 @@ class Constant:
     span: Span = field(default=NO_SPAN, compare=False, repr=False)
 
 
-Term = SignalTime | DurationTime | Constant
+@dataclass(frozen=True, slots=True)
+class SpeechTime:
+    """A time of the agent's speech plus an offset (ms): the utterance's ``start`` or ``stop``
+    (``speech.start``, ``speech.stop``), or the start or stop of a stressed word
+    (``stressed``, ``stressed.stop``).  Known only with the request's speech:
+    :func:`mse.ir.anchors.resolve_anchors` rewrites it into constants before any solver or
+    the evaluator sees the model (docs/semantics.md, "Speech anchors")."""
+
+    anchor: Anchor
+    offset: int = 0
+    span: Span = field(default=NO_SPAN, compare=False, repr=False)
+
+
+Term = SignalTime | DurationTime | SpeechTime | Constant
 
 
 # -- atoms and connectives ----------------------------------------------------------------

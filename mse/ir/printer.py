@@ -22,11 +22,22 @@ def _offset(ticks: int) -> str:
     return f" {'+' if ticks > 0 else '-'} {seconds(ticks)}"
 
 
+#: How each speech anchor is written (the grammar also reads ``stressed.start``).
+ANCHOR_SPELLING = {
+    "start": "speech.start",
+    "stop": "speech.stop",
+    "stressed_start": "stressed",
+    "stressed_stop": "stressed.stop",
+}
+
+
 def term_text(term: ir.Term) -> str:
     if isinstance(term, ir.SignalTime):
         return f"{term.edge}({term.signal}){_offset(term.offset)}"
     if isinstance(term, ir.DurationTime):
         return f"duration{_offset(term.offset)}"
+    if isinstance(term, ir.SpeechTime):
+        return f"{ANCHOR_SPELLING[term.anchor]}{_offset(term.offset)}"
     return ("-" if term.value < 0 else "") + seconds(term.value)
 
 

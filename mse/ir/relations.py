@@ -24,6 +24,7 @@ from collections.abc import Callable, Iterator, Mapping
 from dataclasses import dataclass
 from typing import Any, Generic, Literal, TypeVar
 
+from mse.diagnostics import Diagnostic, MseError
 from mse.ir import model as ir
 
 #: The slack of a strict bound: ``x < y`` is ``x - y <= -1`` on the 1 ms grid.
@@ -177,7 +178,22 @@ def known_time(term: ir.Term, duration: int) -> int:
         return duration + term.offset
     if isinstance(term, ir.Constant):
         return term.value
+    if isinstance(term, ir.SpeechTime):
+        raise unresolved_anchor(term)
     raise TypeError(f"{term!r} names a signal: its time is an occurrence's")
+
+
+def unresolved_anchor(term: ir.SpeechTime) -> MseError:
+    """E219 for a speech anchor reaching a solver or the evaluator: its time is the request's
+    speech, which :func:`mse.ir.anchors.resolve_anchors` puts in first."""
+    from mse.ir.printer import term_text
+
+    return MseError([Diagnostic(
+        "E219",
+        f"{term_text(term)} refers to the agent's speech, but no speech was given "
+        "(mse sample/check --speech FILE, a timeline's 'utterances', or mse.ir.anchors.resolve_anchors)",
+        term.span,
+    )])
 
 
 class PerEntry(dict[str, _Made]):

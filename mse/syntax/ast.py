@@ -32,6 +32,16 @@ class DurationNode:
 
 
 @dataclass(frozen=True, slots=True)
+class SpeechTimeNode:
+    """``speech.start``, ``speech.stop``, ``stressed`` (= ``stressed.start``) or
+    ``stressed.stop``, plus an offset: a time of the agent's speech."""
+
+    anchor: str  # "start" | "stop" | "stressed_start" | "stressed_stop"
+    offset: float
+    span: Span
+
+
+@dataclass(frozen=True, slots=True)
 class NumberNode:
     value: float
     span: Span
@@ -47,7 +57,7 @@ class DifferenceNode:
     span: Span
 
 
-TermNode = SignalTimeNode | DifferenceNode | DurationNode | NumberNode
+TermNode = SignalTimeNode | DifferenceNode | DurationNode | SpeechTimeNode | NumberNode
 
 
 @dataclass(frozen=True, slots=True)

@@ -27,7 +27,7 @@ Locate = Callable[[int], Span]
 
 KEYWORDS = (
     "exists", "includes", "excludes", "precedes", "rightincludes", "lessthan", "morethan", "equal",
-    "start", "stop", "length", "duration", "and", "or", "not", "implies",
+    "start", "stop", "length", "duration", "and", "or", "not", "implies", "stressed",
 )  # fmt: skip
 
 _TOKEN_LABELS = {
@@ -41,6 +41,7 @@ _TOKEN_LABELS = {
     "EDGE": "start(...) or stop(...)",
     "LENGTH": "length(...)",
     "DURATION": "'duration'",
+    "ANCHOR": "speech.start, speech.stop or stressed",
     "EXISTS": "'exists'",
     "RELATION": "includes/excludes/precedes/rightincludes",
     "ORDER": "lessthan/morethan",
@@ -237,8 +238,20 @@ class _Builder:
             )
         if kind == "duration_time":
             return ast.DurationNode(self.offsets(kids[1:]), span)
+        if kind == "speech_time":
+            return ast.SpeechTimeNode(_ANCHORS[str(_token(kids[0]))], self.offsets(kids[1:]), span)
         negative = kids[0] is not None
         return ast.NumberNode(self.number(_token(kids[1]), negative=negative), span)
+
+
+#: Each spelling of a speech anchor and the anchor it names (mse.ir.model.SpeechTime).
+_ANCHORS = {
+    "speech.start": "start",
+    "speech.stop": "stop",
+    "stressed": "stressed_start",
+    "stressed.start": "stressed_start",
+    "stressed.stop": "stressed_stop",
+}
 
 
 def _token(item: Tree[Token] | Token | None) -> Token:

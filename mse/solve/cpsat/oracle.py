@@ -32,6 +32,7 @@ from typing import Any
 
 from mse.ir import model as ir
 from mse.ir.evaluate import constraint_status, intervals_of, is_instantiated
+from mse.ir.relations import known_time
 from mse.ir.schedule import Occurrence, Schedule
 from mse.solve.bounds import length_bounds, slot_counts
 from mse.solve.cpsat.encode import Encoding, Frame, Lit, build
@@ -173,10 +174,9 @@ class Oracle:
                     for mine, theirs in ((node.left, node.right), (node.right, node.left)):
                         if not (isinstance(mine, ir.SignalTime) and mine.signal == name):
                             continue
-                        values = ([self.ticks + theirs.offset] if isinstance(theirs, ir.DurationTime)
-                                  else [theirs.value] if isinstance(theirs, ir.Constant)
-                                  else [(a if theirs.edge == "start" else b) + theirs.offset
-                                        for a, b in others.get(theirs.signal, ())])
+                        values = ([(a if theirs.edge == "start" else b) + theirs.offset
+                                   for a, b in others.get(theirs.signal, ())]
+                                  if isinstance(theirs, ir.SignalTime) else [known_time(theirs, self.ticks)])
                         for value in values:
                             edge = value - mine.offset
                             for t in (edge - 1, edge, edge + 1):
