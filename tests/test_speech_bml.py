@@ -130,10 +130,9 @@ def test_realizers_accept_generated_dialogues_and_resolve_every_reference(shared
 def test_one_block_per_episode_for_a_live_realizer(shared_dir: Path, tmp_path: Path) -> None:
     """Per-episode blocks: unique ids bml_<dialogue>_<n>, times from the block's offset, speech in
     the block where it starts; both parsers accept them and time them as planned."""
-    from tests.realizer_harness import greta_run_folder, run_asap, run_greta
-
     from mse.export.behaviours import plan_behaviours
     from mse.export.episode_bml import episode_blocks
+    from tests.realizer_harness import greta_run_folder, run_asap, run_greta
 
     timeline = generated_dialogues(1, seed=5)[0]
     files: dict[str, list[tuple[Path, float]]] = {"bml": [], "greta-bml": []}
