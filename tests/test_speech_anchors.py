@@ -349,3 +349,42 @@ def test_a_dialogue_checks_each_episode_against_the_speech_overlapping_it() -> N
     late = [replace(s, start=s.start + 0.5) if s is gaze else s for s in dialogue.signals]  # 0.5 s after the turn
     violated = check_dialogue(replace(dialogue, signals=tuple(late)))
     assert [(v.episode, v.violation.constraint) for v in violated] == [(1, "away_at_turn")]
+
+
+TALKING = Path(__file__).parent / "fixtures" / "speech" / "talking.xml"
+
+
+@pytest.mark.parametrize("seed", range(12))
+def test_a_dialogue_plans_anchors_with_what_was_said_and_commits_nothing_twice(seed: int) -> None:
+    """An utterance during an episode whose set names the speech: the rest of the episode is
+    planned again from the utterance with it (a new episode of the same emotion); what was
+    committed before stays; every episode is consistent under the checker."""
+    from mse.dialogue import Session
+    from mse.dialogue.check import check_dialogue
+
+    session = Session(seed=seed)
+    before = session.emotion(0.0, str(TALKING), until=6.0)
+    early = [s for s in session.timeline().signals]
+    session.say(0.5, "I really cannot believe you did that", stress=["believe"])
+    session.emotion(6.0, "relief", until=9.0)
+    session.end(9.0)
+    timeline = session.timeline()
+    assert check_dialogue(timeline) == []
+    episodes = timeline.extra["episodes"] if "episodes" in timeline.extra else timeline.to_json()["episodes"]
+    assert [(e["start"], e["stop"]) for e in episodes] == [(0.0, 0.5), (0.5, 6.0), (6.0, 9.0)]
+    assert episodes[0]["interrupted"] and episodes[1].get("continues")
+    # committed before the utterance: unchanged (those of episode 0 that ended by 0.5)
+    kept = {(s.id, s.start, s.stop) for s in timeline.signals if s.episode == 0}
+    assert {(s.id, s.start, s.stop) for s in before if s.stop <= 0.5} <= kept
+    assert all(s.episode != 0 or s.start < 0.5 for s in timeline.signals)
+    del early
+
+
+def test_a_dialogue_without_speech_leaves_anchored_constraints_out() -> None:
+    from mse.dialogue import Session
+    from mse.dialogue.check import check_dialogue
+
+    session = Session(seed=1)
+    session.emotion(0.0, str(TALKING), until=4.0)
+    session.end(4.0)
+    assert check_dialogue(session.timeline()) == []

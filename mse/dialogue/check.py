@@ -3,11 +3,11 @@ the evaluator's one definition (:mod:`mse.ir.evaluate.episodes`)."""
 
 from __future__ import annotations
 
-from collections.abc import Callable, Mapping
+from collections.abc import Callable, Mapping, Sequence
 from typing import Any
 
 from mse.diagnostics import Diagnostic, MseError, Span
-from mse.ir.anchors import episode_speech, resolve_anchors, utterances_from_json
+from mse.ir.anchors import Speech, episode_model, utterances_from_json
 from mse.ir.evaluate.episodes import Episode, EpisodeViolation, check_episodes
 from mse.ir.model import Model
 from mse.ir.schedule import Occurrence, to_ticks
@@ -75,7 +75,7 @@ def episodes_of(timeline: Timeline, model_of: Callable[[Mapping[str, Any]], Mode
             index=index,
             emotion=str(entry.get("emotion", "")),
             # speech anchors read the utterances overlapping the plan, in the episode's own time
-            model=resolve_anchors(model_of(entry), episode_speech(utterances, start, plan_stop)),
+            model=episode_model(model_of(entry), _planned_with(entry, utterances), start, plan_stop),
             start=to_ticks(start),
             stop=to_ticks(stop),
             plan_stop=to_ticks(plan_stop),
@@ -89,6 +89,15 @@ def episodes_of(timeline: Timeline, model_of: Callable[[Mapping[str, Any]], Mode
         message = f"signals of episode {index} but no such episode in 'episodes'"
         raise MseError([Diagnostic("E212", message, Span("<timeline>"))])
     return result
+
+
+def _planned_with(entry: Mapping[str, Any], utterances: Sequence[Speech]) -> Sequence[Speech]:
+    """The utterances an episode's anchors read: those its ``speech`` names (a live session
+    records what had been said when it planned the episode), else every one."""
+    named = entry.get("speech")
+    if not isinstance(named, list):
+        return utterances
+    return [utterances[i] for i in named if isinstance(i, int) and not isinstance(i, bool) and 0 <= i < len(utterances)]
 
 
 def check_dialogue(timeline: Timeline, model_of: Callable[[Mapping[str, Any]], Model] | None = None,

@@ -43,6 +43,8 @@ from mse.dialogue.script import (
     resolve_emotion,
 )
 from mse.envelope import CUT_RELEASE, Envelope, cut_envelope, envelope
+from mse.ir.anchors import Speech, episode_model, uses_anchors
+from mse.ir.anchors import Word as SpokenWord
 from mse.ir.model import Model
 from mse.ir.schedule import to_seconds
 from mse.timeline import Timeline, TimelineSignal
@@ -73,6 +75,8 @@ class _Running:
     continues: bool = False
     #: The rest of the plan, as the sampler commits it (None: all of it is in ``planned``).
     pending: Iterator[TimelineSignal] | None = None
+    #: For a set with speech anchors: the utterances (indices) its plan read.
+    said: tuple[int, ...] | None = None
 
     def pull(self) -> TimelineSignal | None:
         """The plan's next occurrence (appended to ``planned``), or None when it is complete."""
@@ -124,6 +128,7 @@ class Session:
         self._episodes: list[dict[str, Any]] = []
         self._signals: list[TimelineSignal] = []
         self._utterances: list[dict[str, Any]] = []
+        self._speeches: list[Speech] = []
         self._first: Event | None = None
         self._last: Event | None = None
         self._last_say: SayEvent | None = None
@@ -155,9 +160,8 @@ class Session:
         if isinstance(event, EmotionEvent):
             steps: Iterator[TimelineSignal] = self._emotion(event)
         elif isinstance(event, SayEvent):
-            self._say(event)
+            steps = self._say(event)
             self._last_say = event
-            steps = iter(())
         else:
             steps = iter(self._end(event))
         self._first = self._first or event
@@ -211,14 +215,16 @@ class Session:
         return loaded
 
     def _plan(self, loaded: _Loaded, index: int, start: float, length: float, intensity: float,
-              span: Span) -> Iterator[TimelineSignal]:
+              span: Span, said: Sequence[int]) -> Iterator[TimelineSignal]:
         """One episode's occurrences, as the sampler's stream commits them: a timeline of
         ``length`` seconds (the default solver: the walk, its complete fallback), at ``start``."""
         from mse.solve.protocol import GreedyOptions, NoSolution, SolveRequest, get_solver
 
-        model = loaded.model
-        # A length planned once (an announced episode) is not worth the sampler's plan cache.
-        once = abs(length - self.horizon) > _EPSILON
+        # Speech anchors read what the agent has said by the episode's start (_open).
+        model = episode_model(loaded.model, [self._speeches[i] for i in said], start, start + length)
+        # A length planned once (an announced episode), or a model resolved against one
+        # utterance, is not worth the sampler's plan cache.
+        once = abs(length - self.horizon) > _EPSILON or model is not loaded.model
         request = SolveRequest(duration=length, seed=self.seed + index, greedy=GreedyOptions(cache_plan=not once))
         try:
             for occurrence in get_solver("greedy").stream(model, request):
@@ -239,9 +245,14 @@ class Session:
               span: Span, continues: bool = False) -> _Running:
         index = self._next_index
         self._next_index += 1
-        plan = self._plan(loaded, index, start, stop - start, intensity, span)
-        return _Running(index, emotion, loaded.model, loaded.source, start, stop, announced, intensity, [],
-                        continues, plan)
+        said: tuple[int, ...] = ()
+        if uses_anchors(loaded.model):  # what has been said by now that reaches into the episode
+            said = tuple(i for i, u in enumerate(self._speeches) if u.start <= start + _EPSILON and u.stop > start)
+        plan = self._plan(loaded, index, start, stop - start, intensity, span, said)
+        running = _Running(index, emotion, loaded.model, loaded.source, start, stop, announced, intensity, [],
+                           continues, plan)
+        running.said = said if uses_anchors(loaded.model) else None
+        return running
 
     def _advance(self, t: float, span: Span, *, final: bool = False) -> list[TimelineSignal]:
         """Play the running episode up to ``t``: continue it by horizons while its plan ends
@@ -289,6 +300,8 @@ class Session:
         }
         if running.continues:
             entry["continues"] = True
+        if running.said is not None:
+            entry["speech"] = list(running.said)
         if dropped:
             entry["dropped"] = dropped
         self._episodes.append(entry)
@@ -344,9 +357,16 @@ class Session:
             if running.pull() is None:
                 return
 
-    def _say(self, event: SayEvent) -> None:
-        if self._running is None:
+    def _say(self, event: SayEvent) -> Iterator[TimelineSignal]:
+        """Record the utterance; when the running episode's set refers to the agent's speech
+        and the utterance falls within its plan, the rest of the episode is planned again from
+        the utterance's start, with it (what is committed before it stays as it is)."""
+        running = self._running
+        if running is None:
             raise MseError([Diagnostic(CODE, "an utterance before the first emotion (which face speaks?)", event.span)])
+        stressed = {word.start for word in event.stressed_words()}
+        self._speeches.append(Speech(event.t, event.stop, tuple(
+            SpokenWord(w.text, w.start, w.stop, w.start in stressed) for w in event.words)))
         self._utterances.append({
             "index": len(self._utterances),
             "start": event.t,
@@ -355,6 +375,18 @@ class Session:
             "words": [[w.text, w.start, w.stop] for w in event.words],
             "stress": list(event.stress),
         })
+        if not uses_anchors(running.model) or event.t >= running.plan_stop - _EPSILON:
+            return iter(())
+        until = running.plan_stop if running.announced else None
+        closed = self._advance(event.t, event.span)
+        loaded = self._models[running.emotion]
+        stop = until if until is not None else _r(event.t + self.horizon)
+        again = self._open(loaded, running.emotion, event.t, stop, until is not None, running.intensity,
+                           event.span, continues=True)
+        self._running = again
+        self._carry(closed, again, event.t)
+        self._commit(closed)
+        return self._hand_out(closed, again)
 
     def _end(self, event: EndEvent) -> list[TimelineSignal]:
         closed = self._advance(event.t, event.span, final=True)

@@ -128,6 +128,19 @@ def without_anchored(model: ir.Model) -> ir.Model:
     return replace(model, constraints=tuple(c for c in model.constraints if c not in anchored))
 
 
+def episode_model(model: ir.Model, utterances: Sequence[Speech], start: float, stop: float | None) -> ir.Model:
+    """The model one dialogue episode ``[start, stop)`` is planned and checked with: its
+    anchors resolved against those of ``utterances`` that overlap it (:func:`episode_speech`).
+    When none does, the anchored constraints have nothing to hold on and are left out, as a
+    relation is void while its signal is absent (docs/semantics.md, "Speech anchors in a
+    dialogue").  A live session passes what was said by the episode's start and records it in
+    the episode's ``speech`` (utterance indices), which the checker then reads."""
+    if not uses_anchors(model):
+        return model
+    speech = episode_speech(utterances, start, stop)
+    return resolve_anchors(model, speech) if speech is not None else without_anchored(model)
+
+
 def _first_anchor(atom: ir.Compare) -> ir.SpeechTime:
     term = atom.left if isinstance(atom.left, ir.SpeechTime) else atom.right
     assert isinstance(term, ir.SpeechTime)
