@@ -205,11 +205,11 @@ def test_adaptation_from_labelled_steps_of_a_take(walk_average: HsmmModel, small
     """A run of steps from the middle of a take keeps the labels it has in the take (inner
     steps, not a mislabelled 'first'), and only those frames are used."""
     take = small_library.motion(next(c for c in small_library.select(action="walk") if c.style == "sad"))
-    segments = api.segment_motion(take, walk_average.template, cyclic=True)
+    segments = api.segment_motion(take, walk_average.template, "steps")
     assert segments[0].unit.startswith("first-") and segments[-1].unit.startswith("last-")
     run = segments[2:4]
     assert all(s.unit.startswith("inner-") for s in run)
-    instances, statics = api.clip_instances(take, "sad", walk_average.template, True, 5, run)
+    instances, statics = api.clip_instances(take, "sad", walk_average.template, "steps", 5, run)
     assert [i.unit for i in instances] == [s.unit for s in run]
     assert statics.shape[0] == run[-1].stop - run[0].start
     adapted = api.adapt_model(walk_average, [take], "sad", segmentation=[run])
@@ -251,7 +251,7 @@ def test_adapted_model_starts_on_the_leg_its_takes_start_on(
     """Adaptation used to keep the average model's first leg; a style that starts on the
     other leg then swayed its pelvis in the opposite phase (dataset 1 walk-left proud)."""
     take = sorted(small_library.select(action="walk", style="sad"), key=lambda c: c.id)[0]
-    segments = api.segment_motion(small_library.motion(take), walk_average.template, cyclic=True, action="walk")
+    segments = api.segment_motion(small_library.motion(take), walk_average.template, "steps")
     first = next(s.unit for s in segments if s.unit.startswith("first-"))
     assert walk_sad.first_leg == first.rpartition("-")[2]
     assert api.synthesize(walk_sad, steps=3).frame_count > 0

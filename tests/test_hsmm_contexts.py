@@ -63,7 +63,7 @@ def test_a_quick_return_keeps_its_duration_beside_long_holds() -> None:
 def _model(names: tuple[str, ...]) -> HsmmModel:
     unit = UnitModel(np.zeros((2, 3)), np.ones((2, 3)), np.full(2, 3.0), np.ones(2))
     units = {name: unit for name in names}
-    return HsmmModel("wave-both-hands", "x", True, units, None, np.ones(1), np.ones(1), np.ones(3))  # type: ignore[arg-type]
+    return HsmmModel("wave-both-hands", "x", "hands", units, None, np.ones(1), np.ones(1), np.ones(3))  # type: ignore[arg-type]
 
 
 def test_plans_play_second_after_the_first_only_in_models_that_have_it() -> None:

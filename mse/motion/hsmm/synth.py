@@ -26,7 +26,7 @@ from mse.motion.hsmm.features import FloatArray
 from mse.motion.hsmm.mlpg import generate_with_gv, mlpg
 from mse.motion.hsmm.model import HsmmModel, UnitModel
 from mse.motion.hsmm.prep import Template, local_rotations_from_features
-from mse.motion.hsmm.segment import HAND_CYCLE_ACTIONS, LOCOMOTION, ONE_SHOT_UNIT
+from mse.motion.hsmm.segment import ONE_SHOT_UNIT
 
 
 def _other(leg: str) -> str:
@@ -46,7 +46,7 @@ def plan_units(model: HsmmModel, steps: int | None = None, frames: int | None = 
         steps = 2 + max(0, round((total - first - last) / max(inner, 1.0)))
     steps = max(2, steps)
     names = [f"first-{leg}"]
-    # Waves' unit after the first has a context of its own (segment.SECOND_CONTEXT_ACTIONS).
+    # Hand cycles' unit after the first has a context of its own (see segment.ONE_SHOT_UNIT).
     second = any(name.startswith("second-") for name in model.units)
     for index in range(steps - 2):
         leg = _other(leg)
@@ -129,7 +129,7 @@ def generate(
     if not gv:
         return mlpg(mean_seq, var_seq), carried
     statics = generate_with_gv(mean_seq, var_seq, model.gv_mean, model.gv_var)
-    if ROOT_WITHOUT_GV and model.action in LOCOMOTION:
+    if ROOT_WITHOUT_GV and model.travels:
         # Every static dimension is independent in MLPG and GV (diagonal covariances), so
         # the root joint's columns can be generated without GV on their own.
         columns = _root_columns(model.template)
@@ -225,7 +225,7 @@ def statics_to_motion(statics: FloatArray, model: HsmmModel, carried: FloatArray
     # through the pinned feet it reaches the whole body: Bandai dataset 2 walks had head and
     # wrist jerk 2.3-2.6x the real walks' (limit 2x); at 6 Hz 0.8-1.2x, speed and stride kept.
     statics = zero_phase_lowpass(statics, template.frame_time, OUTPUT_CUTOFF_HZ)
-    standing = model.action not in LOCOMOTION  # one-shot actions and hand cycles (waves)
+    standing = not model.travels  # one-shot actions and hand cycles (waves)
     if standing and template.feet_lift <= ACTING_LEGS_LIFT:
         statics = still_legs(statics, template)
     rotations = local_rotations_from_features(statics, template)
@@ -280,8 +280,8 @@ def synthesize(
     while len(names) > 1 and requested < model.states * len(names):
         names = names[:-2] + names[-1:] if len(names) > 2 else names[:1]
     frames = max(requested, model.states)
-    # Hand cycles (waves) skip GV: see HAND_CYCLE_ACTIONS in segment.py
-    statics, carried = generate(model, names, frames, gv=gv and model.action not in HAND_CYCLE_ACTIONS, seed=seed)
+    # Hand cycles (waves) skip GV: each swing is a unit of its own, and GV widened them
+    statics, carried = generate(model, names, frames, gv=gv and model.cycle != "hands", seed=seed)
     if frames != requested:  # fewer frames than states: sample the trajectory evenly
         kept = np.round(np.linspace(0, frames - 1, requested)).astype(np.int64)
         statics = statics[kept]

@@ -59,6 +59,7 @@ import numpy as np
 
 from mse.motion.base.bvh import Motion
 from mse.motion.base.contacts import STANCE_HYSTERESIS, contact_height, ground, support
+from mse.motion.base.cycles import leg_length
 from mse.motion.base.heading import heading
 from mse.motion.base.kinematics import FloatArray
 from mse.motion.base.library import Clip, MotionLibrary, MotionUnavailable
@@ -91,7 +92,6 @@ from mse.motion.lma_hmm.standing import (
     cycles_by_velocity,
     expected_variance,
     landed_support,
-    leg_length,
     shared_stance,
     stands,
     steady_legs,

@@ -26,6 +26,7 @@ import numpy.typing as npt
 from mse.motion.base.bodyparts import limb_groups
 from mse.motion.base.bvh import Skeleton
 from mse.motion.base.contacts import supported_at
+from mse.motion.base.cycles import leg_length
 from mse.motion.base.kinematics import FloatArray
 from mse.motion.lma_hmm.hmm import (
     CYCLIC_FRAMES_PER_STATE,
@@ -95,20 +96,6 @@ def cycles_by_velocity(
     if min(runs_per_state(trained.viterbi(p)) for p in moving) < CYCLIC_RUNS_PER_STATE:
         return None
     return trained, moving, own
-
-
-def leg_length(skeleton: Skeleton) -> float:
-    """Hip to ankle (down the first child) of the skeleton's legs, file units."""
-    legs = set(limb_groups(skeleton)["legs"])
-    length = 0.0
-    joint = next((j for j in legs if skeleton.parents[j] not in legs), None)
-    while joint is not None:  # hip -> knee -> ankle ... down the first child
-        children = [c for c in legs if skeleton.parents[c] == joint]
-        if not children:
-            break
-        joint = children[0]
-        length += float(np.linalg.norm(skeleton.offsets[joint]))
-    return length
 
 
 def stands(carried: Sequence[FloatArray], skeleton: Skeleton) -> bool:
