@@ -5,7 +5,7 @@
     python bench/motion_fidelity.py --library starter --filmstrips docs/images
 
 For each action of the library, a reference is measured on its real clips
-(:mod:`mse.motion.base.fidelity`: the action's signature measures and their spread, foot
+(:mod:`bench.evaluation.fidelity`: the action's signature measures and their spread, foot
 slip, jerk); then every method generates the action in every style the library holds for
 it, lasting the median length of that style's real clips, through the same generator
 interface as ``mse animate``, and the checks are applied: the signature within the real
@@ -27,7 +27,7 @@ from pathlib import Path
 
 import numpy as np
 
-from mse.motion.base.fidelity import Check, check, measure, reference
+from bench.evaluation.fidelity import Check, check, measure, reference
 from mse.motion.base.library import MotionLibrary, MotionUnavailable, load_library
 from mse.motion.base.starter import starter_library
 from mse.motion.generator import METHODS, GenerationRequest, generator_for

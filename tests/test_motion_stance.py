@@ -9,8 +9,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from bench.evaluation.fidelity import check, measure, reference
 from mse.motion.base.contacts import JOLT_LEG_LENGTHS_PER_S2, root_track
-from mse.motion.base.fidelity import check, measure, reference
 from mse.motion.base.library import load_library
 
 FRAME_TIME = 1.0 / 30.0

@@ -10,8 +10,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from bench.evaluation.fidelity import check, measure, reference
 from mse.motion.base.contacts import FLOOR_BAND
-from mse.motion.base.fidelity import check, measure, reference
 from mse.motion.base.library import load_library
 from mse.motion.base.starter import starter_library
 from mse.motion.lma_hmm.generate import GenerationParams, generate_motion

@@ -9,8 +9,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from bench.evaluation.fidelity import measure
 from mse.motion.base.contacts import MIN_SUPPORT_SPREAD, sharpened_support
-from mse.motion.base.fidelity import measure
 from mse.motion.base.library import load_library
 from mse.motion.base.starter import starter_library
 from mse.motion.lma_hmm.generate import GenerationParams, generate_motion

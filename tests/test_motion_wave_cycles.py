@@ -11,7 +11,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from mse.motion.base.fidelity import measure
+from bench.evaluation.fidelity import measure
 from mse.motion.base.library import MotionLibrary, load_library
 from mse.motion.lma_hmm.generate import GenerationParams, generate_motion
 from mse.motion.lma_hmm.hmm import train_hmm
