@@ -167,22 +167,8 @@ def main() -> int:
     parser.add_argument("--only-folds", help="comma-separated fold numbers (development)")
     parser.add_argument("--only-conversions",
                         help="FOLD:DESIRED_CLIP:TARGET_STYLE[,...] as --show-failures prints them (development)")
-    parser.add_argument("--no-standing-pin", action="store_true",
-                        help="standing bodies pinned with the walks' stance hysteresis (before the fifth pass)")
-    parser.add_argument("--arm-spread-cap", type=float, default=GenerationParams().arm_spread_cap,
-                        help="a standing body's arms widened towards the neighbours' spread by at most this "
-                        "factor (1: off, before the sixth pass)")
-    parser.add_argument("--shared-stance", action=argparse.BooleanOptionalAction,
-                        default=GenerationParams().shared_stance,
-                        help="a standing body's neighbours share one leg posture (default; --no-shared-stance: "
-                        "before the seventh pass; docs/motion.md, step 11)")
-    parser.add_argument("--cycle-velocity-weight", type=float, default=GenerationParams().cycle_velocity_weight,
-                        help="a standing body whose neighbours do not cycle by their positions is judged again "
-                        "with their velocity at this weight (0: off, before; docs/motion.md, step 11)")
     parser.add_argument("--stride", default=GenerationParams().stride,
                         help="travelling bodies' swing widened: legs, all, off (docs/motion.md, step 12)")
-    parser.add_argument("--no-travel-cycles", action="store_true",
-                        help="travelling cycles neither bridged nor continued (before the sixth pass, step 12)")
     parser.add_argument("--show-failures", action="store_true",
                         help="print every conversion that fails a fidelity check, with the values")
     args = parser.parse_args()
@@ -208,12 +194,7 @@ def main() -> int:
             states=args.states,
             min_neighbours=args.min_neighbours,
             max_neighbours=args.max_neighbours,
-            standing_pin=not args.no_standing_pin,
-            arm_spread_cap=args.arm_spread_cap,
-            shared_stance=args.shared_stance,
-            cycle_velocity_weight=args.cycle_velocity_weight,
             stride=args.stride,
-            travel_cycles=not args.no_travel_cycles,
         )
     except ValueError as error:
         parser.error(str(error))

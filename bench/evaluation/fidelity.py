@@ -14,6 +14,10 @@ the starter) so that performers facing different ways compare:
 ``wave_amplitude``     their peak-to-peak amplitude
 ``forward_speed``      root travel along the first-frame forward axis per second
 ``side_speed``         root travel to the body's left (first frame) per second
+``step_rate``          steps per second: alternating extrema of the feet's separation along
+                       its main horizontal axis (heel strikes), over the time they span
+``backward``           largest distance the root moves in one frame against the clip's
+                       direction of travel (start to end)
 ``foot_slip``          median horizontal speed of the lowest foot point while it is on the
                        floor (within 2 cm of its lowest height): the stance foot
 ``jerk``               RMS jerk of head and wrists (third differences of positions)
@@ -41,6 +45,7 @@ import numpy as np
 
 from mse.motion.base.body_frame import body_of
 from mse.motion.base.bvh import Motion
+from mse.motion.base.cycles import TRAVEL_LEG_LENGTHS_PER_S, step_boundaries, travel_rate
 from mse.motion.base.kinematics import FloatArray
 
 MEASURES: tuple[str, ...] = (
@@ -53,6 +58,8 @@ MEASURES: tuple[str, ...] = (
     "wave_amplitude",
     "forward_speed",
     "side_speed",
+    "step_rate",
+    "backward",
     "foot_slip",
     "jerk",
     "reversals",
@@ -118,6 +125,19 @@ def _wave(relative: FloatArray, frame_time: float) -> tuple[float, float]:
     return frequency, 2.0 * np.sqrt(2.0) * spread
 
 
+def _step_rate(separation: FloatArray, frame_time: float) -> float:
+    """Steps per second from (F, 2) horizontal foot-to-foot vectors: the alternating extrema
+    of their projection on the main axis (heel strikes), over the time from first to last."""
+    if len(separation) < 4:
+        return 0.0
+    centred = separation - separation.mean(axis=0)
+    _, _, axes = np.linalg.svd(centred, full_matrices=False)
+    strikes = step_boundaries(centred @ axes[0], max(2, round(0.15 / frame_time)))
+    if len(strikes) < 2:
+        return 0.0
+    return (len(strikes) - 1) / ((strikes[-1] - strikes[0]) * frame_time)
+
+
 def _bones(motion: Motion) -> float:
     """Largest relative change of a bone length; the bones to joints whose position channels
     move (the root's translation, e.g. Bandai's joint_Root -> Hips) are no bones."""
@@ -163,6 +183,11 @@ def measure(motion: Motion, path: str = "<motion>") -> dict[str, float]:
     span = max(motion.duration - dt, dt)
     values["forward_speed"] = float((root[-1, 2] - root[0, 2]) / span)
     values["side_speed"] = float((root[-1, 0] - root[0, 0]) / span)
+    values["step_rate"] = _step_rate(feet[:, 0, [0, 2]] - feet[:, len(data.feet) // 2, [0, 2]], dt)
+    travel = root[-1, [0, 2]] - root[0, [0, 2]]
+    norm = float(np.linalg.norm(travel))
+    along = np.diff(root[:, [0, 2]], axis=0) @ (travel / norm) if norm > 1e-9 else np.zeros(1)
+    values["backward"] = float(max(0.0, -float(np.min(along)))) if along.size else 0.0
     lowest = np.argmin(feet[:, :, 1], axis=1)
     floor = feet[:, :, 1].min(axis=0)  # each foot point's lowest height
     point = feet[np.arange(len(feet)), lowest]  # (F, 3)
@@ -194,12 +219,15 @@ class Reference:
     action: str
     values: Mapping[str, tuple[float, ...]]
     scale: float
+    #: the real clips travel (:func:`mse.motion.base.cycles.travel_rate`): their step rate
+    #: is checked too, and no frame may move the root backwards more than theirs do
+    travels: bool = False
 
     @property
     def signature(self) -> tuple[str, ...]:
         named = ACTION_SIGNATURES.get(self.action)
         if named is not None:
-            return named
+            return named + (("step_rate",) if self.travels else ())
         lows = {name: min(self.values[name]) for name in DEFAULT_CANDIDATES}
         telling = tuple(name for name in DEFAULT_CANDIDATES if lows[name] >= TELLING_SHARE * self.scale)
         return telling or (max(lows, key=lambda name: lows[name]),)
@@ -222,7 +250,8 @@ def reference(action: str, clips: Iterable[Motion]) -> Reference:
         raise ValueError(f"no real clip of {action!r}")
     measured = [measure(m) for m in motions]
     scale = float(np.median([body_of(m).scale for m in motions]))
-    return Reference(action, {name: tuple(m[name] for m in measured) for name in MEASURES}, scale)
+    travels = float(np.median([travel_rate(m) for m in motions])) >= TRAVEL_LEG_LENGTHS_PER_S
+    return Reference(action, {name: tuple(m[name] for m in measured) for name in MEASURES}, scale, travels)
 
 
 @dataclass(frozen=True, slots=True)
@@ -260,6 +289,9 @@ def check(
             medians.append(style_reference.median(name))
         limit = QUALITY_FACTOR * max(*medians, floors[name])
         checks.append(Check(name, values[name], -np.inf, limit))
+    if action_reference.travels:
+        # no frame moves the root against the direction of travel by more than a real take does
+        checks.append(Check("backward", values["backward"], -np.inf, max(action_reference.values["backward"])))
     checks.append(Check("bone_error", values["bone_error"], -np.inf, BONE_TOLERANCE))
     return checks
 
