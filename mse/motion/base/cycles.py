@@ -70,6 +70,8 @@ class ActionShape:
 
     travels: bool
     cycle: CycleKind
+    #: the cycle's period (s; two steps, or a swing there and back), the clips' median; 0: none
+    period_s: float = 0.0
 
     @property
     def cyclic(self) -> bool:
@@ -140,6 +142,35 @@ def _side_axis(positions: FloatArray, left_hip: int, right_hip: int) -> FloatArr
     return lateral / norm if norm > 1e-9 else np.array([1.0, 0.0, 0.0])
 
 
+def step_period(motion: Motion) -> float:
+    """Seconds per cycle of two steps: twice the median interval between the alternating
+    extrema of the feet's separation along its main horizontal axis (0: fewer than two)."""
+    body = body_map(motion.skeleton)
+    positions = motion.positions()
+    separation = positions[:, body.left_foot][:, [0, 2]] - positions[:, body.right_foot][:, [0, 2]]
+    if len(separation) < 4:
+        return 0.0
+    centred = separation - separation.mean(axis=0)
+    _, _, axes = np.linalg.svd(centred, full_matrices=False)
+    strikes = step_boundaries(centred @ axes[0], max(2, round(0.15 / motion.frame_time)))
+    if len(strikes) < 2:
+        return 0.0
+    return 2.0 * float(np.median(np.diff(strikes))) * motion.frame_time
+
+
+def swing_period(motion: Motion) -> float:
+    """Seconds per swing there and back of the hand that sways most (0: fewer than two turns)."""
+    body = body_map(motion.skeleton)
+    positions = motion.positions()
+    side = _side_axis(positions, body.left_hip, body.right_hip)
+    hands = positions[:, [body.left_hand, body.right_hand]] - positions[:, [body.torso]]
+    sway = detrended_sway(hands @ side, motion.frame_time)
+    turns = step_boundaries(sway, max(2, round(0.2 / motion.frame_time)))
+    if len(turns) < 2:
+        return 0.0
+    return 2.0 * float(np.median(np.diff(turns))) * motion.frame_time
+
+
 def swings_regularly(motion: Motion) -> bool:
     """Whether a hand of ``motion`` swings side to side regularly (see the module)."""
     body = body_map(motion.skeleton)
@@ -176,6 +207,13 @@ def action_shape(motions: Sequence[Motion]) -> ActionShape:
         return ActionShape(False, "none")
     travels = float(np.median([travel_rate(m) for m in motions])) >= TRAVEL_LEG_LENGTHS_PER_S
     if travels:
-        return ActionShape(True, "steps")
-    swinging = sum(swings_regularly(m) for m in motions)
-    return ActionShape(False, "hands" if swinging >= HAND_CYCLE_SHARE * len(motions) else "none")
+        return ActionShape(True, "steps", _median_positive([step_period(m) for m in motions]))
+    swinging = [m for m in motions if swings_regularly(m)]
+    if len(swinging) < HAND_CYCLE_SHARE * len(motions):
+        return ActionShape(False, "none")
+    return ActionShape(False, "hands", _median_positive([swing_period(m) for m in swinging]))
+
+
+def _median_positive(values: Sequence[float]) -> float:
+    positive = [v for v in values if v > 0]
+    return float(np.median(positive)) if positive else 0.0

@@ -19,7 +19,7 @@ from typing import ParamSpec, TypeVar
 import numpy as np
 
 from mse.motion.base.bvh import Motion
-from mse.motion.base.cycles import CycleKind, action_shape
+from mse.motion.base.cycles import ActionShape, action_shape
 from mse.motion.hsmm.adapt import adapt_units, adaptive_training, auto_blocks, blocks_for
 from mse.motion.hsmm.carried import carried_profiles
 from mse.motion.hsmm.features import FloatArray
@@ -153,7 +153,7 @@ def _prepare(
     options: Options,
     segmentation: Segmentation,
     template: Template | None = None,
-) -> tuple[CycleKind, Template, list[Instance], list[FloatArray], FloatArray, Options]:
+) -> tuple[ActionShape, Template, list[Instance], list[FloatArray], FloatArray, Options]:
     """What both trainings start from: which limbs cycle (measured from the clips, never
     from the action's name), skeleton template, unit instances, static features, the
     variance floor and the options with the states per unit."""
@@ -167,7 +167,7 @@ def _prepare(
         lengths = [m.frame_count for m, _ in clips]
     options = replace(options, states=unit_states(shape.cyclic, lengths, options))
     instances, statics = gather_instances(clips, template, shape.cycle, options.states, segmentation)
-    return shape.cycle, template, instances, statics, variance_floor(instances), options
+    return shape, template, instances, statics, variance_floor(instances), options
 
 
 @one_blas_thread
@@ -178,7 +178,8 @@ def train_average(
     segmentation: Segmentation = None,
 ) -> HsmmModel:
     """Average model over (motion, style) clips with style-adaptive training."""
-    cycle, template, instances, statics, floor, options = _prepare(clips, action, options, segmentation)
+    shape, template, instances, statics, floor, options = _prepare(clips, action, options, segmentation)
+    cycle = shape.cycle
     blocks = blocks_for(template.feature_count, options.blocks)
     units, _ = adaptive_training(
         instances,
@@ -200,7 +201,13 @@ def train_average(
         gv_var=gv_var,
         variance_floor=floor,
         first_leg=_first_leg(instances),
-        info={"clips": len(clips), "styles": sorted({s for _, s in clips}), **asdict(options)},
+        info={
+            "clips": len(clips),
+            "styles": sorted({s for _, s in clips}),
+            "frames": int(np.median([m.frame_count for m, _ in clips])),
+            "period_s": shape.period_s,
+            **asdict(options),
+        },
         carried=carried_profiles(units, instances) if cycle == "steps" else {},
     )
 
@@ -216,7 +223,8 @@ def train_scratch(
     """A style model trained on its own data only, without an average model (the bench's
     baseline). ``template``: the skeleton template and reference rotations to use (e.g. an
     average model's, so that both models describe the same features); default: its own."""
-    cycle, template, instances, statics, floor, options = _prepare(clips, action, options, segmentation, template)
+    shape, template, instances, statics, floor, options = _prepare(clips, action, options, segmentation, template)
+    cycle = shape.cycle
     if options.soft_training:
         from mse.motion.hsmm.soft_training import train_units_soft
 
@@ -234,7 +242,13 @@ def train_scratch(
         gv_var,
         floor,
         _first_leg(instances),
-        info={"takes": len(clips), "trained_on": "style data only", **asdict(options)},
+        info={
+            "takes": len(clips),
+            "trained_on": "style data only",
+            "frames": int(np.median([m.frame_count for m, _ in clips])),
+            "period_s": shape.period_s,
+            **asdict(options),
+        },
         carried=carried_profiles(units, instances) if cycle == "steps" else {},
     )
 
@@ -305,6 +319,7 @@ def adapt_model(
             **dict(average.info),
             "adapted_from": average.style,
             "takes": len(motions),
+            "frames": int(np.median([m.frame_count for m in motions])),
             "adapt_blocks": kind,
         },
         carried=carried_profiles(units, instances, prior=average.carried) if average.carried else {},

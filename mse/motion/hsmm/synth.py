@@ -21,6 +21,7 @@ from mse.motion.base.bvh import Motion
 from mse.motion.base.contacts import root_track
 from mse.motion.base.filters import zero_phase_lowpass
 from mse.motion.base.kinematics import forward_kinematics, matrix_to_euler
+from mse.motion.base.loop import looped
 from mse.motion.hsmm.carried import carried_track, smooth_carried
 from mse.motion.hsmm.features import FloatArray
 from mse.motion.hsmm.mlpg import generate_with_gv, mlpg
@@ -255,6 +256,16 @@ def statics_to_motion(statics: FloatArray, model: HsmmModel, carried: FloatArray
     return Motion(skeleton, template.frame_time, values)
 
 
+#: a hand cycle requested this much longer than its clips repeats its swings (base.loop)
+LOOP_RATIO = 1.3
+
+
+def _natural_frames(model: HsmmModel) -> int:
+    """The median length of the clips the model was trained or adapted on (0: unknown)."""
+    value = model.info.get("frames")
+    return int(value) if isinstance(value, int | float) and value > 0 else 0
+
+
 def synthesize(
     model: HsmmModel,
     steps: int | None = None,
@@ -280,6 +291,17 @@ def synthesize(
     while len(names) > 1 and requested < model.states * len(names):
         names = names[:-2] + names[-1:] if len(names) > 2 else names[:1]
     frames = max(requested, model.states)
+    natural = _natural_frames(model)
+    if model.cycle == "hands" and natural and frames >= LOOP_RATIO * natural:
+        # a hand cycle longer than its clips: generated at their length, its swings repeated
+        # at their tempo (base.loop): planned for the whole length, the units between the
+        # rise and the fall were the holds between a feminine wave's swings, and the wave's
+        # amplitude fell from 5.9 cm at the takes' length to 3.3 at 3x (real 7.2-8.2)
+        names = plan_units(model, frames=natural)
+        statics, _ = generate(model, names, natural, gv=False, seed=seed)
+        period = model.info.get("period_s", 0.0)
+        period_s = float(period) if isinstance(period, int | float) else 0.0
+        return statics_to_motion(looped(statics, frames, frame_time, period_s=period_s), model)
     # Hand cycles (waves) skip GV: each swing is a unit of its own, and GV widened them
     statics, carried = generate(model, names, frames, gv=gv and model.cycle != "hands", seed=seed)
     if frames != requested:  # fewer frames than states: sample the trajectory evenly

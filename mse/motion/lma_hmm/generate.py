@@ -60,10 +60,11 @@ import numpy as np
 from mse.motion.base import cache
 from mse.motion.base.bvh import Motion
 from mse.motion.base.contacts import STANCE_HYSTERESIS, contact_height, ground, support
-from mse.motion.base.cycles import leg_length
+from mse.motion.base.cycles import ActionShape, action_shape, leg_length
 from mse.motion.base.heading import heading
 from mse.motion.base.kinematics import FloatArray
 from mse.motion.base.library import Clip, MotionLibrary, MotionUnavailable
+from mse.motion.base.loop import EDGE_SHARE, looped
 from mse.motion.lma_hmm.hmm import (
     decode,
     encode,
@@ -228,6 +229,21 @@ def _modulate(
     )
 
 
+#: clips per action measured by :func:`action_shape_of` (spread over the action's clips)
+SHAPE_CLIPS = 12
+
+
+def action_shape_of(library: MotionLibrary, action: str) -> ActionShape:
+    """What ``action``'s clips do (:func:`mse.motion.base.cycles.action_shape`, on at most
+    :data:`SHAPE_CLIPS` of them, spread evenly; cached)."""
+    clips = library.select(action)
+    chosen = clips[:: max(1, len(clips) // SHAPE_CLIPS)][:SHAPE_CLIPS]
+    return cache.remembered(
+        ("shape", library.content_hash, tuple(c.id for c in chosen)),
+        lambda: action_shape([library.motion(c) for c in chosen]),
+    )
+
+
 def _travels(modulated: Modulated) -> bool:
     """Whether the modulated path travels: its carried root velocity (the neighbours',
     through the states; :func:`~mse.motion.lma_hmm.stride.travels`)."""
@@ -322,15 +338,24 @@ def generate_motion(
     # an own-style copy: continued through its state means, a normal punch lost its reach)
     continued = modulated.cyclic and not own_style and _travels(modulated)
     loop = 1.0 if continued else LOOP_RATIO
+    played = len(path) * frame_time
     if duration is not None:
-        path = path_for(modulated, round(duration / frame_time), loop)
+        wanted = round(duration / frame_time)
+        path = path_for(modulated, wanted, loop)
+        shape = action_shape_of(library, action)
+        if wanted >= LOOP_RATIO * len(path) and shape.cyclic:
+            # the action cycles (measured on its clips) but the path was not continued (an
+            # own-style copy, or neighbours the HMM did not judge cyclic): its cycles repeat at
+            # their tempo (base.loop) rather than slow down (Bandai dataset 1 normal run at 2x
+            # its length: 1.25 steps/s and 121 cm/s, the take 2.73 and 261)
+            path = looped(path, wanted, frame_time, 0.0 if shape.travels else EDGE_SHARE, shape.period_s)
+        played = len(path) * frame_time
         path, frame_time = time_warp(path, frame_time, duration)
     encoding = modulated.encoding
     motion = Motion(encoding.skeleton, frame_time, decode(encoding, path))
     carried = path[:, encoding.dimension :].copy()
     if carried.shape[1] == CARRIED and duration is not None:
         # the path was played slower or faster than its neighbours: so is the carried speed
-        played = len(path_for(modulated, round(duration / modulated.frame_time), loop)) * modulated.frame_time
         carried[:, :2] *= played / max(duration, 1e-9)
     # a standing body pins whichever foot point is lowest, without the walks' hysteresis (as
     # the HSMM method does): with both feet on the floor, the hysteresis kept the left toes
