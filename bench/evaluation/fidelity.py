@@ -39,14 +39,15 @@ at most :data:`QUALITY_FACTOR` times the real clips' median, bone lengths consta
 from __future__ import annotations
 
 from collections.abc import Iterable, Mapping, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
 from mse.motion.base.body_frame import body_of
 from mse.motion.base.bvh import Motion
-from mse.motion.base.cycles import TRAVEL_LEG_LENGTHS_PER_S, step_boundaries, travel_rate
+from mse.motion.base.cycles import TRAVEL_LEG_LENGTHS_PER_S, action_shape, step_boundaries, travel_rate
 from mse.motion.base.kinematics import FloatArray
+from mse.motion.base.loop import EDGE_SHARE, looped
 
 MEASURES: tuple[str, ...] = (
     "head_dip",
@@ -252,6 +253,32 @@ def reference(action: str, clips: Iterable[Motion]) -> Reference:
     scale = float(np.median([body_of(m).scale for m in motions]))
     travels = float(np.median([travel_rate(m) for m in motions])) >= TRAVEL_LEG_LENGTHS_PER_S
     return Reference(action, {name: tuple(m[name] for m in measured) for name in MEASURES}, scale, travels)
+
+
+#: measures of a standing cycle that depend on the clip's length (see :func:`repeated`)
+CYCLE_MEASURES = ("wave_frequency", "wave_amplitude")
+
+
+def repeated(action_reference: Reference, motions: Sequence[Motion], factor: float) -> Reference:
+    """``action_reference`` for clips ``factor`` times longer than the real ones: when the real
+    clips cycle by their hands (:func:`mse.motion.base.cycles.action_shape`), the values of
+    :data:`CYCLE_MEASURES` are those of the real clips with their cycles repeated at their
+    tempo (:func:`mse.motion.base.loop.looped`); measured over a whole take, a feminine wave's
+    amplitude is mostly its rise and fall (7.2-8.2 cm; the swings between, 1.6-2.5)."""
+    if factor <= 1.0:
+        return action_reference
+    shape = action_shape(list(motions))
+    if shape.cycle != "hands":
+        return action_reference
+    longer = [
+        replace(m, values=looped(m.values, round(factor * m.frame_count), m.frame_time, EDGE_SHARE, shape.period_s))
+        for m in motions
+    ]
+    measured = [measure(m) for m in longer]
+    values = dict(action_reference.values)
+    for name in CYCLE_MEASURES:
+        values[name] = tuple(m[name] for m in measured)
+    return replace(action_reference, values=values)
 
 
 @dataclass(frozen=True, slots=True)
