@@ -342,8 +342,9 @@ def generate_motion(
     if duration is not None:
         wanted = round(duration / frame_time)
         path = path_for(modulated, wanted, loop)
-        shape = action_shape_of(library, action)
-        if wanted >= LOOP_RATIO * len(path) and shape.cyclic:
+        # measured only when needed: the clips' shape costs their forward kinematics
+        shape = action_shape_of(library, action) if wanted >= LOOP_RATIO * len(path) else None
+        if shape is not None and shape.cyclic:
             # the action cycles (measured on its clips) but the path was not continued (an
             # own-style copy, or neighbours the HMM did not judge cyclic): its cycles repeat at
             # their tempo (base.loop) rather than slow down (Bandai dataset 1 normal run at 2x
