@@ -16,7 +16,14 @@ from mse.motion.hsmm.carried import clip_carried
 from mse.motion.hsmm.features import FloatArray, observations
 from mse.motion.hsmm.model import Instance, uniform_bounds
 from mse.motion.hsmm.prep import Template, pose_positions, static_features
-from mse.motion.hsmm.segment import ONE_SHOT_UNIT, Segment, foot_separation, hand_sway, segment_clip
+from mse.motion.hsmm.segment import (
+    ONE_SHOT_UNIT,
+    SWAY_LEVEL,
+    Segment,
+    foot_separation,
+    hand_sway,
+    segment_clip,
+)
 
 __all__ = [
     "Segmentation",
@@ -39,13 +46,18 @@ def cycle_signal(statics: FloatArray, template: Template, cycle: CycleKind = "st
     return foot_separation(positions, template.contacts)
 
 
+def _segments(frames: int, cycle: CycleKind, signal: FloatArray | None) -> list[Segment]:
+    hands = cycle == "hands"
+    return segment_clip(frames, cycle != "none", signal, second=hands, level=SWAY_LEVEL if hands else 90.0)
+
+
 def segment_motion(motion: Motion, template: Template, cycle: CycleKind) -> list[Segment]:
     """The unit segments of a complete clip (steps in context, the hands' swings for a hand
     cycle, one unit for a one-shot action)."""
     statics = static_features(motion, template)
     cyclic = cycle != "none"
     separation = cycle_signal(statics, template, cycle) if cyclic else None
-    return segment_clip(statics.shape[0], cyclic, separation, second=cycle == "hands")
+    return _segments(statics.shape[0], cycle, separation)
 
 
 #: Unit segments per clip, e.g. from a hand labelling or from :func:`segment_motion` on a
@@ -72,7 +84,7 @@ def clip_instances(
     cyclic = cycle != "none"
     if segments is None:
         separation = cycle_signal(statics, template, cycle) if cyclic else None
-        segments = segment_clip(statics.shape[0], cyclic, separation, second=cycle == "hands")
+        segments = _segments(statics.shape[0], cycle, separation)
     elif segments:
         for segment in segments:
             if not 0 <= segment.start < segment.stop <= statics.shape[0]:
