@@ -92,17 +92,16 @@ def leg_length(skeleton: Skeleton) -> float:
     return length
 
 
-def step_boundaries(signal: FloatArray, min_gap: int, level: float = 90.0) -> list[int]:
+def step_boundaries(signal: FloatArray, min_gap: int) -> list[int]:
     """Frames of the alternating extrema of a cycle signal (the feet's forward separation:
-    heel strikes; a hand's sway: the turns of a wave), at least half the ``level``-th
-    percentile of the signal's distance from its median prominent."""
+    heel strikes; a hand's sway: the turns of a wave)."""
     from scipy.signal import find_peaks
 
     x = np.asarray(signal, dtype=np.float64)
     if x.size < 3:
         return []
     centred = x - np.median(x)
-    amplitude = float(np.percentile(np.abs(centred), level))
+    amplitude = float(np.percentile(np.abs(centred), 90))
     if amplitude <= 1e-9:
         return []
     prominence = 0.5 * amplitude

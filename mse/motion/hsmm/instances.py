@@ -18,7 +18,6 @@ from mse.motion.hsmm.model import Instance, uniform_bounds
 from mse.motion.hsmm.prep import Template, pose_positions, static_features
 from mse.motion.hsmm.segment import (
     ONE_SHOT_UNIT,
-    SWAY_LEVEL,
     Segment,
     foot_separation,
     hand_sway,
@@ -47,8 +46,7 @@ def cycle_signal(statics: FloatArray, template: Template, cycle: CycleKind = "st
 
 
 def _segments(frames: int, cycle: CycleKind, signal: FloatArray | None) -> list[Segment]:
-    hands = cycle == "hands"
-    return segment_clip(frames, cycle != "none", signal, second=hands, level=SWAY_LEVEL if hands else 90.0)
+    return segment_clip(frames, cycle != "none", signal, second=cycle == "hands")
 
 
 def segment_motion(motion: Motion, template: Template, cycle: CycleKind) -> list[Segment]:

@@ -34,12 +34,6 @@ from mse.motion.hsmm.features import FloatArray
 #: distribution with the holds, and the adapted feminine wave came back from its flare in about
 #: 25 frames where the take takes 10.
 ONE_SHOT_UNIT = "whole"
-#: a hand cycle's turns are measured against the median distance of the sway from its
-#: middle (a step's against the 90th percentile): a wave's rise and fall are its widest
-#: moves, and against them the swings between went unseen (Bandai dataset 2 feminine waves
-#: rise and fall by 7-8 cm and swing by 1.6-2.5 cm at 2 Hz between; their units became
-#: holds, and the wave generated longer than its takes stood still)
-SWAY_LEVEL = 75.0
 
 
 @dataclass(frozen=True, slots=True)
@@ -79,18 +73,16 @@ def segment_clip(
     min_unit: int = 5,
     min_gap: int = 6,
     second: bool = False,
-    level: float = 90.0,
 ) -> list[Segment]:
     """Unit instances covering ``[0, frames)``; every instance has at least ``min_unit`` frames.
 
     ``second``: the unit after the first, unless it is the last, has the context ``second``
-    instead of ``inner`` (hand cycles; see the comment on :data:`ONE_SHOT_UNIT`); ``level``:
-    the percentile prominence is measured against (:data:`SWAY_LEVEL` for hand cycles).
+    instead of ``inner`` (hand cycles; see the comment on :data:`ONE_SHOT_UNIT`).
     """
     if not cyclic or separation is None:
         return [Segment(ONE_SHOT_UNIT, 0, frames)]
     strikes = [
-        s for s in step_boundaries(separation, min_gap, level) if min_unit <= s <= frames - min_unit
+        s for s in step_boundaries(separation, min_gap) if min_unit <= s <= frames - min_unit
     ]
     if not strikes:
         return [Segment(ONE_SHOT_UNIT, 0, frames)]
