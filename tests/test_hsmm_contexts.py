@@ -103,12 +103,15 @@ def test_a_format_6_wave_model_still_loads_and_plays(wave_models: tuple[HsmmMode
     arrays = dict(np.load(io.BytesIO(model_bytes(average)), allow_pickle=False))
     meta = json.loads(str(arrays["meta"]))
     meta["format"] = "mse-hsmm/6"
+    del meta["cycle"]  # formats before /8 said whether the model cycles, not by which limbs
+    meta["cyclic"] = True
     meta["units"] = [u for u in meta["units"] if not u.startswith("second")]
     arrays = {k: v for k, v in arrays.items() if not k.startswith("unit:second")}
     arrays["meta"] = np.array(json.dumps(meta))
     path = tmp_path / "wave6.npz"
     np.savez(path, **arrays)
     old = load_model(path)
+    assert old.cycle == "hands"  # a cyclic model without flight profiles
     assert not any(u.startswith("second") for u in old.units)
     assert plan_units(old, steps=4)[1].startswith("inner")
     assert api.synthesize(old, duration_s=2.0).frame_count == round(2.0 / old.template.frame_time)
