@@ -9,7 +9,8 @@ frames whose poses and velocities agree best for its length (at least :data:`MIN
 of the clip apart, the start within its first half, the end within its second: the rise and
 the fall stay once), plays the clip up to its end, back to its start as many times as the request
 holds, then the rest of the clip; the remainder (under half a loop) is absorbed by a
-slight resampling. The joins are blended over :data:`BLEND_S`.
+slight resampling. At each join the repetition starts where the clip would have gone on and
+eases into its own frames over :data:`BLEND_S`.
 """
 
 from __future__ import annotations
@@ -27,8 +28,9 @@ MIN_LOOP_SHARE = 0.3
 EDGE_SHARE = 0.1
 #: a loop spans a whole number of the action's periods within this share of one
 PERIOD_TOLERANCE = 0.15
-#: the join of two repetitions is cross-faded over this long (s)
-BLEND_S = 0.1
+#: each repetition eases from where the clip would have gone on into its own frames over this
+#: long (s)
+BLEND_S = 0.2
 
 
 def loop_span(values: FloatArray, edge: float = EDGE_SHARE, period: float = 0.0) -> tuple[int, int]:
@@ -73,17 +75,17 @@ def looped(
     repeats = round((frames - total) / span) if span > 0 else 0
     if repeats <= 0:
         return values
-    blend = max(1, round(BLEND_S / frame_time))
+    blend = max(2, round(BLEND_S / frame_time))
+    # each repetition starts where the clip would have gone on (``values[end]``) and eases
+    # into its own frames over ``blend`` frames (a cosine ramp of the difference)
+    ramp = 0.5 * (1.0 + np.cos(np.pi * np.arange(blend) / blend))[:, None]
+    offset = values[min(end, total - 1)] - values[start]
     pieces = [values[:end]]
     for index in range(repeats):
-        piece = values[start:end] if index < repeats - 1 else values[start:]
-        previous = pieces[-1]
-        width = min(blend, len(previous), len(piece))
-        weight = np.linspace(0.0, 1.0, width + 2)[1:-1, None]
-        joined = piece.copy()
-        if end + width <= total:
-            joined[:width] = (1.0 - weight) * values[end : end + width] + weight * piece[:width]
-        pieces.append(joined)
+        piece = (values[start:end] if index < repeats - 1 else values[start:]).copy()
+        width = min(blend, len(piece))
+        piece[:width] += ramp[:width] * offset
+        pieces.append(piece)
     out = np.concatenate(pieces)
     if len(out) == frames:
         return out
