@@ -142,11 +142,11 @@ def _side_axis(positions: FloatArray, left_hip: int, right_hip: int) -> FloatArr
     return lateral / norm if norm > 1e-9 else np.array([1.0, 0.0, 0.0])
 
 
-def step_period(motion: Motion) -> float:
+def step_period(motion: Motion, positions: FloatArray | None = None) -> float:
     """Seconds per cycle of two steps: twice the median interval between the alternating
     extrema of the feet's separation along its main horizontal axis (0: fewer than two)."""
     body = body_map(motion.skeleton)
-    positions = motion.positions()
+    positions = motion.positions() if positions is None else positions
     separation = positions[:, body.left_foot][:, [0, 2]] - positions[:, body.right_foot][:, [0, 2]]
     if len(separation) < 4:
         return 0.0
@@ -158,10 +158,10 @@ def step_period(motion: Motion) -> float:
     return 2.0 * float(np.median(np.diff(strikes))) * motion.frame_time
 
 
-def swing_period(motion: Motion) -> float:
+def swing_period(motion: Motion, positions: FloatArray | None = None) -> float:
     """Seconds per swing there and back of the hand that sways most (0: fewer than two turns)."""
     body = body_map(motion.skeleton)
-    positions = motion.positions()
+    positions = motion.positions() if positions is None else positions
     side = _side_axis(positions, body.left_hip, body.right_hip)
     hands = positions[:, [body.left_hand, body.right_hand]] - positions[:, [body.torso]]
     sway = detrended_sway(hands @ side, motion.frame_time)
@@ -171,10 +171,10 @@ def swing_period(motion: Motion) -> float:
     return 2.0 * float(np.median(np.diff(turns))) * motion.frame_time
 
 
-def swings_regularly(motion: Motion) -> bool:
+def swings_regularly(motion: Motion, positions: FloatArray | None = None) -> bool:
     """Whether a hand of ``motion`` swings side to side regularly (see the module)."""
     body = body_map(motion.skeleton)
-    positions = motion.positions()
+    positions = motion.positions() if positions is None else positions
     side = _side_axis(positions, body.left_hip, body.right_hip)
     hands = positions[:, [body.left_hand, body.right_hand]] - positions[:, [body.torso]]
     sway = detrended_sway(hands @ side, motion.frame_time)
@@ -190,12 +190,13 @@ def swings_regularly(motion: Motion) -> bool:
     return float(np.median(swings)) >= MIN_SWING_ARM_LENGTHS and irregularity <= MAX_SWING_IRREGULARITY
 
 
-def travel_rate(motion: Motion) -> float:
+def travel_rate(motion: Motion, positions: FloatArray | None = None) -> float:
     """Leg lengths per second the root covers over :data:`TRAVEL_WINDOW_S` (see the module)."""
     legs = leg_length(motion.skeleton)
     if legs <= 0 or motion.frame_count < 2:
         return 0.0
-    root = motion.positions()[:, find_root_joint(motion)][:, [0, 2]]
+    world = motion.positions() if positions is None else positions
+    root = world[:, find_root_joint(motion)][:, [0, 2]]
     lag = max(1, min(motion.frame_count - 1, round(TRAVEL_WINDOW_S / motion.frame_time)))
     covered = np.linalg.norm(root[lag:] - root[:-lag], axis=1)
     return float(np.mean(covered)) / (lag * motion.frame_time) / legs
@@ -205,13 +206,15 @@ def action_shape(motions: Sequence[Motion]) -> ActionShape:
     """What the clips of one action do: whether they travel and which limbs carry a cycle."""
     if not motions:
         return ActionShape(False, "none")
-    travels = float(np.median([travel_rate(m) for m in motions])) >= TRAVEL_LEG_LENGTHS_PER_S
+    positions = [m.positions() for m in motions]  # forward kinematics once per clip
+    pairs = list(zip(motions, positions, strict=True))
+    travels = float(np.median([travel_rate(m, p) for m, p in pairs])) >= TRAVEL_LEG_LENGTHS_PER_S
     if travels:
-        return ActionShape(True, "steps", _median_positive([step_period(m) for m in motions]))
-    swinging = [m for m in motions if swings_regularly(m)]
+        return ActionShape(True, "steps", _median_positive([step_period(m, p) for m, p in pairs]))
+    swinging = [(m, p) for m, p in pairs if swings_regularly(m, p)]
     if len(swinging) < HAND_CYCLE_SHARE * len(motions):
         return ActionShape(False, "none")
-    return ActionShape(False, "hands", _median_positive([swing_period(m) for m in swinging]))
+    return ActionShape(False, "hands", _median_positive([swing_period(m, p) for m, p in swinging]))
 
 
 def _median_positive(values: Sequence[float]) -> float:

@@ -130,7 +130,8 @@ def _modulate(
     timings: dict[str, float] = {"lma": 0.0, "rmlr": 0.0, "nn_search": 0.0}
     desired = library.motion(desired_clip)
     if style == desired_clip.style and original == style:
-        return _own_style(desired_clip.id, desired, pose_of(library, desired_clip), params, timings)
+        shape = action_shape_of(library, action)
+        return _own_style(desired_clip.id, desired, pose_of(library, desired_clip), params, timings, shape)
     neighbours, components = find_neighbours(library, action, style, desired_clip, original, params, exclude, timings)
     # the neighbours turned to face the desired path's way (their room directions differ)
     facing = heading(desired)
@@ -226,6 +227,7 @@ def _modulate(
         means,
         tuple(labels),
         params.cutoff_hz,
+        action_shape_of(library, action),
     )
 
 
@@ -254,7 +256,12 @@ def _travels(modulated: Modulated) -> bool:
 
 
 def _own_style(
-    clip_id: str, desired: Motion, pose: FloatArray, params: GenerationParams, timings: dict[str, float]
+    clip_id: str,
+    desired: Motion,
+    pose: FloatArray,
+    params: GenerationParams,
+    timings: dict[str, float],
+    shape: ActionShape,
 ) -> Modulated:
     """The desired path in its own style: played as it is. The paper converts between
     styles; regenerating a clip in its own style through 12 state means only loses detail
@@ -283,6 +290,7 @@ def _own_style(
         means,
         (states.astype(np.int_),),
         params.cutoff_hz,
+        shape,
     )
 
 
@@ -342,9 +350,8 @@ def generate_motion(
     if duration is not None:
         wanted = round(duration / frame_time)
         path = path_for(modulated, wanted, loop)
-        # measured only when needed: the clips' shape costs their forward kinematics
-        shape = action_shape_of(library, action) if wanted >= LOOP_RATIO * len(path) else None
-        if shape is not None and shape.cyclic:
+        shape = modulated.shape
+        if wanted >= LOOP_RATIO * len(path) and shape.cyclic:
             # the action cycles (measured on its clips) but the path was not continued (an
             # own-style copy, or neighbours the HMM did not judge cyclic): its cycles repeat at
             # their tempo (base.loop) rather than slow down (Bandai dataset 1 normal run at 2x
