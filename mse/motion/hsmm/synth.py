@@ -21,7 +21,7 @@ from mse.motion.base.bvh import Motion
 from mse.motion.base.contacts import root_track
 from mse.motion.base.filters import zero_phase_lowpass
 from mse.motion.base.kinematics import forward_kinematics, matrix_to_euler
-from mse.motion.base.loop import looped
+from mse.motion.base.loop import held, looped
 from mse.motion.hsmm.carried import carried_track, smooth_carried
 from mse.motion.hsmm.features import FloatArray
 from mse.motion.hsmm.mlpg import generate_with_gv, mlpg
@@ -256,7 +256,7 @@ def statics_to_motion(statics: FloatArray, model: HsmmModel, carried: FloatArray
     return Motion(skeleton, template.frame_time, values)
 
 
-#: a hand cycle requested this much longer than its clips repeats its swings (base.loop)
+#: a cycle requested this much longer than its clips repeats, a one-shot action rests (base.loop)
 LOOP_RATIO = 1.3
 
 
@@ -302,6 +302,10 @@ def synthesize(
         period = model.info.get("period_s", 0.0)
         period_s = float(period) if isinstance(period, int | float) else 0.0
         return statics_to_motion(looped(statics, frames, frame_time, period_s=period_s), model)
+    if not model.cyclic and natural and frames >= LOOP_RATIO * natural:
+        # a one-shot action longer than its clips: at their tempo, then at rest (base.loop)
+        statics, _ = generate(model, names, natural, gv=gv, seed=seed)
+        return statics_to_motion(held(statics, frames), model)
     # Hand cycles (waves) skip GV: each swing is a unit of its own, and GV widened them
     statics, carried = generate(model, names, frames, gv=gv and model.cycle != "hands", seed=seed)
     if frames != requested:  # fewer frames than states: sample the trajectory evenly

@@ -64,7 +64,7 @@ from mse.motion.base.cycles import ActionShape, action_shape, leg_length
 from mse.motion.base.heading import heading
 from mse.motion.base.kinematics import FloatArray
 from mse.motion.base.library import Clip, MotionLibrary, MotionUnavailable
-from mse.motion.base.loop import EDGE_SHARE, looped
+from mse.motion.base.loop import EDGE_SHARE, held, looped
 from mse.motion.lma_hmm.hmm import (
     decode,
     encode,
@@ -357,6 +357,8 @@ def generate_motion(
             # their tempo (base.loop) rather than slow down (Bandai dataset 1 normal run at 2x
             # its length: 1.25 steps/s and 121 cm/s, the take 2.73 and 261)
             path = looped(path, wanted, frame_time, 0.0 if shape.travels else EDGE_SHARE, shape.period_s)
+        elif wanted >= LOOP_RATIO * len(path) and not modulated.cyclic:
+            path = held(path, wanted)  # at its own tempo, then at rest (base.loop)
         played = len(path) * frame_time
         path, frame_time = time_warp(path, frame_time, duration)
     encoding = modulated.encoding
