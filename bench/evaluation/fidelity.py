@@ -47,7 +47,7 @@ from mse.motion.base.body_frame import body_of
 from mse.motion.base.bvh import Motion
 from mse.motion.base.cycles import TRAVEL_LEG_LENGTHS_PER_S, action_shape, step_boundaries, travel_rate
 from mse.motion.base.kinematics import FloatArray
-from mse.motion.base.loop import EDGE_SHARE, looped
+from mse.motion.base.loop import EDGE_SHARE, held, looped
 
 MEASURES: tuple[str, ...] = (
     "head_dip",
@@ -265,23 +265,31 @@ CYCLE_MEASURES = ("wave_frequency", "wave_amplitude")
 
 
 def repeated(action_reference: Reference, motions: Sequence[Motion], factor: float) -> Reference:
-    """``action_reference`` for clips ``factor`` times longer than the real ones: when the real
-    clips cycle by their hands (:func:`mse.motion.base.cycles.action_shape`), the values of
-    :data:`CYCLE_MEASURES` are those of the real clips with their cycles repeated at their
-    tempo (:func:`mse.motion.base.loop.looped`); measured over a whole take, a feminine wave's
-    amplitude is mostly its rise and fall (7.2-8.2 cm; the swings between, 1.6-2.5)."""
+    """``action_reference`` for clips ``factor`` times longer than the real ones, as the
+    methods make them (:mod:`mse.motion.base.loop`): when the real clips cycle by their hands
+    (:func:`mse.motion.base.cycles.action_shape`), the values of :data:`CYCLE_MEASURES` are
+    those of the real clips with their cycles repeated at their tempo (measured over a whole
+    take, a feminine wave's amplitude is mostly its rise and fall: 7.2-8.2 cm; the swings
+    between, 1.6-2.5); when they do not cycle, the values of :data:`DEFAULT_CANDIDATES` are
+    those of the real clips followed by their rest pose (the measures take percentiles and
+    means over the clip). Travelling actions' measures are rates: unchanged."""
     if factor <= 1.0:
         return action_reference
     shape = action_shape(list(motions))
-    if shape.cycle != "hands":
+    if shape.travels:
         return action_reference
-    longer = [
-        replace(m, values=looped(m.values, round(factor * m.frame_count), m.frame_time, EDGE_SHARE, shape.period_s))
-        for m in motions
-    ]
+    if shape.cycle == "hands":
+        names: tuple[str, ...] = CYCLE_MEASURES
+        longer = [
+            replace(m, values=looped(m.values, round(factor * m.frame_count), m.frame_time, EDGE_SHARE, shape.period_s))
+            for m in motions
+        ]
+    else:
+        names = (*DEFAULT_CANDIDATES, "hand_to_head", "wrists_over_head")
+        longer = [replace(m, values=held(m.values, round(factor * m.frame_count))) for m in motions]
     measured = [measure(m) for m in longer]
     values = dict(action_reference.values)
-    for name in CYCLE_MEASURES:
+    for name in names:
         values[name] = tuple(m[name] for m in measured)
     return replace(action_reference, values=values)
 

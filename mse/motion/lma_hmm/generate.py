@@ -349,15 +349,18 @@ def generate_motion(
     played = len(path) * frame_time
     if duration is not None:
         wanted = round(duration / frame_time)
-        path = path_for(modulated, wanted, loop)
         shape = modulated.shape
+        if shape.cyclic or wanted < LOOP_RATIO * len(path):
+            # (an action that does not cycle, measured on its clips, is not continued through
+            # its state means even when its path's HMM cycles: a normal punch lost its reach)
+            path = path_for(modulated, wanted, loop)
         if wanted >= LOOP_RATIO * len(path) and shape.cyclic:
             # the action cycles (measured on its clips) but the path was not continued (an
             # own-style copy, or neighbours the HMM did not judge cyclic): its cycles repeat at
             # their tempo (base.loop) rather than slow down (Bandai dataset 1 normal run at 2x
             # its length: 1.25 steps/s and 121 cm/s, the take 2.73 and 261)
             path = looped(path, wanted, frame_time, 0.0 if shape.travels else EDGE_SHARE, shape.period_s)
-        elif wanted >= LOOP_RATIO * len(path) and not modulated.cyclic:
+        elif wanted >= LOOP_RATIO * len(path):
             path = held(path, wanted)  # at its own tempo, then at rest (base.loop)
         played = len(path) * frame_time
         path, frame_time = time_warp(path, frame_time, duration)
