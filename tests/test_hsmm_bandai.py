@@ -9,6 +9,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from mse.motion.base import cache
 from mse.motion.base.bvh import Motion, read_bvh
 from mse.motion.base.library import MotionLibrary, load_library
 from mse.motion.hsmm import api, leaf
@@ -141,7 +142,7 @@ def test_leaf_gets_its_scheduled_duration(small_library: MotionLibrary, tmp_path
     motion = leaf.synthesize_leaf(two_walks, "walk", style, 2.5, seed=1, cache_dir=tmp_path)
     assert motion.frame_count == 75
     assert len(list(tmp_path.glob("*.npz"))) == 2  # average and adapted models cached on disk
-    leaf._MODELS.clear()  # the next call must come from the disk cache
+    cache.forget("hsmm")  # the next call must come from the disk cache
     again = leaf.synthesize_leaf(two_walks, "walk", style, 2.5, seed=1, cache_dir=tmp_path)
     assert np.allclose(motion.values, again.values)
 
@@ -206,11 +207,11 @@ def test_adaptation_from_labelled_steps_of_a_take(walk_average: HsmmModel, small
     """A run of steps from the middle of a take keeps the labels it has in the take (inner
     steps, not a mislabelled 'first'), and only those frames are used."""
     take = small_library.motion(next(c for c in small_library.select(action="walk") if c.style == "sad"))
-    segments = api.segment_motion(take, walk_average.template, cyclic=True)
+    segments = api.segment_motion(take, walk_average.template, "steps")
     assert segments[0].unit.startswith("first-") and segments[-1].unit.startswith("last-")
     run = segments[2:4]
     assert all(s.unit.startswith("inner-") for s in run)
-    instances, statics = api.clip_instances(take, "sad", walk_average.template, True, 5, run)
+    instances, statics = api.clip_instances(take, "sad", walk_average.template, "steps", 5, run)
     assert [i.unit for i in instances] == [s.unit for s in run]
     assert statics.shape[0] == run[-1].stop - run[0].start
     adapted = api.adapt_model(walk_average, [take], "sad", segmentation=[run])
@@ -252,7 +253,7 @@ def test_adapted_model_starts_on_the_leg_its_takes_start_on(
     """Adaptation used to keep the average model's first leg; a style that starts on the
     other leg then swayed its pelvis in the opposite phase (dataset 1 walk-left proud)."""
     take = sorted(small_library.select(action="walk", style="sad"), key=lambda c: c.id)[0]
-    segments = api.segment_motion(small_library.motion(take), walk_average.template, cyclic=True, action="walk")
+    segments = api.segment_motion(small_library.motion(take), walk_average.template, "steps")
     first = next(s.unit for s in segments if s.unit.startswith("first-"))
     assert walk_sad.first_leg == first.rpartition("-")[2]
     assert api.synthesize(walk_sad, steps=3).frame_count > 0

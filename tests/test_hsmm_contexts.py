@@ -63,7 +63,7 @@ def test_a_quick_return_keeps_its_duration_beside_long_holds() -> None:
 def _model(names: tuple[str, ...]) -> HsmmModel:
     unit = UnitModel(np.zeros((2, 3)), np.ones((2, 3)), np.full(2, 3.0), np.ones(2))
     units = {name: unit for name in names}
-    return HsmmModel("wave-both-hands", "x", True, units, None, np.ones(1), np.ones(1), np.ones(3))  # type: ignore[arg-type]
+    return HsmmModel("wave-both-hands", "x", "hands", units, None, np.ones(1), np.ones(1), np.ones(3))  # type: ignore[arg-type]
 
 
 def test_plans_play_second_after_the_first_only_in_models_that_have_it() -> None:
@@ -105,12 +105,15 @@ def test_a_format_6_wave_model_still_loads_and_plays(wave_models: tuple[HsmmMode
     arrays = dict(np.load(io.BytesIO(model_bytes(average)), allow_pickle=False))
     meta = json.loads(str(arrays["meta"]))
     meta["format"] = "mse-hsmm/6"
+    del meta["cycle"]  # formats before /8 said whether the model cycles, not by which limbs
+    meta["cyclic"] = True
     meta["units"] = [u for u in meta["units"] if not u.startswith("second")]
     arrays = {k: v for k, v in arrays.items() if not k.startswith("unit:second")}
     arrays["meta"] = np.array(json.dumps(meta))
     path = tmp_path / "wave6.npz"
     np.savez(path, **arrays)
     old = load_model(path)
+    assert old.cycle == "hands"  # a cyclic model without flight profiles
     assert not any(u.startswith("second") for u in old.units)
     assert plan_units(old, steps=4)[1].startswith("inner")
     assert api.synthesize(old, duration_s=2.0).frame_count == round(2.0 / old.template.frame_time)

@@ -7,8 +7,8 @@ from pathlib import Path
 
 import pytest
 
+from bench.evaluation.fidelity import check, measure, reference
 from mse.motion.base.bvh import read_bvh
-from mse.motion.base.fidelity import check, measure, reference
 from mse.motion.base.library import load_library
 from mse.motion.generator import GenerationRequest, generator_for
 

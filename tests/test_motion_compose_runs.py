@@ -7,8 +7,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from bench.evaluation.fidelity import check, measure, reference
 from mse.motion.base.compose import Track, compose
-from mse.motion.base.fidelity import check, measure, reference
 from mse.motion.base.library import load_library
 
 

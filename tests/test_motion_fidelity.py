@@ -6,8 +6,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from bench.evaluation.fidelity import ACTION_SIGNATURES, check, measure, reference
 from mse.motion.base.contacts import contact_height, ground, root_track
-from mse.motion.base.fidelity import ACTION_SIGNATURES, check, measure, reference
 from mse.motion.base.heading import heading, turned
 from mse.motion.base.retarget import retarget
 from mse.motion.base.starter import STYLE_EFFORT, generate_clip, rest_motion, starter_library

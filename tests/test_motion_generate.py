@@ -172,26 +172,6 @@ def test_a_leaf_in_the_desired_paths_own_style_plays_that_path() -> None:
     assert np.allclose(ours - ours[:, :1], theirs - theirs[:, :1], atol=0.1)
 
 
-def test_standing_legs_are_steadied_only_when_they_barely_move() -> None:
-    from mse.motion.lma_hmm.hmm import encode, encoding_for
-    from mse.motion.lma_hmm.standing import steady_legs as _steady_legs
-
-    motion = starter_library().motion(starter_library().select("bow")[0])
-    encoding = encoding_for(motion)
-    rotations = encode(encoding, motion)
-    rng = np.random.default_rng(0)
-    pose = np.repeat(rotations.mean(axis=0, keepdims=True), len(rotations), axis=0)
-    still = np.hstack([pose + 0.01 * rng.standard_normal(pose.shape), np.zeros((len(pose), 4))])
-    steadied = _steady_legs(still, encoding, motion.frame_time, 0.5)
-    assert not np.allclose(steadied, still)  # standing, legs within a few degrees: low-passed
-    walking = still.copy()
-    walking[:, encoding.dimension] = 500.0  # the neighbours travel: left alone
-    assert np.array_equal(_steady_legs(walking, encoding, motion.frame_time, 0.5), walking)
-    moving = still.copy()
-    moving[:, : encoding.dimension] += np.linspace(0.0, 1.0, len(moving))[:, None]  # legs turn 1 rad: left alone
-    assert np.array_equal(_steady_legs(moving, encoding, motion.frame_time, 0.5), moving)
-
-
 def test_a_stuck_run_is_played_by_the_neighbours_sequence() -> None:
     from mse.motion.lma_hmm.timing import retimed
 

@@ -6,7 +6,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from mse.motion.base.recognize import StyleRecognizer, style_descriptor
+from bench.evaluation.recognize import StyleRecognizer, style_descriptor
 from mse.motion.base.starter import generate_clip
 
 

@@ -10,8 +10,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from bench.evaluation.fidelity import check, measure, reference
 from mse.motion.base.contacts import FLOOR_BAND
-from mse.motion.base.fidelity import check, measure, reference
 from mse.motion.base.library import load_library
 from mse.motion.base.starter import starter_library
 from mse.motion.lma_hmm.generate import GenerationParams, generate_motion
@@ -122,9 +122,12 @@ def test_neighbours_share_one_stance_and_keep_their_leg_movement() -> None:
     assert shared_stance([], encoding) == []
 
 
-def test_arm_spread_cap_below_one_is_refused() -> None:
-    with pytest.raises(ValueError, match="arm_spread_cap"):
-        GenerationParams(arm_spread_cap=0.5)
+@pytest.mark.parametrize(
+    ("field", "value"), [("stride", "feet"), ("topology", "ring"), ("timing", "own"), ("regenerate", "poses")]
+)
+def test_modes_outside_their_types_are_refused(field: str, value: str) -> None:
+    with pytest.raises(ValueError, match=f"{field} must be one of"):
+        GenerationParams(**{field: value})  # type: ignore[arg-type]
 
 
 def _byes(bandai_dir: Path, tmp_path: Path, action: str, styles: tuple[str, ...]) -> Path:

@@ -11,7 +11,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from mse.motion.base.fidelity import measure
+from bench.evaluation.fidelity import measure
 from mse.motion.base.library import MotionLibrary, load_library
 from mse.motion.lma_hmm.generate import GenerationParams, generate_motion
 from mse.motion.lma_hmm.hmm import train_hmm
@@ -41,9 +41,9 @@ def test_once_one_neighbour_short_clips_or_weight_zero_are_not_judged_cycling() 
     assert found[1][0].shape == (240, 4) and found[2].shape == (240, 4)  # the velocity appended
 
 
-def test_a_negative_cycle_velocity_weight_is_refused() -> None:
-    with pytest.raises(ValueError, match="cycle_velocity_weight"):
-        GenerationParams(cycle_velocity_weight=-1.0)
+def test_a_velocity_mode_outside_its_type_is_refused() -> None:
+    with pytest.raises(ValueError, match="velocity must be one of standing, always, never"):
+        GenerationParams(velocity="sometimes")  # type: ignore[arg-type]
 
 
 #: Samadani fold 0 (bench/evaluation/samadani_ds2.py): the desired normal wave and the feminine

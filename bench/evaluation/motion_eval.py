@@ -10,7 +10,7 @@ real clips, the recognition rate and confusion matrix of the generated clips, an
 times (LMA features, RMLR, NN search, HMM fit, Viterbi, total per leaf), plus the targets:
 LMA of a 5 s clip, NN search, a leaf with a warm cache.
 
-Recognizer: :class:`mse.motion.base.recognize.StyleRecognizer` — the 27 LMA components plus
+Recognizer: :class:`bench.evaluation.recognize.StyleRecognizer` — the 27 LMA components plus
 per-frame speed/acceleration/jerk statistics, posture in the body frame and timing, z-scored
 within the clip's action, multinomial logistic regression with C by cross-validation on the
 training clips. ``--styles angry,happy,sad,not-confident`` gives the paper's four-emotion
@@ -29,9 +29,9 @@ from pathlib import Path
 
 import numpy as np
 
+from bench.evaluation.recognize import MIN_ACTION_CLIPS, StyleRecognizer, style_descriptor
 from mse.motion.base.library import Clip, MotionLibrary, load_library
 from mse.motion.base.lma import lma_features
-from mse.motion.base.recognize import MIN_ACTION_CLIPS, StyleRecognizer, style_descriptor
 from mse.motion.lma_hmm.generate import GenerationParams, generate_motion
 from mse.motion.lma_hmm.search import clip_features, nearest_neighbours, saliency_for
 

@@ -8,7 +8,7 @@ Protocol (the paper's §IV with data that allows it):
 - in each fold, ``--per-group`` desired paths per (action, style) are taken from the fold and
   generated in every *other* style of their action by the LMA + HMM method, from a library
   without the fold (RMLR, neighbours and HMM see training folds only);
-- a style recognizer per action (:class:`mse.motion.base.recognize.StyleRecognizer`, C = 1)
+- a style recognizer per action (:class:`bench.evaluation.recognize.StyleRecognizer`, C = 1)
   is trained on the training folds' real clips of that action only and rates: the fold's real clips (**real** rate), the
   generated clips (**generated**: recognised as the target style), and two baselines on the
   same conversions: **identity** (the desired path itself, unchanged) and **time-warped copy**
@@ -16,7 +16,7 @@ Protocol (the paper's §IV with data that allows it):
   length);
 - ratio = generated / real (the paper: 72 % / 72 %); 95 % intervals: Wilson for rates, a
   bootstrap over desired paths for the ratio;
-- fidelity (:mod:`mse.motion.base.fidelity`) of every generated clip against the training
+- fidelity (:mod:`bench.evaluation.fidelity`) of every generated clip against the training
   folds' real clips of its action and target style.
 
 ``--warp-augment 0.75,1.33`` (default) also trains the recognizer on every training clip
@@ -27,7 +27,7 @@ Descriptors of real clips are cached under ``$MSE_CACHE_DIR/bench``.
 
 ``--length distance`` (default; deviation from the paper, whose generated clip has the desired
 path's length): a clip of a travelling action (walk: forward speed is its signature in
-:mod:`mse.motion.base.fidelity`) is generated for as long as the chosen neighbours take to
+:mod:`bench.evaluation.fidelity`) is generated for as long as the chosen neighbours take to
 cover the desired path's travel. Bandai's walk takes all cross the same room (elderly ones
 in 13-15 s, active ones in 7 s); an elderly walk generated at an active desired path's 7 s
 covers half of it, and the recognizer, trained on whole takes, rated it normal (fold 1:
@@ -60,11 +60,11 @@ from pathlib import Path
 
 import numpy as np
 
+from bench.evaluation.fidelity import ACTION_SIGNATURES, check, measure, reference
+from bench.evaluation.recognize import StyleRecognizer, style_descriptor
 from mse.motion.base.bvh import Motion
 from mse.motion.base.compose import resample_motion
-from mse.motion.base.fidelity import ACTION_SIGNATURES, check, measure, reference
 from mse.motion.base.library import Clip, MotionLibrary, load_library
-from mse.motion.base.recognize import StyleRecognizer, style_descriptor
 from mse.motion.lma_hmm.generate import GenerationParams, generate_motion
 
 
@@ -165,22 +165,8 @@ def main() -> int:
     parser.add_argument("--only-folds", help="comma-separated fold numbers (development)")
     parser.add_argument("--only-conversions",
                         help="FOLD:DESIRED_CLIP:TARGET_STYLE[,...] as --show-failures prints them (development)")
-    parser.add_argument("--no-standing-pin", action="store_true",
-                        help="standing bodies pinned with the walks' stance hysteresis (before the fifth pass)")
-    parser.add_argument("--arm-spread-cap", type=float, default=GenerationParams().arm_spread_cap,
-                        help="a standing body's arms widened towards the neighbours' spread by at most this "
-                        "factor (1: off, before the sixth pass)")
-    parser.add_argument("--shared-stance", action=argparse.BooleanOptionalAction,
-                        default=GenerationParams().shared_stance,
-                        help="a standing body's neighbours share one leg posture (default; --no-shared-stance: "
-                        "before the seventh pass; docs/motion.md, step 11)")
-    parser.add_argument("--cycle-velocity-weight", type=float, default=GenerationParams().cycle_velocity_weight,
-                        help="a standing body whose neighbours do not cycle by their positions is judged again "
-                        "with their velocity at this weight (0: off, before; docs/motion.md, step 11)")
     parser.add_argument("--stride", default=GenerationParams().stride,
                         help="travelling bodies' swing widened: legs, all, off (docs/motion.md, step 12)")
-    parser.add_argument("--no-travel-cycles", action="store_true",
-                        help="travelling cycles neither bridged nor continued (before the sixth pass, step 12)")
     parser.add_argument("--show-failures", action="store_true",
                         help="print every conversion that fails a fidelity check, with the values")
     args = parser.parse_args()
@@ -206,12 +192,7 @@ def main() -> int:
             states=args.states,
             min_neighbours=args.min_neighbours,
             max_neighbours=args.max_neighbours,
-            standing_pin=not args.no_standing_pin,
-            arm_spread_cap=args.arm_spread_cap,
-            shared_stance=args.shared_stance,
-            cycle_velocity_weight=args.cycle_velocity_weight,
             stride=args.stride,
-            travel_cycles=not args.no_travel_cycles,
         )
     except ValueError as error:
         parser.error(str(error))

@@ -53,6 +53,7 @@ from pathlib import Path
 import numpy as np
 
 from mse.motion.base.bvh import Motion
+from mse.motion.base.cycles import CycleKind, action_shape
 from mse.motion.base.library import MotionLibrary, load_library
 from mse.motion.hsmm import api
 from mse.motion.hsmm.features import FloatArray
@@ -164,7 +165,7 @@ class Source:
     clip: Motion  # that part of the take: the evaluated original, and the synthesis length
 
 
-def source(take: Motion, template: Template, cyclic: bool, start: int = 0, stop: int | None = None) -> Source:
+def source(take: Motion, template: Template, cyclic: CycleKind, start: int = 0, stop: int | None = None) -> Source:
     """The steps of ``take`` that lie inside frames ``[start, stop)``."""
     stop = take.frame_count if stop is None else stop
     inside = [s for s in api.segment_motion(take, template, cyclic) if s.start >= start and s.stop <= stop]
@@ -283,7 +284,7 @@ def evaluate(
     first = {s: library.motion(takes[s][0]) for s in styles}
     second = {s: library.motion(takes[s][-1]) for s in styles}  # take 001 again if alone
     template = build_template([library.motion(c) for c in clips])
-    cyclic = api.is_cyclic(action)
+    cyclic = action_shape([library.motion(c) for c in clips]).cycle
     held_out = all(len(takes[s]) > 1 for s in styles)
     # Folds: (where the data comes from, what the recognizer learns).  With two takes per
     # style both directions are run (2-fold cross-validation), else the single take plays
@@ -291,7 +292,7 @@ def evaluate(
     data_one = {s: source(first[s], template, cyclic) for s in styles}
     data_two = {s: source(second[s], template, cyclic) for s in styles}
     names = ("take 001", "take 002")
-    if not held_out and split and cyclic:
+    if not held_out and split and cyclic != "none":
         # Held out in time only: same performer and session, weaker than a second take.
         half = {s: first[s].frame_count // 2 for s in styles}
         data_one = {s: source(first[s], template, cyclic, 0, half[s]) for s in styles}

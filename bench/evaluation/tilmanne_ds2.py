@@ -53,7 +53,7 @@ def heldout_loglik(model: HsmmModel, motion: Motion) -> float:
     """Mean log-likelihood per frame of a take under ``model`` (its steps forced through
     the model's units, best state split of each step)."""
     instances, _ = api.clip_instances(
-        motion, model.style, model.template, model.cyclic, model.states, action=model.action
+        motion, model.style, model.template, model.cycle, model.states
     )
     total, frames = 0.0, 0
     for instance in instances:

@@ -14,9 +14,9 @@ from pathlib import Path
 
 import numpy as np
 
+from bench.evaluation.fidelity import body_of
 from mse.export.figures import project
 from mse.motion.base.bvh import Motion
-from mse.motion.base.fidelity import body_of
 
 CELL = (140, 200)  # pixels per frame
 MARGIN = 8

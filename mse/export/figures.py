@@ -159,8 +159,8 @@ def _read_bvh_positions(path: Path) -> tuple[float, tuple[str, ...], tuple[int, 
     is seen from the same side whichever way its performer faced."""
     # The motion layer's reader (raises MseError E100 itself), imported only when needed.
     from mse.diagnostics import MseError
+    from mse.motion.base.body_frame import body_of
     from mse.motion.base.bvh import read_bvh
-    from mse.motion.base.fidelity import body_of
 
     motion = read_bvh(path)
     skeleton = motion.skeleton

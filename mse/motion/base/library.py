@@ -38,6 +38,7 @@ from typing import Any
 from mse.diagnostics import Diagnostic, MseError, Span
 from mse.input_files import decode_utf8, read_input, read_json
 from mse.limits import MAX_CSV_FIELD
+from mse.motion.base import cache
 from mse.motion.base.bvh import Motion, read_bvh
 
 LIBRARY_FORMAT = "mse-motion-library/1"
@@ -114,17 +115,10 @@ class Clip:
     source: str
 
 
-_MOTION_CACHE: dict[tuple[str, int, int], Motion] = {}
-
-
 def _load_file(source: str) -> Motion:
     stat = os.stat(source)
     key = (os.path.abspath(source), stat.st_size, stat.st_mtime_ns)
-    motion = _MOTION_CACHE.get(key)
-    if motion is None:
-        motion = read_bvh(source)
-        _MOTION_CACHE[key] = motion
-    return motion
+    return cache.remembered(("motion", *key), lambda: read_bvh(source))
 
 
 @dataclass(frozen=True, eq=False)

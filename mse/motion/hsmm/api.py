@@ -19,6 +19,7 @@ from typing import ParamSpec, TypeVar
 import numpy as np
 
 from mse.motion.base.bvh import Motion
+from mse.motion.base.cycles import ActionShape, action_shape
 from mse.motion.hsmm.adapt import adapt_units, adaptive_training, auto_blocks, blocks_for
 from mse.motion.hsmm.carried import carried_profiles
 from mse.motion.hsmm.features import FloatArray
@@ -27,13 +28,11 @@ from mse.motion.hsmm.instances import (
     clip_instances,
     cycle_signal,
     gather_instances,
-    is_cyclic,
     segment_motion,
 )
 from mse.motion.hsmm.mlpg import global_variance
 from mse.motion.hsmm.model import HsmmModel, Instance, train_units, variance_floor
 from mse.motion.hsmm.prep import Template, build_template
-from mse.motion.hsmm.segment import HAND_CYCLE_ACTIONS, LOCOMOTION
 from mse.motion.hsmm.synth import synthesize as _synthesize
 
 __all__ = [
@@ -42,7 +41,6 @@ __all__ = [
     "adapt_model",
     "clip_instances",
     "cycle_signal",
-    "is_cyclic",
     "segment_motion",
     "synthesize",
     "train_average",
@@ -155,20 +153,21 @@ def _prepare(
     options: Options,
     segmentation: Segmentation,
     template: Template | None = None,
-) -> tuple[bool, Template, list[Instance], list[FloatArray], FloatArray, Options]:
-    """What both trainings start from: cyclic?, skeleton template, unit instances, static
-    features, the variance floor and the options with the states per unit."""
-    cyclic = is_cyclic(action)
+) -> tuple[ActionShape, Template, list[Instance], list[FloatArray], FloatArray, Options]:
+    """What both trainings start from: which limbs cycle (measured from the clips, never
+    from the action's name), skeleton template, unit instances, static features, the
+    variance floor and the options with the states per unit."""
+    shape = action_shape([m for m, _ in clips])
     if template is None:
         # Standing actions may spin a full turn: the root as swing-twist (prep.twist_features)
-        template = replace(build_template([m for m, _ in clips]), twisted_root=action not in LOCOMOTION)
+        template = replace(build_template([m for m, _ in clips]), twisted_root=not shape.travels)
     if segmentation is not None:
         lengths = [s.length for segments in segmentation if segments for s in segments]
     else:
         lengths = [m.frame_count for m, _ in clips]
-    options = replace(options, states=unit_states(cyclic, lengths, options))
-    instances, statics = gather_instances(clips, template, cyclic, options.states, segmentation, action)
-    return cyclic, template, instances, statics, variance_floor(instances), options
+    options = replace(options, states=unit_states(shape.cyclic, lengths, options))
+    instances, statics = gather_instances(clips, template, shape.cycle, options.states, segmentation)
+    return shape, template, instances, statics, variance_floor(instances), options
 
 
 @one_blas_thread
@@ -179,7 +178,8 @@ def train_average(
     segmentation: Segmentation = None,
 ) -> HsmmModel:
     """Average model over (motion, style) clips with style-adaptive training."""
-    cyclic, template, instances, statics, floor, options = _prepare(clips, action, options, segmentation)
+    shape, template, instances, statics, floor, options = _prepare(clips, action, options, segmentation)
+    cycle = shape.cycle
     blocks = blocks_for(template.feature_count, options.blocks)
     units, _ = adaptive_training(
         instances,
@@ -194,15 +194,21 @@ def train_average(
     return HsmmModel(
         action=action,
         style="average",
-        cyclic=cyclic,
+        cycle=cycle,
         units=units,
         template=template,
         gv_mean=gv_mean,
         gv_var=gv_var,
         variance_floor=floor,
         first_leg=_first_leg(instances),
-        info={"clips": len(clips), "styles": sorted({s for _, s in clips}), **asdict(options)},
-        carried=carried_profiles(units, instances) if action in LOCOMOTION else {},
+        info={
+            "clips": len(clips),
+            "styles": sorted({s for _, s in clips}),
+            "frames": int(np.median([m.frame_count for m, _ in clips])),
+            "period_s": shape.period_s,
+            **asdict(options),
+        },
+        carried=carried_profiles(units, instances) if cycle == "steps" else {},
     )
 
 
@@ -217,7 +223,8 @@ def train_scratch(
     """A style model trained on its own data only, without an average model (the bench's
     baseline). ``template``: the skeleton template and reference rotations to use (e.g. an
     average model's, so that both models describe the same features); default: its own."""
-    cyclic, template, instances, statics, floor, options = _prepare(clips, action, options, segmentation, template)
+    shape, template, instances, statics, floor, options = _prepare(clips, action, options, segmentation, template)
+    cycle = shape.cycle
     if options.soft_training:
         from mse.motion.hsmm.soft_training import train_units_soft
 
@@ -228,15 +235,21 @@ def train_scratch(
     return HsmmModel(
         action,
         clips[0][1],
-        cyclic,
+        cycle,
         units,
         template,
         gv_mean,
         gv_var,
         floor,
         _first_leg(instances),
-        info={"takes": len(clips), "trained_on": "style data only", **asdict(options)},
-        carried=carried_profiles(units, instances) if action in LOCOMOTION else {},
+        info={
+            "takes": len(clips),
+            "trained_on": "style data only",
+            "frames": int(np.median([m.frame_count for m, _ in clips])),
+            "period_s": shape.period_s,
+            **asdict(options),
+        },
+        carried=carried_profiles(units, instances) if cycle == "steps" else {},
     )
 
 
@@ -255,7 +268,7 @@ def adapt_model(
     """
     template = average.template
     instances, statics = gather_instances(
-        [(m, style) for m in motions], template, average.cyclic, average.states, segmentation, average.action
+        [(m, style) for m in motions], template, average.cycle, average.states, segmentation
     )
     # A style starts with the leg its takes start with: a walk started on the average model's
     # leg swayed the pelvis in the opposite phase, and its first frame (which measures side
@@ -268,7 +281,7 @@ def adapt_model(
     if kind == "auto":
         frames = sum(i.observations.shape[0] for i in instances)
         kind = auto_blocks(template.feature_count, frames)
-    own_root = options.root_block and average.action in LOCOMOTION
+    own_root = options.root_block and average.travels
     root = 3 * template.rotated.index(template.root_joint) if own_root else None
     blocks = blocks_for(template.feature_count, kind, root)
     units, _output, _ = adapt_units(
@@ -283,7 +296,7 @@ def adapt_model(
         soft=options.soft,
         regression_classes=options.regression_classes,
         unit_classes=options.unit_classes,
-        by_context=options.context_classes and average.action in HAND_CYCLE_ACTIONS,
+        by_context=options.context_classes and average.cycle == "hands",
     )
     target = np.array([global_variance(s) for s in statics])
     gv_mean = (options.gv_tau * average.gv_mean + target.sum(axis=0)) / (
@@ -306,6 +319,7 @@ def adapt_model(
             **dict(average.info),
             "adapted_from": average.style,
             "takes": len(motions),
+            "frames": int(np.median([m.frame_count for m in motions])),
             "adapt_blocks": kind,
         },
         carried=carried_profiles(units, instances, prior=average.carried) if average.carried else {},

@@ -11,15 +11,13 @@ from __future__ import annotations
 from collections.abc import Sequence
 
 from mse.motion.base.bvh import Motion
+from mse.motion.base.cycles import CycleKind
 from mse.motion.hsmm.carried import clip_carried
 from mse.motion.hsmm.features import FloatArray, observations
 from mse.motion.hsmm.model import Instance, uniform_bounds
 from mse.motion.hsmm.prep import Template, pose_positions, static_features
 from mse.motion.hsmm.segment import (
-    CYCLIC_ACTIONS,
-    HAND_CYCLE_ACTIONS,
     ONE_SHOT_UNIT,
-    SECOND_CONTEXT_ACTIONS,
     Segment,
     foot_separation,
     hand_sway,
@@ -31,20 +29,15 @@ __all__ = [
     "clip_instances",
     "cycle_signal",
     "gather_instances",
-    "is_cyclic",
     "segment_motion",
 ]
 
 
-def is_cyclic(action: str) -> bool:
-    return action in CYCLIC_ACTIONS
-
-
-def cycle_signal(statics: FloatArray, template: Template, action: str | None = None) -> FloatArray:
+def cycle_signal(statics: FloatArray, template: Template, cycle: CycleKind = "steps") -> FloatArray:
     """The signal whose alternating extrema cut a clip into units: the feet's forward
-    separation (steps), or for :data:`HAND_CYCLE_ACTIONS` the hands' sway."""
+    separation (steps), or for a hand cycle the hands' sway."""
     positions = pose_positions(statics, template)
-    if action in HAND_CYCLE_ACTIONS:
+    if cycle == "hands":
         from mse.motion.base.bodyparts import body_map
 
         body = body_map(template.skeleton)
@@ -52,12 +45,17 @@ def cycle_signal(statics: FloatArray, template: Template, action: str | None = N
     return foot_separation(positions, template.contacts)
 
 
-def segment_motion(motion: Motion, template: Template, cyclic: bool, action: str | None = None) -> list[Segment]:
-    """The unit segments of a complete clip (steps in context for cyclic actions; the hands'
-    swings for ``action`` in :data:`HAND_CYCLE_ACTIONS`)."""
+def _segments(frames: int, cycle: CycleKind, signal: FloatArray | None) -> list[Segment]:
+    return segment_clip(frames, cycle != "none", signal, second=cycle == "hands")
+
+
+def segment_motion(motion: Motion, template: Template, cycle: CycleKind) -> list[Segment]:
+    """The unit segments of a complete clip (steps in context, the hands' swings for a hand
+    cycle, one unit for a one-shot action)."""
     statics = static_features(motion, template)
-    separation = cycle_signal(statics, template, action) if cyclic else None
-    return segment_clip(statics.shape[0], cyclic, separation, second=action in SECOND_CONTEXT_ACTIONS)
+    cyclic = cycle != "none"
+    separation = cycle_signal(statics, template, cycle) if cyclic else None
+    return _segments(statics.shape[0], cycle, separation)
 
 
 #: Unit segments per clip, e.g. from a hand labelling or from :func:`segment_motion` on a
@@ -69,22 +67,22 @@ def clip_instances(
     motion: Motion,
     style: str,
     template: Template,
-    cyclic: bool,
+    cycle: CycleKind,
     states: int,
     segments: Sequence[Segment] | None = None,
-    action: str | None = None,
 ) -> tuple[list[Instance], FloatArray]:
     """Unit instances of one clip (equal state splits) and its static features.
 
     With ``segments`` (labelled frame ranges of the clip), only those frames are used and
-    the static features returned are those of the frames they span. ``action`` selects the
-    cycle signal (:func:`cycle_signal`) and whether flight phases are learnt (locomotion).
+    the static features returned are those of the frames they span. ``cycle`` selects the
+    cycle signal (:func:`cycle_signal`) and whether flight phases are learnt (steps).
     """
     statics = static_features(motion, template)
     obs = observations(statics)
+    cyclic = cycle != "none"
     if segments is None:
-        separation = cycle_signal(statics, template, action) if cyclic else None
-        segments = segment_clip(statics.shape[0], cyclic, separation, second=action in SECOND_CONTEXT_ACTIONS)
+        separation = cycle_signal(statics, template, cycle) if cyclic else None
+        segments = _segments(statics.shape[0], cycle, separation)
     elif segments:
         for segment in segments:
             if not 0 <= segment.start < segment.stop <= statics.shape[0]:
@@ -93,7 +91,7 @@ def clip_instances(
                     f"clip's {statics.shape[0]} frames"
                 )
         statics = statics[min(s.start for s in segments) : max(s.stop for s in segments)]
-    carried = clip_carried(motion, template) if cyclic and action not in HAND_CYCLE_ACTIONS else None
+    carried = clip_carried(motion, template) if cycle == "steps" else None
     instances = [
         Instance(
             s.unit,
@@ -111,10 +109,9 @@ def clip_instances(
 def gather_instances(
     clips: Sequence[tuple[Motion, str]],
     template: Template,
-    cyclic: bool,
+    cycle: CycleKind,
     states: int,
     segmentation: Segmentation = None,
-    action: str | None = None,
 ) -> tuple[list[Instance], list[FloatArray]]:
     """The unit instances of every clip and each clip's static features (clips without
     steps are dropped from a cyclic action's data)."""
@@ -124,10 +121,10 @@ def gather_instances(
         raise ValueError(f"{len(segmentation)} segmentations for {len(clips)} clips")
     for index, (motion, style) in enumerate(clips):
         segments = segmentation[index] if segmentation is not None else None
-        found, features = clip_instances(motion, style, template, cyclic, states, segments, action)
+        found, features = clip_instances(motion, style, template, cycle, states, segments)
         instances.extend(found)
         statics.append(features)
-    if cyclic and any(i.unit != ONE_SHOT_UNIT for i in instances):
+    if cycle != "none" and any(i.unit != ONE_SHOT_UNIT for i in instances):
         instances = [i for i in instances if i.unit != ONE_SHOT_UNIT]  # clips without steps
     if not instances:
         raise ValueError("no clip is long enough to train a model")

@@ -1,6 +1,8 @@
 """Model files: one ``.npz`` archive (no pickle) with a JSON header under the key ``meta``.
 
-Format ``mse-hsmm/7`` (the layout of ``/4``; wave models have a ``second`` unit, the
+Format ``mse-hsmm/8`` (``meta`` names which limbs carry the cycle, ``cycle``: steps, hands or
+none, measured from the clips; ``/7`` and before held ``cyclic`` only, and their cyclic models
+with flight profiles are steps, the others hands). ``/7``: the layout of ``/4``; wave models have a ``second`` unit, the
 return from the rise, whose adapted duration has a tempo of its own; ``/6`` adapted waves
 had regression classes by context, the rise and fall with per-joint static blocks; ``/5`` models have up to 500
 states per unit, and adapted locomotion models have the root joint's static rotation in a
@@ -22,7 +24,7 @@ import json
 import os
 import zipfile
 import zlib
-from typing import Any
+from typing import Any, cast
 
 import numpy as np
 
@@ -31,16 +33,17 @@ from mse.fileio import write_atomic
 from mse.input_files import read_input
 from mse.limits import MAX_FRAME_TIME, MAX_MODEL_BYTES, MAX_MOTION_SECONDS, MIN_FRAME_TIME
 from mse.motion.base.bvh import Skeleton
+from mse.motion.base.cycles import CycleKind
 from mse.motion.hsmm.model import HsmmModel, UnitModel
 from mse.motion.hsmm.prep import Template
 
-FORMAT = "mse-hsmm/7"
+FORMAT = "mse-hsmm/8"
 #: formats this version reads (``/2``: no flight profiles, feet always pinned; ``/2`` and
 #: ``/3``: no feet lift of the training clips, standing legs always stilled; ``/4`` and
 #: ``/5``: the same layout as ``/6``; ``/4`` trained with at most 60 states per unit and
 #: adapted with the root joint inside the stream-wide CMLLR blocks; ``/5`` adapted waves
 #: with leg classes; ``/6`` waves have no ``second`` unit and play ``inner`` there)
-READABLE_FORMATS = ("mse-hsmm/2", "mse-hsmm/3", "mse-hsmm/4", "mse-hsmm/5", "mse-hsmm/6", FORMAT)
+READABLE_FORMATS = ("mse-hsmm/2", "mse-hsmm/3", "mse-hsmm/4", "mse-hsmm/5", "mse-hsmm/6", "mse-hsmm/7", FORMAT)
 _UNIT_FIELDS = ("means", "variances", "duration_means", "duration_variances")
 
 
@@ -52,7 +55,7 @@ def model_bytes(model: HsmmModel) -> bytes:
         "format": FORMAT,
         "action": model.action,
         "style": model.style,
-        "cyclic": model.cyclic,
+        "cycle": model.cycle,
         "first_leg": model.first_leg,
         "units": sorted(model.units),
         "info": dict(model.info),
@@ -95,6 +98,19 @@ def model_bytes(model: HsmmModel) -> bytes:
 def save_model(path: str | os.PathLike[str], model: HsmmModel) -> None:
     """Write ``model`` atomically to ``path`` (the name is kept as given)."""
     write_atomic(path, model_bytes(model))
+
+
+def _cycle(meta: dict[str, Any], carried: bool) -> CycleKind:
+    """The model's cycle kind; formats before ``/8`` stored whether it cycles only (steps
+    carry the body: their units have ``carried`` profiles)."""
+    if "cycle" in meta:
+        cycle = str(meta["cycle"])
+        if cycle not in ("steps", "hands", "none"):
+            raise ValueError(f"unknown cycle kind {cycle!r}")
+        return cast(CycleKind, cycle)
+    if not meta.get("cyclic"):
+        return "none"
+    return "steps" if carried else "hands"
 
 
 def _error(path: str, message: str) -> MseError:
@@ -193,7 +209,7 @@ def load_model(path: str | os.PathLike[str]) -> HsmmModel:
         model = HsmmModel(
             action=str(meta["action"]),
             style=str(meta["style"]),
-            cyclic=bool(meta["cyclic"]),
+            cycle=_cycle(meta, any(f"unit:{u}:carried" in arrays for u in meta["units"])),
             units=units,
             template=template,
             gv_mean=np.asarray(arrays["gv_mean"], dtype=np.float64),

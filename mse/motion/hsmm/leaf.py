@@ -17,6 +17,7 @@ from pathlib import Path
 from mse import progress
 from mse.diagnostics import Diagnostic, MseError, Span
 from mse.fileio import user_cache_dir
+from mse.motion.base import cache
 from mse.motion.base.bvh import Motion
 from mse.motion.base.library import MotionLibrary, load_library
 from mse.motion.hsmm.api import Options, adapt_model, train_average, train_scratch
@@ -87,17 +88,17 @@ def adapt_from_library(
     return adapt_model(average, motions, style, options)
 
 
-_MODELS: dict[str, HsmmModel] = {}
-
-
 def default_cache_dir() -> Path:
     return user_cache_dir("hsmm")
 
 
 def _cached(key: str, cache_dir: Path | None, build: Callable[[], HsmmModel]) -> HsmmModel:
-    """The model for ``key`` from memory, then disk, else ``build()`` (and store it)."""
-    if key in _MODELS:
-        return _MODELS[key]
+    """The model for ``key`` from memory (:mod:`mse.motion.base.cache`), then disk, else
+    ``build()`` (and store it)."""
+    return cache.remembered(("hsmm", key), lambda: _from_disk(key, cache_dir, build))
+
+
+def _from_disk(key: str, cache_dir: Path | None, build: Callable[[], HsmmModel]) -> HsmmModel:
     path = cache_dir / f"{key}.npz" if cache_dir is not None else None
     model: HsmmModel | None = None
     if path is not None and path.is_file():
@@ -111,7 +112,6 @@ def _cached(key: str, cache_dir: Path | None, build: Callable[[], HsmmModel]) ->
             # The cache is an optimisation: a read-only disk must not fail a leaf.
             with contextlib.suppress(OSError):
                 save_model(path, model)
-    _MODELS[key] = model
     return model
 
 

@@ -19,6 +19,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from mse.motion.base.cycles import CycleKind
 from mse.motion.hsmm.features import FloatArray
 from mse.motion.hsmm.prep import Template
 
@@ -48,7 +49,9 @@ class HsmmModel:
 
     action: str
     style: str
-    cyclic: bool
+    #: which limbs carry the action's cycle, measured from its clips
+    #: (:func:`mse.motion.base.cycles.action_shape`; "steps": the action travels)
+    cycle: CycleKind
     units: Mapping[str, UnitModel]
     template: Template
     gv_mean: FloatArray  # (D,) global variance of the statics, per dimension
@@ -59,6 +62,14 @@ class HsmmModel:
     #: per unit, (S, 4) how each state carries the body: root velocity along X and Z in the
     #: aligned frame, foot lift, support (flight phases of runs; empty: feet always pinned)
     carried: Mapping[str, FloatArray] = field(default_factory=dict)
+
+    @property
+    def cyclic(self) -> bool:
+        return self.cycle != "none"
+
+    @property
+    def travels(self) -> bool:
+        return self.cycle == "steps"
 
     @property
     def states(self) -> int:

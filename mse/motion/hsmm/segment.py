@@ -16,30 +16,24 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from mse.extras import require
+from mse.motion.base.cycles import detrended_sway, step_boundaries
 from mse.motion.hsmm.features import FloatArray
 
-#: Actions modelled as cycles of steps (Bandai dataset 1 contents).
-LOCOMOTION = frozenset({"walk", "run", "dash", "walk-back", "walk-left", "walk-right"})
-#: Actions done standing but made of repeated half-cycles of the hands (Bandai dataset 2's
-#: wave): one unit per swing of the hands from one side to the other, cut at the turns of
-#: :func:`hand_sway` as steps are cut at heel strikes. As one ``whole`` unit, the takes'
-#: waves (3-12 swings, in different phases) were averaged state by state into a blur: the
-#: generated waves of three styles swung 3.4-5.2 cm where the real ones swing 5.5-50.
-HAND_CYCLE_ACTIONS = frozenset({"wave-both-hands"})
-#: Actions whose unit after the first is a context of its own, ``second`` (HTS gives a
-#: unit's duration the context of its neighbours). A wave's first unit raises the hands
-#: to a turn of the sway, often flared outward, and the next one comes back from that
-#: turn: in Bandai dataset 2 it lasts 9-11 frames in all six feminine takes, where the
-#: feminine ``inner`` units last 5-166 (holds with 1-2 cm ripples). Labelled ``inner``,
-#: the return shared one duration distribution with the holds, and the adapted feminine
-#: wave came back from its flare in about 25 frames where the take takes 10.
-SECOND_CONTEXT_ACTIONS = HAND_CYCLE_ACTIONS
-#: Actions modelled as cycles of units; the others are one-shot (one unit ``whole``).
-CYCLIC_ACTIONS = LOCOMOTION | HAND_CYCLE_ACTIONS
+#: Which actions cycle and by which limbs is measured from their clips
+#: (:func:`mse.motion.base.cycles.action_shape`). Hand cycles (waves) are cut into one unit per
+#: swing of the hands from one side to the other, at the turns of :func:`hand_sway`, as steps
+#: are cut at heel strikes. As one ``whole`` unit, the takes' waves (3-12 swings, in different
+#: phases) were averaged state by state into a blur: the generated waves of three styles swung
+#: 3.4-5.2 cm where the real ones swing 5.5-50.
+#:
+#: A hand cycle's unit after the first is a context of its own, ``second`` (HTS gives a unit's
+#: duration the context of its neighbours). A wave's first unit raises the hands to a turn of
+#: the sway, often flared outward, and the next one comes back from that turn: in Bandai
+#: dataset 2 it lasts 9-11 frames in all six feminine takes, where the feminine ``inner`` units
+#: last 5-166 (holds with 1-2 cm ripples). Labelled ``inner``, the return shared one duration
+#: distribution with the holds, and the adapted feminine wave came back from its flare in about
+#: 25 frames where the take takes 10.
 ONE_SHOT_UNIT = "whole"
-#: the hands' side-to-side position is detrended by its moving average over this long (s)
-SWAY_DETREND_S = 1.0
 
 
 @dataclass(frozen=True, slots=True)
@@ -67,46 +61,9 @@ def foot_separation(
 
 def hand_sway(positions: FloatArray, hands: tuple[int, int], chest: int, frame_time: float) -> FloatArray:
     """Side-to-side (X, after alignment) position of the hand that sways most, against the
-    chest, minus its moving average over :data:`SWAY_DETREND_S` (raising and lowering the
-    arms is not a swing): its alternating extrema are the turns of a wave."""
-    relative = positions[:, list(hands), 0] - positions[:, [chest], 0]
-    window = max(3, round(SWAY_DETREND_S / frame_time) | 1)
-    kernel = np.ones(window) / window
-    detrended = np.empty_like(relative)
-    for k in range(relative.shape[1]):
-        padded = np.pad(relative[:, k], (window // 2, window // 2), mode="edge")
-        detrended[:, k] = relative[:, k] - np.convolve(padded, kernel, mode="valid")
-    result: FloatArray = detrended[:, int(np.argmax(detrended.std(axis=0)))]
-    return result
-
-
-def step_boundaries(separation: FloatArray, min_gap: int) -> list[int]:
-    """Frames of alternating extrema of the foot separation (heel strikes)."""
-    with require("motion"):
-        from scipy.signal import find_peaks
-
-    x = np.asarray(separation, dtype=np.float64)
-    if x.size < 3:
-        return []
-    centred = x - np.median(x)
-    amplitude = float(np.percentile(np.abs(centred), 90))
-    if amplitude <= 1e-9:
-        return []
-    prominence = 0.5 * amplitude
-    front, _ = find_peaks(centred, distance=min_gap, prominence=prominence)
-    back, _ = find_peaks(-centred, distance=min_gap, prominence=prominence)
-    events = sorted([(int(i), 1) for i in front] + [(int(i), -1) for i in back])
-    strikes: list[tuple[int, int]] = []
-    for frame, side in events:
-        if centred[frame] * side < 0.3 * amplitude:
-            continue  # an extremum on the wrong side of the median is not a strike
-        if strikes and strikes[-1][1] == side:
-            # Two strikes of the same foot in a row: keep the larger one.
-            if abs(centred[frame]) > abs(centred[strikes[-1][0]]):
-                strikes[-1] = (frame, side)
-            continue
-        strikes.append((frame, side))
-    return [frame for frame, _ in strikes]
+    chest, detrended (:func:`mse.motion.base.cycles.detrended_sway`): its alternating extrema
+    are the turns of a wave."""
+    return detrended_sway(positions[:, list(hands), 0] - positions[:, [chest], 0], frame_time)
 
 
 def segment_clip(
@@ -120,7 +77,7 @@ def segment_clip(
     """Unit instances covering ``[0, frames)``; every instance has at least ``min_unit`` frames.
 
     ``second``: the unit after the first, unless it is the last, has the context ``second``
-    instead of ``inner`` (see :data:`SECOND_CONTEXT_ACTIONS`).
+    instead of ``inner`` (hand cycles; see the comment on :data:`ONE_SHOT_UNIT`).
     """
     if not cyclic or separation is None:
         return [Segment(ONE_SHOT_UNIT, 0, frames)]

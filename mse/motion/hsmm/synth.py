@@ -21,12 +21,13 @@ from mse.motion.base.bvh import Motion
 from mse.motion.base.contacts import root_track
 from mse.motion.base.filters import zero_phase_lowpass
 from mse.motion.base.kinematics import forward_kinematics, matrix_to_euler
+from mse.motion.base.loop import held, looped
 from mse.motion.hsmm.carried import carried_track, smooth_carried
 from mse.motion.hsmm.features import FloatArray
 from mse.motion.hsmm.mlpg import generate_with_gv, mlpg
 from mse.motion.hsmm.model import HsmmModel, UnitModel
 from mse.motion.hsmm.prep import Template, local_rotations_from_features
-from mse.motion.hsmm.segment import HAND_CYCLE_ACTIONS, LOCOMOTION, ONE_SHOT_UNIT
+from mse.motion.hsmm.segment import ONE_SHOT_UNIT
 
 
 def _other(leg: str) -> str:
@@ -46,7 +47,7 @@ def plan_units(model: HsmmModel, steps: int | None = None, frames: int | None = 
         steps = 2 + max(0, round((total - first - last) / max(inner, 1.0)))
     steps = max(2, steps)
     names = [f"first-{leg}"]
-    # Waves' unit after the first has a context of its own (segment.SECOND_CONTEXT_ACTIONS).
+    # Hand cycles' unit after the first has a context of its own (see segment.ONE_SHOT_UNIT).
     second = any(name.startswith("second-") for name in model.units)
     for index in range(steps - 2):
         leg = _other(leg)
@@ -129,7 +130,7 @@ def generate(
     if not gv:
         return mlpg(mean_seq, var_seq), carried
     statics = generate_with_gv(mean_seq, var_seq, model.gv_mean, model.gv_var)
-    if ROOT_WITHOUT_GV and model.action in LOCOMOTION:
+    if ROOT_WITHOUT_GV and model.travels:
         # Every static dimension is independent in MLPG and GV (diagonal covariances), so
         # the root joint's columns can be generated without GV on their own.
         columns = _root_columns(model.template)
@@ -225,7 +226,7 @@ def statics_to_motion(statics: FloatArray, model: HsmmModel, carried: FloatArray
     # through the pinned feet it reaches the whole body: Bandai dataset 2 walks had head and
     # wrist jerk 2.3-2.6x the real walks' (limit 2x); at 6 Hz 0.8-1.2x, speed and stride kept.
     statics = zero_phase_lowpass(statics, template.frame_time, OUTPUT_CUTOFF_HZ)
-    standing = model.action not in LOCOMOTION  # one-shot actions and hand cycles (waves)
+    standing = not model.travels  # one-shot actions and hand cycles (waves)
     if standing and template.feet_lift <= ACTING_LEGS_LIFT:
         statics = still_legs(statics, template)
     rotations = local_rotations_from_features(statics, template)
@@ -255,6 +256,16 @@ def statics_to_motion(statics: FloatArray, model: HsmmModel, carried: FloatArray
     return Motion(skeleton, template.frame_time, values)
 
 
+#: a cycle requested this much longer than its clips repeats, a one-shot action rests (base.loop)
+LOOP_RATIO = 1.3
+
+
+def _natural_frames(model: HsmmModel) -> int:
+    """The median length of the clips the model was trained or adapted on (0: unknown)."""
+    value = model.info.get("frames")
+    return int(value) if isinstance(value, int | float) and value > 0 else 0
+
+
 def synthesize(
     model: HsmmModel,
     steps: int | None = None,
@@ -280,8 +291,23 @@ def synthesize(
     while len(names) > 1 and requested < model.states * len(names):
         names = names[:-2] + names[-1:] if len(names) > 2 else names[:1]
     frames = max(requested, model.states)
-    # Hand cycles (waves) skip GV: see HAND_CYCLE_ACTIONS in segment.py
-    statics, carried = generate(model, names, frames, gv=gv and model.action not in HAND_CYCLE_ACTIONS, seed=seed)
+    natural = _natural_frames(model)
+    if model.cycle == "hands" and natural and frames >= LOOP_RATIO * natural:
+        # a hand cycle longer than its clips: generated at their length, its swings repeated
+        # at their tempo (base.loop): planned for the whole length, the units between the
+        # rise and the fall were the holds between a feminine wave's swings, and the wave's
+        # amplitude fell from 5.9 cm at the takes' length to 3.3 at 3x (real 7.2-8.2)
+        names = plan_units(model, frames=natural)
+        statics, _ = generate(model, names, natural, gv=False, seed=seed)
+        period = model.info.get("period_s", 0.0)
+        period_s = float(period) if isinstance(period, int | float) else 0.0
+        return statics_to_motion(looped(statics, frames, frame_time, period_s=period_s), model)
+    if not model.cyclic and natural and frames >= LOOP_RATIO * natural:
+        # a one-shot action longer than its clips: at their tempo, then at rest (base.loop)
+        statics, _ = generate(model, names, natural, gv=gv, seed=seed)
+        return statics_to_motion(held(statics, frames), model)
+    # Hand cycles (waves) skip GV: each swing is a unit of its own, and GV widened them
+    statics, carried = generate(model, names, frames, gv=gv and model.cycle != "hands", seed=seed)
     if frames != requested:  # fewer frames than states: sample the trajectory evenly
         kept = np.round(np.linspace(0, frames - 1, requested)).astype(np.int64)
         statics = statics[kept]

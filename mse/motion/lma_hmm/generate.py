@@ -31,12 +31,12 @@ Waves (neighbours that stand and cycle): the phase space also holds the velocity
 where the decoding sat in one state are played, and changes of state the neighbours never
 make bridged, by the neighbours' own sequences, the cut-off is at most twice their cycle rate,
 and a standing body pins its lowest foot point without the stance hysteresis
-(``GenerationParams.velocity`` and ``standing_pin``; docs/motion.md, "Generation", step 11);
+(``GenerationParams.velocity``; docs/motion.md, "Generation", step 11);
 standing neighbours that cycle by their velocity only (slow, small feminine waves) are
-judged so and treated as waves (``cycle_velocity_weight``).
+judged so and treated as waves (``standing.CYCLE_VELOCITY_WEIGHT``).
 Any standing body (:mod:`mse.motion.lma_hmm.standing`) has its arms' spread widened towards
-the neighbours' (``arm_spread_cap``) and lands its hops on the floor; ``shared_stance``
-gives its neighbours one leg posture.
+the neighbours' (``standing.ARM_SPREAD_CAP``) and lands its hops on the floor, and its
+neighbours share one leg posture (``standing.shared_stance``).
 
 Steps 1-5 are cached per (library fingerprint, action, style, desired clip, parameters) in
 memory and, when ``cache_dir`` is given, on disk (:mod:`mse.motion.lma_hmm.modulated`), so a leaf
@@ -57,11 +57,14 @@ from pathlib import Path
 
 import numpy as np
 
+from mse.motion.base import cache
 from mse.motion.base.bvh import Motion
 from mse.motion.base.contacts import STANCE_HYSTERESIS, contact_height, ground, support
+from mse.motion.base.cycles import ActionShape, action_shape, leg_length
 from mse.motion.base.heading import heading
 from mse.motion.base.kinematics import FloatArray
 from mse.motion.base.library import Clip, MotionLibrary, MotionUnavailable
+from mse.motion.base.loop import EDGE_SHARE, held, looped
 from mse.motion.lma_hmm.hmm import (
     decode,
     encode,
@@ -82,19 +85,19 @@ from mse.motion.lma_hmm.modulated import (
     save,
     time_warp,
 )
-from mse.motion.lma_hmm.neighbours import POSES, facing_motion, find_neighbours, pick_desired, pose_of
+from mse.motion.lma_hmm.neighbours import facing_motion, find_neighbours, pick_desired, pose_of
 from mse.motion.lma_hmm.params import GenerationParams
 from mse.motion.lma_hmm.pose import PhaseSpace, phase_space, with_velocity
 from mse.motion.lma_hmm.standing import (
+    ARM_SPREAD_CAP,
+    CYCLE_VELOCITY_WEIGHT,
     arm_variance,
     cycle_rate,
     cycles_by_velocity,
     expected_variance,
     landed_support,
-    leg_length,
     shared_stance,
     stands,
-    steady_legs,
 )
 from mse.motion.lma_hmm.stride import restore_stride, travels
 from mse.motion.lma_hmm.timing import retimed, state_aligned_frames
@@ -115,14 +118,6 @@ class Generated:
     cyclic: bool = False
 
 
-_CACHE: dict[str, Modulated] = {}
-
-
-def clear_cache() -> None:
-    _CACHE.clear()
-    POSES.clear()
-
-
 def _modulate(
     library: MotionLibrary,
     action: str,
@@ -135,7 +130,8 @@ def _modulate(
     timings: dict[str, float] = {"lma": 0.0, "rmlr": 0.0, "nn_search": 0.0}
     desired = library.motion(desired_clip)
     if style == desired_clip.style and original == style:
-        return _own_style(desired_clip.id, desired, pose_of(library, desired_clip), params, timings)
+        shape = action_shape_of(library, action)
+        return _own_style(desired_clip.id, desired, pose_of(library, desired_clip), params, timings, shape)
     neighbours, components = find_neighbours(library, action, style, desired_clip, original, params, exclude, timings)
     # the neighbours turned to face the desired path's way (their room directions differ)
     facing = heading(desired)
@@ -172,14 +168,14 @@ def _modulate(
             n_iter=params.n_iter,
             decide_on=len(phases),
         )
-    elif dynamic and params.topology == "auto" and params.cycle_velocity_weight > 0:
+    elif dynamic and params.topology == "auto":
         # a slow, small wave (feminine) cycles by its velocity only (standing.cycles_by_velocity)
         found = cycles_by_velocity(
-            phases, desired_phase, copies, params.states, params.n_iter, params.cycle_velocity_weight
+            phases, desired_phase, copies, params.states, params.n_iter, CYCLE_VELOCITY_WEIGHT
         )
         if found is not None:
             trained, phases, desired_phase = found
-    if params.shared_stance and stands(carried, encoding.skeleton):
+    if stands(carried, encoding.skeleton):
         rotations = shared_stance(rotations, encoding)
     timings["hmm_fit"] = time.perf_counter() - clock
 
@@ -198,7 +194,7 @@ def _modulate(
     if retime:
         # travelling neighbours (walks, runs): a change of state they never make is bridged
         # too (stride.py: the desired path's start turned the legs back, a jolt of the root)
-        bridge = trained.cyclic and (dynamic or (params.travel_cycles and travelling))
+        bridge = trained.cyclic and (dynamic or travelling)
         states = retimed(states, labels, refill_stuck=dynamic and trained.cyclic, bridge=bridge)
     if params.regenerate == "frames":
         frames = state_aligned_frames(states, means, rotations, labels)
@@ -214,9 +210,9 @@ def _modulate(
         # at 3 Hz 24,100, amplitude 31.2 -> 30.9 cm): up to twice the neighbours' cycle rate
         hz = min(hz, max(params.cutoff_hz, 2.0 * cycle_rate(labels, desired.frame_time)))
     path = smooth(raw, desired.frame_time, hz)
-    if params.arm_spread_cap > 1.0 and stands(carried, encoding.skeleton):
+    if stands(carried, encoding.skeleton):
         target = expected_variance(trained, phases + [desired_phase] * copies, training_rotations, states)
-        path, means = arm_variance(path, means, encoding, target, params.arm_spread_cap)
+        path, means = arm_variance(path, means, encoding, target, ARM_SPREAD_CAP)
     timings["filter"] = time.perf_counter() - clock
     return Modulated(
         encoding,
@@ -231,6 +227,22 @@ def _modulate(
         means,
         tuple(labels),
         params.cutoff_hz,
+        action_shape_of(library, action),
+    )
+
+
+#: clips per action measured by :func:`action_shape_of` (spread over the action's clips)
+SHAPE_CLIPS = 12
+
+
+def action_shape_of(library: MotionLibrary, action: str) -> ActionShape:
+    """What ``action``'s clips do (:func:`mse.motion.base.cycles.action_shape`, on at most
+    :data:`SHAPE_CLIPS` of them, spread evenly; cached)."""
+    clips = library.select(action)
+    chosen = clips[:: max(1, len(clips) // SHAPE_CLIPS)][:SHAPE_CLIPS]
+    return cache.remembered(
+        ("shape", library.content_hash, tuple(c.id for c in chosen)),
+        lambda: action_shape([library.motion(c) for c in chosen]),
     )
 
 
@@ -244,7 +256,12 @@ def _travels(modulated: Modulated) -> bool:
 
 
 def _own_style(
-    clip_id: str, desired: Motion, pose: FloatArray, params: GenerationParams, timings: dict[str, float]
+    clip_id: str,
+    desired: Motion,
+    pose: FloatArray,
+    params: GenerationParams,
+    timings: dict[str, float],
+    shape: ActionShape,
 ) -> Modulated:
     """The desired path in its own style: played as it is. The paper converts between
     styles; regenerating a clip in its own style through 12 state means only loses detail
@@ -273,6 +290,7 @@ def _own_style(
         means,
         (states.astype(np.int_),),
         params.cutoff_hz,
+        shape,
     )
 
 
@@ -307,41 +325,56 @@ def generate_motion(
     original = original_style or desired_clip.style
     excluded = set(exclude)
     key = _key(library, action, style, desired_clip.id, original, params, excluded)
-    modulated = _CACHE.get(key)
-    cached = modulated is not None
     disk = Path(cache_dir) / f"{key}.npz" if cache_dir is not None else None
-    if modulated is None and disk is not None and disk.is_file():
-        modulated = load(disk)
-        cached = modulated is not None
-    if modulated is None:
-        modulated = _modulate(library, action, style, desired_clip, original, params, excluded)
-        if disk is not None:
-            with contextlib.suppress(OSError):  # the cache is an optimisation only
-                save(disk, modulated)
-    _CACHE[key] = modulated
+    built: list[bool] = []
+
+    def build() -> Modulated:
+        found = load(disk) if disk is not None and disk.is_file() else None
+        if found is None:
+            found = _modulate(library, action, style, desired_clip, original, params, excluded)
+            built.append(True)
+            if disk is not None:
+                with contextlib.suppress(OSError):  # the cache is an optimisation only
+                    save(disk, found)
+        return found
+
+    modulated = cache.remembered(("modulated", key), build)
+    cached = not built
     path, frame_time = modulated.path, modulated.frame_time
     own_style = modulated.neighbours == (desired_clip.id,) and not modulated.components
     # a travelling cycle shorter than the clip takes more steps rather than slower ones (not
     # an own-style copy: continued through its state means, a normal punch lost its reach)
-    continued = params.travel_cycles and modulated.cyclic and not own_style and _travels(modulated)
+    continued = modulated.cyclic and not own_style and _travels(modulated)
     loop = 1.0 if continued else LOOP_RATIO
+    played = len(path) * frame_time
     if duration is not None:
-        path = path_for(modulated, round(duration / frame_time), loop)
+        wanted = round(duration / frame_time)
+        shape = modulated.shape
+        if shape.cyclic or wanted < LOOP_RATIO * len(path):
+            # (an action that does not cycle, measured on its clips, is not continued through
+            # its state means even when its path's HMM cycles: a normal punch lost its reach)
+            path = path_for(modulated, wanted, loop)
+        if wanted >= LOOP_RATIO * len(path) and shape.cyclic:
+            # the action cycles (measured on its clips) but the path was not continued (an
+            # own-style copy, or neighbours the HMM did not judge cyclic): its cycles repeat at
+            # their tempo (base.loop) rather than slow down (Bandai dataset 1 normal run at 2x
+            # its length: 1.25 steps/s and 121 cm/s, the take 2.73 and 261)
+            path = looped(path, wanted, frame_time, 0.0 if shape.travels else EDGE_SHARE, shape.period_s)
+        elif wanted >= LOOP_RATIO * len(path):
+            path = held(path, wanted)  # at its own tempo, then at rest (base.loop)
+        played = len(path) * frame_time
         path, frame_time = time_warp(path, frame_time, duration)
     encoding = modulated.encoding
-    if params.standing_legs_hz > 0 and not own_style and path.shape[1] == encoding.dimension + CARRIED:
-        path = steady_legs(path, encoding, frame_time, params.standing_legs_hz)
     motion = Motion(encoding.skeleton, frame_time, decode(encoding, path))
     carried = path[:, encoding.dimension :].copy()
     if carried.shape[1] == CARRIED and duration is not None:
         # the path was played slower or faster than its neighbours: so is the carried speed
-        played = len(path_for(modulated, round(duration / modulated.frame_time), loop)) * modulated.frame_time
         carried[:, :2] *= played / max(duration, 1e-9)
     # a standing body pins whichever foot point is lowest, without the walks' hysteresis (as
     # the HSMM method does): with both feet on the floor, the hysteresis kept the left toes
     # pinned while the right ones, 0.04 cm lower, slid with the legs' state means (dataset 2
     # feminine waves, fold 1: foot slip 1.0-1.5 cm/s, limit 0.9)
-    standing = carried.shape[1] == CARRIED and params.standing_pin and stands([carried], encoding.skeleton)
+    standing = carried.shape[1] == CARRIED and stands([carried], encoding.skeleton)
     if standing:
         carried = landed_support(carried)
     motion = ground(

@@ -43,6 +43,7 @@ import warnings
 from collections.abc import Iterator, Sequence
 from contextlib import contextmanager
 from dataclasses import dataclass
+from typing import Literal, get_args
 
 import numpy as np
 import numpy.typing as npt
@@ -52,7 +53,10 @@ from mse.motion.base.bvh import Motion, Skeleton
 from mse.motion.base.filters import zero_phase_lowpass
 from mse.motion.base.kinematics import FloatArray, matrix_to_euler, mean_rotation, rotation_exp, rotation_log
 
-TOPOLOGIES = ("auto", "full", "left-to-right")
+#: the HMM's topology: "auto" (fully connected when the neighbours cycle, else
+#: left-to-right), "full" (the paper's), "left-to-right"
+Topology = Literal["auto", "full", "left-to-right"]
+TOPOLOGIES: tuple[Topology, ...] = get_args(Topology)
 #: neighbours whose Viterbi paths have at least this many runs per visited state cycle
 #: (Bandai clips decoded by their own 12-state model: bows 1.0-2.2, guide 1.1-2.0, raising
 #: both hands 1.1-1.9; walks 4.6-12.9, runs 2.5-6.1, waving both hands 2.3-9.7)
@@ -284,7 +288,7 @@ def train_hmm(
     sequences: Sequence[FloatArray],
     states: int,
     *,
-    topology: str = "auto",
+    topology: Topology = "auto",
     n_iter: int = 10,
     seed: int = 0,
     decide_on: int | None = None,

@@ -21,6 +21,7 @@ import numpy.typing as npt
 
 from mse.fileio import write_atomic
 from mse.motion.base.bvh import Skeleton
+from mse.motion.base.cycles import ActionShape
 from mse.motion.base.kinematics import FloatArray
 from mse.motion.lma_hmm.hmm import Encoding, smooth, state_path
 from mse.motion.lma_hmm.timing import resample
@@ -29,7 +30,7 @@ from mse.motion.lma_hmm.timing import resample
 CARRIED = 4
 #: a cyclic path is continued rather than slowed when the clip is this much longer than it
 LOOP_RATIO = 1.3
-DISK_FORMAT = "mse-lma-hmm-path/11"
+DISK_FORMAT = "mse-lma-hmm-path/12"
 
 
 @dataclass(frozen=True, eq=False)
@@ -48,6 +49,9 @@ class Modulated:
     means: FloatArray  # (states, dims) the states' mean rotations
     labels: tuple[npt.NDArray[np.int_], ...]  # the neighbours' Viterbi states
     cutoff_hz: float
+    #: what the action's clips do (:func:`mse.motion.lma_hmm.generate.action_shape_of`): a
+    #: cycling action requested longer than its path repeats its cycles (base.loop)
+    shape: ActionShape
 
 
 def continue_cycle(
@@ -117,6 +121,13 @@ def time_warp(values: FloatArray, frame_time: float, duration: float) -> tuple[F
     return resample(values, frames), duration / frames
 
 
+def _shape(stored: list[object]) -> ActionShape:
+    travels, cycle, period = stored
+    if cycle not in ("steps", "hands", "none") or not isinstance(period, int | float):
+        raise ValueError(f"bad action shape {stored!r}")
+    return ActionShape(bool(travels), cycle, float(period))
+
+
 def save(path: Path, modulated: Modulated) -> None:
     skeleton = modulated.encoding.skeleton
     meta = {
@@ -133,6 +144,7 @@ def save(path: Path, modulated: Modulated) -> None:
         "cyclic": modulated.cyclic,
         "timings": modulated.timings,
         "cutoff_hz": modulated.cutoff_hz,
+        "shape": [modulated.shape.travels, modulated.shape.cycle, modulated.shape.period_s],
     }
     buffer = io.BytesIO()
     np.savez_compressed(
@@ -189,6 +201,7 @@ def load(path: Path) -> Modulated | None:
                 if len(archive["label_lengths"])
                 else (),
                 float(meta["cutoff_hz"]),
+                _shape(meta["shape"]),
             )
     except (OSError, ValueError, KeyError, TypeError, IndexError):
         return None  # a stale or broken cache entry: regenerate

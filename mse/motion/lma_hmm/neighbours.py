@@ -6,6 +6,7 @@ from __future__ import annotations
 import time
 
 from mse.diagnostics import Diagnostic, MseError, Span
+from mse.motion.base import cache
 from mse.motion.base.bvh import Motion
 from mse.motion.base.heading import heading, turned
 from mse.motion.base.kinematics import FloatArray
@@ -14,9 +15,6 @@ from mse.motion.base.lma import FEATURE_NAMES
 from mse.motion.lma_hmm.params import GenerationParams
 from mse.motion.lma_hmm.pose import pose_features
 from mse.motion.lma_hmm.search import clip_features, feature_table, nearest_neighbours, saliency_for
-
-#: pose features per (library content, clip id)
-POSES: dict[tuple[str, str], FloatArray] = {}
 
 
 def pick_desired(library: MotionLibrary, action: str, clip_id: str | None) -> Clip:
@@ -45,12 +43,7 @@ def facing_motion(library: MotionLibrary, clip: Clip, facing: float) -> Motion:
 
 
 def pose_of(library: MotionLibrary, clip: Clip) -> FloatArray:
-    key = (library.content_hash, clip.id)
-    features = POSES.get(key)
-    if features is None:
-        features = pose_features(library.motion(clip))
-        POSES[key] = features
-    return features
+    return cache.remembered(("pose", library.content_hash, clip.id), lambda: pose_features(library.motion(clip)))
 
 
 def find_neighbours(

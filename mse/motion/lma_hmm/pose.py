@@ -21,8 +21,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from mse.motion.base.body_frame import body_of
 from mse.motion.base.bvh import Motion, Skeleton
-from mse.motion.base.fidelity import body_of
 from mse.motion.base.kinematics import FloatArray
 
 MAX_COMPONENTS = 8

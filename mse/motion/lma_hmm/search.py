@@ -24,6 +24,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from mse.extras import require
+from mse.motion.base import cache
 from mse.motion.base.kinematics import FloatArray
 from mse.motion.base.library import Clip, MotionLibrary
 from mse.motion.base.lma import FEATURE_NAMES, lma_features
@@ -32,18 +33,13 @@ MIN_SEARCH_DIMENSIONS = 3
 L1_RATIOS = (0.5, 1.0)
 C_GRID = (0.1, 0.5, 2.0, 8.0)
 EPSILON_FRACTION = 0.1
-_FEATURE_CACHE: dict[tuple[str, str], FloatArray] = {}
-_RMLR_CACHE: dict[tuple[str, tuple[str, ...]], Saliency] = {}
 
 
 def clip_features(library: MotionLibrary, clip: Clip) -> FloatArray:
     """The raw LMA vector of a clip (cached per library fingerprint and clip id)."""
-    key = (library.content_hash, clip.id)
-    vector = _FEATURE_CACHE.get(key)
-    if vector is None:
-        vector = lma_features(library.motion(clip), path=clip.source).vector()
-        _FEATURE_CACHE[key] = vector
-    return vector
+    return cache.remembered(
+        ("lma", library.content_hash, clip.id), lambda: lma_features(library.motion(clip), path=clip.source).vector()
+    )
 
 
 def feature_table(library: MotionLibrary, clips: Sequence[Clip]) -> FloatArray:
@@ -145,12 +141,10 @@ def fit_rmlr(raw: FloatArray, labels: Sequence[str], *, seed: int = 0) -> Salien
 
 def saliency_for(library: MotionLibrary, clips: Sequence[Clip]) -> Saliency:
     """RMLR over ``clips`` (cached per library fingerprint and clip set)."""
-    key = (library.content_hash, tuple(c.id for c in clips))
-    cached = _RMLR_CACHE.get(key)
-    if cached is None:
-        cached = fit_rmlr(feature_table(library, clips), [c.style for c in clips])
-        _RMLR_CACHE[key] = cached
-    return cached
+    return cache.remembered(
+        ("rmlr", library.content_hash, tuple(c.id for c in clips)),
+        lambda: fit_rmlr(feature_table(library, clips), [c.style for c in clips]),
+    )
 
 
 def nearest_neighbours(

@@ -3,12 +3,10 @@
 Waves, byes, bows and raised hands are performed in place. :func:`stands` tells them from
 walks and runs by the neighbours' carried root speed; for them
 
-- the lowest foot point is pinned without the walks' stance hysteresis (``generate_motion``,
-  ``GenerationParams.standing_pin``);
+- the lowest foot point is pinned without the walks' stance hysteresis (``generate_motion``);
 - the carried support is made consistent with the lift it gives the body
   (:func:`landed_support`): a hop's flight frames, averaged by the state means with stance
   ones, must not let a foot that is still on the floor glide;
-- the legs may be steadied (:func:`steady_legs`, off by default);
 - a cycling movement (a wave) has its cut-off bounded by the neighbours' cycle rate
   (:func:`cycle_rate`), and a slow, small wave whose positions alone do not cycle is
   recognised as cycling by its velocity (:func:`cycles_by_velocity`).
@@ -26,6 +24,7 @@ import numpy.typing as npt
 from mse.motion.base.bodyparts import limb_groups
 from mse.motion.base.bvh import Skeleton
 from mse.motion.base.contacts import supported_at
+from mse.motion.base.cycles import leg_length
 from mse.motion.base.kinematics import FloatArray
 from mse.motion.lma_hmm.hmm import (
     CYCLIC_FRAMES_PER_STATE,
@@ -33,7 +32,6 @@ from mse.motion.lma_hmm.hmm import (
     Encoding,
     TrainedHmm,
     runs_per_state,
-    smooth,
     train_hmm,
 )
 from mse.motion.lma_hmm.pose import with_velocity
@@ -43,7 +41,6 @@ STANDING_LEG_LENGTHS_PER_S = 0.1
 #: ... and their legs barely move when 90 % of the legs' rotation channels stay within this
 #: range (radians): generated bows of dataset 1 move them 0.20-0.45 (the legs keep upright
 #: while the hips fold), waves and byes 0.02-0.12
-STILL_LEGS_RADIANS = 0.15
 
 
 def cycle_rate(labels: Sequence[npt.NDArray[np.int_]], frame_time: float) -> float:
@@ -97,20 +94,6 @@ def cycles_by_velocity(
     return trained, moving, own
 
 
-def leg_length(skeleton: Skeleton) -> float:
-    """Hip to ankle (down the first child) of the skeleton's legs, file units."""
-    legs = set(limb_groups(skeleton)["legs"])
-    length = 0.0
-    joint = next((j for j in legs if skeleton.parents[j] not in legs), None)
-    while joint is not None:  # hip -> knee -> ankle ... down the first child
-        children = [c for c in legs if skeleton.parents[c] == joint]
-        if not children:
-            break
-        joint = children[0]
-        length += float(np.linalg.norm(skeleton.offsets[joint]))
-    return length
-
-
 def stands(carried: Sequence[FloatArray], skeleton: Skeleton) -> bool:
     """Whether the neighbours stand: their root moves (median over their frames) under
     :data:`STANDING_LEG_LENGTHS_PER_S` leg lengths per second."""
@@ -119,28 +102,6 @@ def stands(carried: Sequence[FloatArray], skeleton: Skeleton) -> bool:
         return False
     speed = float(np.median(np.concatenate([np.linalg.norm(c[:, :2], axis=1) for c in carried])))
     return speed < STANDING_LEG_LENGTHS_PER_S * legs
-
-
-def steady_legs(path: FloatArray, encoding: Encoding, frame_time: float, hz: float) -> FloatArray:
-    """``path`` with the legs' rotations low-passed at ``hz`` when the neighbours stand
-    (their carried root speed, median, under :data:`STANDING_LEG_LENGTHS_PER_S` leg lengths
-    per second) and the legs barely move (:data:`STILL_LEGS_RADIANS`). Both feet of a
-    standing body stay put, but only one is pinned (:func:`~mse.motion.base.contacts.ground`):
-    the other follows the legs' state means, which change from state to state with the
-    neighbours' stances: a feminine wave of dataset 2 slid its free foot at 1.07 cm/s
-    (real: 0.23); at 0.5 Hz, 0.23. Off by default (``GenerationParams.standing_legs_hz``)."""
-    skeleton = encoding.skeleton
-    legs = set(limb_groups(skeleton)["legs"])
-    columns = [3 * i + k for i, joint in enumerate(encoding.rotated) if joint in legs for k in range(3)]
-    if not columns or len(path) < 4:
-        return path
-    if not stands([path[:, encoding.dimension :]], skeleton):
-        return path
-    if float(np.percentile(np.ptp(path[:, columns], axis=0), 90)) >= STILL_LEGS_RADIANS:
-        return path  # legs that move with the body (a bow's hips fold over upright legs)
-    steady = path.copy()
-    steady[:, columns] = smooth(path[:, columns], frame_time, hz)
-    return steady
 
 
 def landed_support(carried: FloatArray) -> FloatArray:

@@ -21,6 +21,7 @@ the same means — by the same gain. It is the global variance of HMM speech syn
 from __future__ import annotations
 
 from collections.abc import Sequence
+from typing import Literal
 
 import numpy as np
 import numpy.typing as npt
@@ -123,7 +124,7 @@ MAX_NEIGHBOURS = 2
 
 #: which joints :func:`restore_stride` widens: "legs" (thighs and shins), "all" (every
 #: rotated joint), "off"
-STRIDE_CHOICES = ("off", "legs", "all")
+Stride = Literal["off", "legs", "all"]
 
 
 def swing_joints(skeleton: Skeleton) -> list[int]:
@@ -144,7 +145,7 @@ def restore_stride(
     frame_time: float,
     base_hz: float,
     encoding: Encoding,
-    which: str,
+    which: Stride,
 ) -> FloatArray:
     """``means`` widened by :func:`stride_gains` measured on the neighbours (at most
     :data:`MAX_NEIGHBOURS`; ``rotations``

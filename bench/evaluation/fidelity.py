@@ -14,6 +14,10 @@ the starter) so that performers facing different ways compare:
 ``wave_amplitude``     their peak-to-peak amplitude
 ``forward_speed``      root travel along the first-frame forward axis per second
 ``side_speed``         root travel to the body's left (first frame) per second
+``step_rate``          steps per second: alternating extrema of the feet's separation along
+                       its main horizontal axis (heel strikes), over the time they span
+``backward``           largest distance the root moves in one frame against the clip's
+                       direction of travel (start to end)
 ``foot_slip``          median horizontal speed of the lowest foot point while it is on the
                        floor (within 2 cm of its lowest height): the stance foot
 ``jerk``               RMS jerk of head and wrists (third differences of positions)
@@ -35,15 +39,15 @@ at most :data:`QUALITY_FACTOR` times the real clips' median, bone lengths consta
 from __future__ import annotations
 
 from collections.abc import Iterable, Mapping, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
-from mse.motion.base.bodyparts import BodyMap, body_map
+from mse.motion.base.body_frame import body_of
 from mse.motion.base.bvh import Motion
-from mse.motion.base.contacts import contact_joints
+from mse.motion.base.cycles import TRAVEL_LEG_LENGTHS_PER_S, action_shape, step_boundaries, travel_rate
 from mse.motion.base.kinematics import FloatArray
-from mse.motion.base.lma import UP_AXIS, arm_length, body_frame
+from mse.motion.base.loop import EDGE_SHARE, held, looped
 
 MEASURES: tuple[str, ...] = (
     "head_dip",
@@ -55,6 +59,8 @@ MEASURES: tuple[str, ...] = (
     "wave_amplitude",
     "forward_speed",
     "side_speed",
+    "step_rate",
+    "backward",
     "foot_slip",
     "jerk",
     "reversals",
@@ -91,39 +97,15 @@ SPREAD_MARGIN = 0.15
 #: the medians that foot slip is compared with are at least this many arm lengths per second
 #: (a standing performer's feet "slide" 0.1-0.5 cm/s in the capture noise)
 SLIP_FLOOR_ARM_LENGTHS = 0.01
+#: the largest backward step of the root admitted is at least this many arm lengths (about
+#: 1.2 mm for a Bandai performer: the LMA + HMM normal walk of dataset 2 at twice its length
+#: stepped back 0.4 mm in its first frames, where the real walks never do; the failures this
+#: check is for were steps of centimetres, up to 6.4 cm)
+BACKWARD_FLOOR_ARM_LENGTHS = 0.002
 #: bones may stretch by this share at most
 BONE_TOLERANCE = 0.01
 _CONTACT_BAND = 2.0  # cm above a foot's lowest point still counts as on the floor
 _WAVE_WINDOW_S = 1.0  # detrending window of the wave measures
-
-
-@dataclass(frozen=True, slots=True)
-class Body:
-    """World positions in the body frame, with the joints the measures use."""
-
-    positions: FloatArray  # (F, J, 3)
-    frame_time: float
-    body: BodyMap
-    feet: tuple[int, ...]  # foot joints and their children (toes)
-    chest: int
-    scale: float  # arm length (file units)
-
-
-def _hip_origin(positions: FloatArray, body: BodyMap) -> FloatArray:
-    """The first-frame midpoint of the hips, at height 0."""
-    origin: FloatArray = 0.5 * (positions[0, body.left_hip] + positions[0, body.right_hip])
-    origin[UP_AXIS] = 0.0
-    return origin
-
-
-def body_of(motion: Motion, path: str = "<motion>") -> Body:
-    """The clip's positions in its body frame and the joints the measures need."""
-    skeleton = motion.skeleton
-    body = body_map(skeleton, path)
-    positions = motion.positions()
-    feet = contact_joints(skeleton)
-    local = body_frame(positions, body, _hip_origin(positions, body))
-    return Body(local, motion.frame_time, body, feet, body.torso, arm_length(positions, body))
 
 
 def _wave(relative: FloatArray, frame_time: float) -> tuple[float, float]:
@@ -147,6 +129,19 @@ def _wave(relative: FloatArray, frame_time: float) -> tuple[float, float]:
         side = now or side
     frequency = 0.5 * crossings / (frames * frame_time)
     return frequency, 2.0 * np.sqrt(2.0) * spread
+
+
+def _step_rate(separation: FloatArray, frame_time: float) -> float:
+    """Steps per second from (F, 2) horizontal foot-to-foot vectors: the alternating extrema
+    of their projection on the main axis (heel strikes), over the time from first to last."""
+    if len(separation) < 4:
+        return 0.0
+    centred = separation - separation.mean(axis=0)
+    _, _, axes = np.linalg.svd(centred, full_matrices=False)
+    strikes = step_boundaries(centred @ axes[0], max(2, round(0.15 / frame_time)))
+    if len(strikes) < 2:
+        return 0.0
+    return (len(strikes) - 1) / ((strikes[-1] - strikes[0]) * frame_time)
 
 
 def _bones(motion: Motion) -> float:
@@ -194,6 +189,11 @@ def measure(motion: Motion, path: str = "<motion>") -> dict[str, float]:
     span = max(motion.duration - dt, dt)
     values["forward_speed"] = float((root[-1, 2] - root[0, 2]) / span)
     values["side_speed"] = float((root[-1, 0] - root[0, 0]) / span)
+    values["step_rate"] = _step_rate(feet[:, 0, [0, 2]] - feet[:, len(data.feet) // 2, [0, 2]], dt)
+    travel = root[-1, [0, 2]] - root[0, [0, 2]]
+    norm = float(np.linalg.norm(travel))
+    along = np.diff(root[:, [0, 2]], axis=0) @ (travel / norm) if norm > 1e-9 else np.zeros(1)
+    values["backward"] = float(max(0.0, -float(np.min(along)))) if along.size else 0.0
     lowest = np.argmin(feet[:, :, 1], axis=1)
     floor = feet[:, :, 1].min(axis=0)  # each foot point's lowest height
     point = feet[np.arange(len(feet)), lowest]  # (F, 3)
@@ -225,12 +225,15 @@ class Reference:
     action: str
     values: Mapping[str, tuple[float, ...]]
     scale: float
+    #: the real clips travel (:func:`mse.motion.base.cycles.travel_rate`): their step rate
+    #: is checked too, and no frame may move the root backwards more than theirs do
+    travels: bool = False
 
     @property
     def signature(self) -> tuple[str, ...]:
         named = ACTION_SIGNATURES.get(self.action)
         if named is not None:
-            return named
+            return named + (("step_rate",) if self.travels else ())
         lows = {name: min(self.values[name]) for name in DEFAULT_CANDIDATES}
         telling = tuple(name for name in DEFAULT_CANDIDATES if lows[name] >= TELLING_SHARE * self.scale)
         return telling or (max(lows, key=lambda name: lows[name]),)
@@ -253,7 +256,42 @@ def reference(action: str, clips: Iterable[Motion]) -> Reference:
         raise ValueError(f"no real clip of {action!r}")
     measured = [measure(m) for m in motions]
     scale = float(np.median([body_of(m).scale for m in motions]))
-    return Reference(action, {name: tuple(m[name] for m in measured) for name in MEASURES}, scale)
+    travels = float(np.median([travel_rate(m) for m in motions])) >= TRAVEL_LEG_LENGTHS_PER_S
+    return Reference(action, {name: tuple(m[name] for m in measured) for name in MEASURES}, scale, travels)
+
+
+#: measures of a standing cycle that depend on the clip's length (see :func:`repeated`)
+CYCLE_MEASURES = ("wave_frequency", "wave_amplitude")
+
+
+def repeated(action_reference: Reference, motions: Sequence[Motion], factor: float) -> Reference:
+    """``action_reference`` for clips ``factor`` times longer than the real ones, as the
+    methods make them (:mod:`mse.motion.base.loop`): when the real clips cycle by their hands
+    (:func:`mse.motion.base.cycles.action_shape`), the values of :data:`CYCLE_MEASURES` are
+    those of the real clips with their cycles repeated at their tempo (measured over a whole
+    take, a feminine wave's amplitude is mostly its rise and fall: 7.2-8.2 cm; the swings
+    between, 1.6-2.5); when they do not cycle, the values of :data:`DEFAULT_CANDIDATES` are
+    those of the real clips followed by their rest pose (the measures take percentiles and
+    means over the clip). Travelling actions' measures are rates: unchanged."""
+    if factor <= 1.0:
+        return action_reference
+    shape = action_shape(list(motions))
+    if shape.travels:
+        return action_reference
+    if shape.cycle == "hands":
+        names: tuple[str, ...] = CYCLE_MEASURES
+        longer = [
+            replace(m, values=looped(m.values, round(factor * m.frame_count), m.frame_time, EDGE_SHARE, shape.period_s))
+            for m in motions
+        ]
+    else:
+        names = (*DEFAULT_CANDIDATES, "hand_to_head", "wrists_over_head")
+        longer = [replace(m, values=held(m.values, round(factor * m.frame_count))) for m in motions]
+    measured = [measure(m) for m in longer]
+    values = dict(action_reference.values)
+    for name in names:
+        values[name] = tuple(m[name] for m in measured)
+    return replace(action_reference, values=values)
 
 
 @dataclass(frozen=True, slots=True)
@@ -291,6 +329,11 @@ def check(
             medians.append(style_reference.median(name))
         limit = QUALITY_FACTOR * max(*medians, floors[name])
         checks.append(Check(name, values[name], -np.inf, limit))
+    if action_reference.travels:
+        # no frame moves the root against the direction of travel by more than a real take does
+        # (Bandai walks: never; a floor of BACKWARD_FLOOR_ARM_LENGTHS for rounding-level noise)
+        limit = max(max(action_reference.values["backward"]), BACKWARD_FLOOR_ARM_LENGTHS * action_reference.scale)
+        checks.append(Check("backward", values["backward"], -np.inf, limit))
     checks.append(Check("bone_error", values["bone_error"], -np.inf, BONE_TOLERANCE))
     return checks
 
