@@ -152,6 +152,7 @@ def _errors_and_warnings(found: list[Diagnostic]) -> list[str]:
     return [d.render() for d in found if d.severity is not Severity.NOTE]
 
 
+@pytest.mark.slow
 def test_lint_strict_is_clean() -> None:
     assert _errors_and_warnings(mse.api.lint([behaviour_sets_dir()])) == []
 

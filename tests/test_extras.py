@@ -13,6 +13,8 @@ import tomllib
 from importlib import metadata
 from pathlib import Path
 
+import pytest
+
 from mse.extras import EXTRAS
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -69,6 +71,7 @@ def _guarded_imports(path: Path) -> list[str]:
     return problems
 
 
+@pytest.mark.slow
 def test_every_import_of_an_optional_package_names_its_extra() -> None:
     problems = [p for path in sorted(PACKAGE.rglob("*.py")) if path.name != "extras.py" for p in _guarded_imports(path)]
     assert not problems, "\n".join(problems)
@@ -101,6 +104,7 @@ def _run_without_extras(commands: list[list[str]], cwd: Path) -> list[tuple[list
     return [tuple(r) for r in json.loads(done.stdout)]  # type: ignore[misc]
 
 
+@pytest.mark.slow
 def test_core_commands_work_without_extras_and_the_others_name_theirs(tmp_path: Path) -> None:
     from mse.motion.base.starter import starter_library
     from mse.motion.hsmm import api

@@ -102,6 +102,7 @@ def test_a_check_switches_to_its_generated_function_after_hot_calls() -> None:
     assert compiled.acceptable({"a": [(0, 0, 5, 5)], "b": [(10, 10, 20, 20)]})
 
 
+@pytest.mark.slow
 @settings(max_examples=100, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(data=st.data(), model=models(max_signals=5, max_constraints=5))
 def test_compiled_critical_points_are_the_same_set(data: st.DataObject, model: ir.Model) -> None:

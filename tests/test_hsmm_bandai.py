@@ -156,6 +156,7 @@ def _run(*argv: str) -> int:
     return int(args.handler(args))
 
 
+@pytest.mark.slow
 def test_cli_train_adapt_synth(
     bandai_dir: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:

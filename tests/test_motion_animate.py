@@ -77,6 +77,7 @@ def test_unknown_action_is_a_clear_error(tmp_path: Path) -> None:
     assert "moonwalk" in caught.value.diagnostics[0].message
 
 
+@pytest.mark.slow
 @pytest.mark.filterwarnings("ignore:.*another skeleton")
 def test_fallback_warns_with_the_action(bandai_dir: Path, tmp_path: Path) -> None:
     data = bandai_dir / "data"

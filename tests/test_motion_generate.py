@@ -159,6 +159,7 @@ def test_one_shot_generation_keeps_the_neighbours_tempo() -> None:
     assert jerks["neighbours"] < jerks["desired"]
 
 
+@pytest.mark.slow
 def test_a_leaf_in_the_desired_paths_own_style_plays_that_path() -> None:
     library = starter_library()
     desired = library.clip(generate_motion(library, "bow", "sad", duration=1.0).desired)

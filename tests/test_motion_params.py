@@ -47,6 +47,7 @@ def test_each_option_changes_the_clip(options: dict[str, object], other: dict[st
     ("options", "other"),
     [({"velocity": "always"}, {}), ({"velocity": "always", "velocity_weight": 1.0}, {"velocity": "always"})],
 )
+@pytest.mark.slow
 def test_the_velocity_enters_the_phase_space_of_cycles(
     bandai_dir: Path, options: dict[str, object], other: dict[str, object]
 ) -> None:

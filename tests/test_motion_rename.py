@@ -26,6 +26,7 @@ def libraries(bandai_dir: Path) -> tuple[MotionLibrary, MotionLibrary, dict[str,
     return MotionLibrary("named", keep), MotionLibrary("renamed", renamed), names
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("method", METHODS)
 @pytest.mark.parametrize("action", ACTIONS)
 def test_renamed_actions_generate_the_same_clips(

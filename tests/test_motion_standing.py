@@ -144,6 +144,7 @@ def _byes(bandai_dir: Path, tmp_path: Path, action: str, styles: tuple[str, ...]
     ("action", "style"),
     [("byebye", "active"), ("byebye", "not-confident"), ("bye", "chimpira")],
 )
+@pytest.mark.slow
 def test_bandai_standing_cases_perform_within_the_real_spread(
     bandai_dir: Path, tmp_path: Path, action: str, style: str
 ) -> None:

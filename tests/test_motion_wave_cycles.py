@@ -27,6 +27,7 @@ def _swings(count: int, frames: int = 240) -> list[np.ndarray]:
             for k in range(count)]
 
 
+@pytest.mark.slow
 def test_once_one_neighbour_short_clips_or_weight_zero_are_not_judged_cycling() -> None:
     t = np.linspace(0.0, 1.0, 240)
     once = [np.column_stack([np.sin(np.pi * t) + 0.01 * k, t]) for k in range(6)]

@@ -127,6 +127,7 @@ def test_sample_reports_a_proven_conflict_with_lint_s_code(capsys: pytest.Captur
     assert " E401 " in capsys.readouterr().out
 
 
+@pytest.mark.slow
 def test_animate_refuses_a_folder_with_another_run_s_files(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     out = tmp_path / "motion"
     first = ["sample", "embarrassment", "--seed", "224", "--animate", str(out), "-o", str(tmp_path / "e.json")]

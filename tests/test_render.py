@@ -78,6 +78,7 @@ def test_encoded_video_has_the_asked_frames_and_plays_the_timeline(
     assert _changed(faces[25], faces[36]) > 30  # looking down
 
 
+@pytest.mark.slow
 def test_gif_and_png_frames_are_exact(timeline_file: Path, tmp_path: Path, face_box: tuple[int, int, int, int]) -> None:
     from PIL import Image
 
@@ -151,6 +152,7 @@ def test_unmapped_lexemes_are_reported_once(tmp_path: Path, capsys: pytest.Captu
     assert err.count("W602") == 1 and "wave_hello" in err
 
 
+@pytest.mark.slow
 def test_sample_and_export_write_videos(tmp_path: Path, timeline_file: Path) -> None:
     clip = tmp_path / "s.mp4"
     assert main(["sample", "embarrassment", "--duration", "1", "--seed", "3", "--format", "mp4", "-o", str(clip)]) == 0

@@ -130,6 +130,7 @@ def test_schema_accepts_the_example_and_refuses_what_the_reader_refuses() -> Non
 
 
 # -- perturbed timelines, re-checked ---------------------------------------------------------
+@pytest.mark.slow
 @settings(max_examples=40, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(seed=st.integers(0, 10_000), name=st.sampled_from(["anger", "anxiety", "embarrassment", "relief", "tension"]))
 def test_repaired_perturbations_are_consistent_optimal_and_no_farther_than_the_original(seed: int, name: str) -> None:

@@ -277,6 +277,7 @@ def _mse(*args: str, stdin: str | None = None) -> subprocess.CompletedProcess[st
     )
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("solver", ["greedy", "cpsat"])
 def test_cli_sample_with_speech_then_check(solver: str, tmp_path: Path) -> None:
     talking, speech = FIXTURES / "talking.xml", FIXTURES / "utterance.json"

@@ -112,6 +112,7 @@ def test_a_timeline_without_speech_is_written_as_before() -> None:
     assert "<speech" not in render(plain, "bml", ExportOptions()) and "<speech" not in render(plain, "greta-bml")
 
 
+@pytest.mark.slow
 def test_realizers_accept_generated_dialogues_and_resolve_every_reference(shared_dir: Path, tmp_path: Path) -> None:
     reason = java_missing_reason(shared_dir)
     if reason is not None:
@@ -127,6 +128,7 @@ def test_realizers_accept_generated_dialogues_and_resolve_every_reference(shared
     assert verdict.references > 50 and verdict.resolved == verdict.references
 
 
+@pytest.mark.slow
 def test_one_block_per_episode_for_a_live_realizer(shared_dir: Path, tmp_path: Path) -> None:
     """Per-episode blocks: unique ids bml_<dialogue>_<n>, times from the block's offset, speech in
     the block where it starts; both parsers accept them and time them as planned."""
