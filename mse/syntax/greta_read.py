@@ -28,7 +28,8 @@ from mse.syntax.greta_expr import (
     GTime,
 )
 from mse.syntax.reader import parse_xml, read_bytes
-from mse.syntax.source import SourceText, StartTag
+from mse.syntax.safexml import ElementPositions
+from mse.syntax.source import SourceText
 
 #: Greta's own ``equal`` accepts this difference (seconds).
 GRETA_EQUAL_TOLERANCE = 0.3
@@ -54,28 +55,13 @@ class GretaFile:
         self.name = Path(path).name
         self.root = root
         self.source = source
-        elements = [e for e in root.iter() if isinstance(e.tag, str)]
-        tags = source.start_tags
-        self._tags: dict[etree._Element, StartTag] = {}
-        if len(elements) == len(tags) and all(
-            str(e.tag) == t.name for e, t in zip(elements, tags, strict=True)
-        ):
-            self._tags = dict(zip(elements, tags, strict=True))
+        self._positions = ElementPositions(root, source)
 
     def span(self, element: etree._Element) -> Span:
-        tag = self._tags.get(element)
-        if tag is not None:
-            return self.source.span_at(tag.start)
-        line = element.sourceline
-        return self.source.line_span(line if isinstance(line, int) else 0)
+        return self._positions.span(element)
 
     def attribute_span(self, element: etree._Element, name: str) -> Span:
-        tag = self._tags.get(element)
-        if tag is not None:
-            found = self.source.attribute_spans(tag).get(name)
-            if found is not None:
-                return found
-        return self.span(element)
+        return self._positions.attribute_span(element, name)
 
 
 def load(path: str | Path) -> GretaFile:

@@ -23,8 +23,8 @@ from mse.limits import MAX_CONSTRAINT_CHARS, MAX_CONSTRAINT_TEXT, MAX_ELEMENTS, 
 from mse.resources import grammar_dir
 from mse.syntax import ast
 from mse.syntax.expression import parse_expression
-from mse.syntax.safexml import MAX_FILE_BYTES, decode_text, parse_xml, safe_parser
-from mse.syntax.source import SourceText, StartTag
+from mse.syntax.safexml import MAX_FILE_BYTES, ElementPositions, decode_text, parse_xml, safe_parser
+from mse.syntax.source import SourceText
 
 __all__ = ["MAX_FILE_BYTES", "decode_text", "parse_xml", "read_bytes", "read_document", "safe_parser"]
 
@@ -75,27 +75,17 @@ def _line(element: etree._Element) -> int:
 
 
 class _Locator:
-    """Pairs parsed elements with their start tags in the raw text."""
+    """Positions of elements and attributes (:class:`ElementPositions`), attributes as AST values."""
 
     def __init__(self, root: etree._Element, source: SourceText) -> None:
         self.source = source
-        elements = [e for e in root.iter() if isinstance(e.tag, str)]
-        tags = source.start_tags
-        self.tags: dict[etree._Element, StartTag] = {}
-        if len(elements) == len(tags) and all(
-            etree.QName(e).localname == t.name.split(":")[-1] for e, t in zip(elements, tags, strict=True)
-        ):
-            self.tags = dict(zip(elements, tags, strict=True))
+        self.positions = ElementPositions(root, source)
 
     def element(self, element: etree._Element) -> Span:
-        tag = self.tags.get(element)
-        if tag is not None:
-            return self.source.span_at(tag.start)
-        return self.source.line_span(_line(element))
+        return self.positions.span(element)
 
     def attributes(self, element: etree._Element) -> dict[str, ast.Attribute]:
-        tag = self.tags.get(element)
-        spans = self.source.attribute_spans(tag) if tag is not None else {}
+        spans = self.positions.attribute_spans(element)
         fallback = self.element(element)
         return {
             str(name): ast.Attribute(str(value), spans.get(str(name), fallback))
@@ -229,7 +219,7 @@ def _constraint(
         budget[0] = -1
         return ast.ConstraintDecl(attributes.get("id"), "", None, span)
     budget[0] -= len(text)
-    tag = locator.tags.get(element)
+    tag = locator.positions.start_tag(element)
     decoded = locator.source.decode_content(tag) if tag is not None else None
     if decoded is not None and decoded.text == text:
         offsets = decoded.raw_offsets

@@ -16,7 +16,7 @@ from lxml import etree
 
 from mse.diagnostics import Diagnostic, Span
 from mse.limits import MAX_INPUT_BYTES, MAX_XML_ELEMENTS
-from mse.syntax.source import SourceText
+from mse.syntax.source import SourceText, StartTag
 
 MAX_FILE_BYTES = MAX_INPUT_BYTES
 
@@ -119,3 +119,37 @@ def parse_xml(
     if problem is not None:
         return None, source, [problem]
     return root, source, []
+
+
+class ElementPositions:
+    """Where each parsed element and attribute stands in the raw text: lxml keeps an element's
+    line only, so its elements are paired, in document order, with the start tags that
+    :class:`SourceText` found (when the two lists disagree, lines are all there is)."""
+
+    def __init__(self, root: etree._Element, source: SourceText) -> None:
+        self.source = source
+        elements = [e for e in root.iter() if isinstance(e.tag, str)]
+        tags = source.start_tags
+        self._tags: dict[etree._Element, StartTag] = {}
+        if len(elements) == len(tags) and all(
+            etree.QName(e).localname == t.name.rpartition(":")[2] for e, t in zip(elements, tags, strict=True)
+        ):
+            self._tags = dict(zip(elements, tags, strict=True))
+
+    def start_tag(self, element: etree._Element) -> StartTag | None:
+        return self._tags.get(element)
+
+    def span(self, element: etree._Element) -> Span:
+        tag = self._tags.get(element)
+        if tag is not None:
+            return self.source.span_at(tag.start)
+        line = element.sourceline
+        return self.source.line_span(line if isinstance(line, int) else 0)
+
+    def attribute_spans(self, element: etree._Element) -> dict[str, Span]:
+        tag = self._tags.get(element)
+        return self.source.attribute_spans(tag) if tag is not None else {}
+
+    def attribute_span(self, element: etree._Element, name: str) -> Span:
+        found = self.attribute_spans(element).get(name)
+        return found if found is not None else self.span(element)

@@ -23,8 +23,8 @@ from lxml import etree
 from mse.diagnostics import Diagnostic, MseError, Span
 from mse.input_files import read_input
 from mse.resources import bundled_names
-from mse.syntax.safexml import parse_xml
-from mse.syntax.source import SourceText, StartTag
+from mse.syntax.safexml import ElementPositions, parse_xml
+from mse.syntax.source import SourceText
 
 #: The mapping table shipped with mse (emotion names of each input vocabulary -> set names).
 EMOTION_NAMES = Path(__file__).resolve().parent / "emotion_names.toml"
@@ -257,28 +257,13 @@ class XmlInput:
         self.path = path
         self.root = root
         self.source = source
-        elements = [e for e in root.iter() if isinstance(e.tag, str)]
-        tags = source.start_tags
-        self._tags: dict[etree._Element, StartTag] = {}
-        if len(elements) == len(tags) and all(
-            etree.QName(e).localname == t.name.rpartition(":")[2] for e, t in zip(elements, tags, strict=True)
-        ):
-            self._tags = dict(zip(elements, tags, strict=True))
+        self._positions = ElementPositions(root, source)
 
     def span(self, element: etree._Element) -> Span:
-        tag = self._tags.get(element)
-        if tag is not None:
-            return self.source.span_at(tag.start)
-        line = element.sourceline
-        return self.source.line_span(line if isinstance(line, int) else 0)
+        return self._positions.span(element)
 
     def attribute_span(self, element: etree._Element, name: str) -> Span:
-        tag = self._tags.get(element)
-        if tag is not None:
-            found = self.source.attribute_spans(tag).get(name)
-            if found is not None:
-                return found
-        return self.span(element)
+        return self._positions.attribute_span(element, name)
 
 
 def load_xml(path: str | Path, what: str) -> XmlInput:
