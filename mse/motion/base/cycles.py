@@ -160,14 +160,30 @@ def step_period(motion: Motion, positions: FloatArray | None = None) -> float:
     return 2.0 * float(np.median(np.diff(strikes))) * motion.frame_time
 
 
-def swing_period(motion: Motion, positions: FloatArray | None = None) -> float:
-    """Seconds per swing there and back of the hand that sways most (0: fewer than two turns)."""
+@dataclass(frozen=True, slots=True)
+class _Sway:
+    """The hand that sways most, side to side against the chest, and the frames it turns."""
+
+    arm: float  # arm length (the clip's units)
+    sway: FloatArray
+    turns: list[int]
+
+
+def _sway_of(motion: Motion, positions: FloatArray | None) -> _Sway:
     body = body_map(motion.skeleton)
     positions = motion.positions() if positions is None else positions
     side = _side_axis(positions, body.left_hip, body.right_hip)
     hands = positions[:, [body.left_hand, body.right_hand]] - positions[:, [body.torso]]
     sway = detrended_sway(hands @ side, motion.frame_time)
-    turns = step_boundaries(sway, max(2, round(0.2 / motion.frame_time)))
+    upper = np.linalg.norm(positions[:, body.right_elbow] - positions[:, body.right_shoulder], axis=-1)
+    lower = np.linalg.norm(positions[:, body.right_wrist] - positions[:, body.right_elbow], axis=-1)
+    arm = max(float(np.mean(upper + lower)), 1e-9)
+    return _Sway(arm, sway, step_boundaries(sway, max(2, round(0.2 / motion.frame_time))))
+
+
+def swing_period(motion: Motion, positions: FloatArray | None = None) -> float:
+    """Seconds per swing there and back of the hand that sways most (0: fewer than two turns)."""
+    turns = _sway_of(motion, positions).turns
     if len(turns) < 2:
         return 0.0
     return 2.0 * float(np.median(np.diff(turns))) * motion.frame_time
@@ -175,18 +191,11 @@ def swing_period(motion: Motion, positions: FloatArray | None = None) -> float:
 
 def swings_regularly(motion: Motion, positions: FloatArray | None = None) -> bool:
     """Whether a hand of ``motion`` swings side to side regularly (see the module)."""
-    body = body_map(motion.skeleton)
-    positions = motion.positions() if positions is None else positions
-    side = _side_axis(positions, body.left_hip, body.right_hip)
-    hands = positions[:, [body.left_hand, body.right_hand]] - positions[:, [body.torso]]
-    sway = detrended_sway(hands @ side, motion.frame_time)
-    turns = step_boundaries(sway, max(2, round(0.2 / motion.frame_time)))
+    found = _sway_of(motion, positions)
+    turns = found.turns
     if len(turns) < MIN_SWING_TURNS:
         return False
-    upper = np.linalg.norm(positions[:, body.right_elbow] - positions[:, body.right_shoulder], axis=-1)
-    lower = np.linalg.norm(positions[:, body.right_wrist] - positions[:, body.right_elbow], axis=-1)
-    arm = max(float(np.mean(upper + lower)), 1e-9)
-    swings = np.abs(np.diff(sway[turns])) / arm
+    swings = np.abs(np.diff(found.sway[turns])) / found.arm
     intervals = np.diff(turns).astype(np.float64)
     irregularity = float(np.std(intervals) / max(float(np.mean(intervals)), 1e-9))
     return float(np.median(swings)) >= MIN_SWING_ARM_LENGTHS and irregularity <= MAX_SWING_IRREGULARITY
