@@ -241,3 +241,27 @@ def test_bml_face_falls_back_to_core_lexemes_and_says_what_is_not_core() -> None
     assert [d.code for d in notes] == ["W603", "W603"]
     text = " ".join(d.message for d in notes)
     assert "'JERK_BACK'" in text and "'ARMS_RAISED'" in text and "(jerk)" in text
+
+
+CUE = """<expression name="cue">
+  <signals>
+    <signal id="gasp" modality="mouth" lexeme="faceexp=open_mouth" min_duration="0.2" max_duration="0.5"
+            probability_start="0.9" probability_end="0.0"/>
+    <signal id="brows_up" modality="face" lexeme="faceexp=raise_eyebrows" min_duration="1" max_duration="3"
+            probability_start="0.8" probability_end="0.4" repetitivity="1"/>
+  </signals>
+</expression>
+"""
+
+
+@pytest.mark.parametrize("duration", [10.0, 60.0])
+def test_a_brief_cue_alone_keeps_its_rate_at_any_duration(duration: float) -> None:
+    """docs/behaviour_sets.md, "Brief cues in long expressions": on a modality of its own and
+    in no constraint, a once-only cue occurs at its profile's rate (0.45) at 10 s and 60 s."""
+    from mse.sampling import iter_timelines
+
+    model, _ = mse.api.compile_source("cue.xml", CUE.encode())
+    assert model is not None
+    timelines = list(iter_timelines(model, duration, seed=3, count=300))
+    rate = sum(any(s.id == "gasp" for s in t.signals) for t in timelines) / len(timelines)
+    assert abs(rate - 0.45) < 0.08, rate
