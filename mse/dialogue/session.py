@@ -401,6 +401,29 @@ class Session:
         return self._running.index if self._running is not None else None
 
     @property
+    def closed_episodes(self) -> Sequence[dict[str, Any]]:
+        """The episodes closed so far, in order (the timeline's ``episodes`` entries)."""
+        return self._episodes
+
+    def running_plan(self) -> tuple[dict[str, Any], list[TimelineSignal], list[dict[str, Any]]] | None:
+        """The episode being played (its entry as planned, its whole plan, the utterances that
+        start in it), for a realizer sent one block per episode (``mse serve``); None when none."""
+        running = self._running
+        if running is None:
+            return None
+        utterances = [u for u in self._utterances if running.start <= u["start"] < running.plan_stop]
+        return self._running_entry(running), list(running.drain()), utterances
+
+    @staticmethod
+    def _running_entry(running: _Running) -> dict[str, Any]:
+        return {
+            "index": running.index, "emotion": running.emotion, "source": running.source,
+            "start": _r(running.start), "stop": _r(running.plan_stop), "announced": running.announced,
+            "interrupted": False, "intensity": running.intensity, "plan_stop": _r(running.plan_stop),
+            **({"continues": True} if running.continues else {}),
+        }
+
+    @property
     def utterance_words(self) -> list[tuple[Word, ...]]:
         return [tuple(Word(w[0], w[1], w[2]) for w in u["words"]) for u in self._utterances]
 
@@ -412,12 +435,7 @@ class Session:
         if self._running is not None:
             running = self._running
             signals.extend(running.drain())
-            episodes.append({
-                "index": running.index, "emotion": running.emotion, "source": running.source,
-                "start": _r(running.start), "stop": _r(running.plan_stop), "announced": running.announced,
-                "interrupted": False, "intensity": running.intensity, "plan_stop": _r(running.plan_stop),
-                **({"continues": True} if running.continues else {}),
-            })
+            episodes.append(self._running_entry(running))
             duration = running.plan_stop
         if duration is None or not episodes:
             raise MseError([Diagnostic(CODE, "the dialogue has no episode yet (start with an emotion)",
