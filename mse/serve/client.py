@@ -8,6 +8,7 @@
 
 from __future__ import annotations
 
+import contextlib
 import json
 from collections.abc import Iterator
 from types import TracebackType
@@ -23,7 +24,8 @@ class Client:
         with require("serve"):
             from websockets.sync.client import connect
         self.timeout = timeout
-        self._socket = connect(uri, open_timeout=timeout, max_size=None)
+        self._stack = contextlib.ExitStack()
+        self._socket = self._stack.enter_context(connect(uri, open_timeout=timeout, max_size=None))
         self.hello: dict[str, Any] = {}
         if hello:
             answer = list(self.send({"type": "hello", "protocol": 1, **hello}))
@@ -42,7 +44,7 @@ class Client:
                 return
 
     def close(self) -> None:
-        self._socket.close()
+        self._stack.close()
 
     def __enter__(self) -> Client:
         return self
