@@ -213,7 +213,8 @@ def report(label: str, latencies: list[float], target: float) -> None:
     ms = [1000 * v for v in latencies]
     p99 = percentile(ms, 0.99)
     print(f"{label}: {len(ms)} events, event -> first occurrence p50 {statistics.median(ms):.1f} ms, "
-          f"p99 {p99:.1f} ms, max {max(ms):.1f} ms (target p99 <= {target:g} ms: {'met' if p99 <= target else 'NOT met'})")
+          f"p99 {p99:.1f} ms, max {max(ms):.1f} ms "
+          f"(target p99 <= {target:g} ms: {'met' if p99 <= target else 'NOT met'})")
 
 
 async def main_async(args: argparse.Namespace) -> None:
