@@ -250,3 +250,17 @@ def test_the_docs_client_runs(server: BackgroundServer) -> None:
                           env={**os.environ, "PYTHONPATH": str(ROOT)})
     assert done.returncode == 0, done.stderr
     assert "occurrence" in done.stdout and "episode 0 anger" in done.stdout
+
+
+def test_on_the_real_clock_an_episode_goes_on_without_events() -> None:
+    with BackgroundServer() as server, connect(server.uri, max_size=None) as socket:
+        socket.send(json.dumps({"type": "hello", "seed": 2}))
+        socket.send(json.dumps({"emotion": "tension", "until": 0.5}))
+        episodes: list[dict[str, Any]] = []
+        deadline = time.monotonic() + 20
+        while len(episodes) < 2 and time.monotonic() < deadline:  # continued a LEAD (1 s) before its plan ends
+            message = json.loads(socket.recv(timeout=20))
+            if message["type"] == "episode":
+                episodes.append(message)
+        assert [(e["index"], e["stop"]) for e in episodes] == [(0, 0.5), (1, 10.5)]
+        assert episodes[1].get("continues") and not episodes[1]["interrupted"]

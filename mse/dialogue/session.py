@@ -271,6 +271,26 @@ class Session:
         self._running = None
         return closed
 
+    def advance(self, t: float) -> list[TimelineSignal]:
+        """Continue the running episode by horizons while its plan ends before ``t`` (a live
+        session on the wall clock calls it ahead of time, with no event); the occurrences it
+        commits: the closed part's last versions, then each continuation's plan."""
+        running = self._running
+        handed: list[TimelineSignal] = []
+        if self._ended is not None:
+            return handed
+        while running is not None and running.plan_stop < t - _EPSILON:
+            closed = self._close(running, running.plan_stop)
+            start = running.plan_stop
+            running = self._open(self._models[running.emotion], running.emotion, start, _r(start + self.horizon),
+                                 False, running.intensity, self._span(), continues=True)
+            self._carry(closed, running, start)
+            self._commit(closed)
+            self._running = running
+            handed.extend(closed)
+            handed.extend(running.drain())
+        return handed
+
     def _close(self, running: _Running, t: float, *, final: bool = False) -> list[TimelineSignal]:
         """The running episode ends at ``t``: as planned, or interrupted (cut and dropped).
         At the dialogue's end (``final``) nothing follows, so cut occurrences stop at ``t``."""

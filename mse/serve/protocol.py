@@ -95,6 +95,7 @@ class Connection:
         self._ended = False
         self._episodes_sent = 0
         self._blocks_sent: set[int] = set()
+        self._stalled = False
 
     @property
     def session(self) -> Session:
@@ -168,6 +169,7 @@ class Connection:
         if isinstance(event, EndEvent) and self._session is None:
             raise ProtocolError("state", "the dialogue has not started (start with an emotion)")
         session = self.session
+        self._stalled = False
         for signal in session.stream(event):
             yield _occurrence(signal)
         self._last_t = event.t
@@ -178,6 +180,25 @@ class Connection:
             block = self._block(session, interrupted=isinstance(event, EmotionEvent))
             if block is not None:
                 yield block
+
+    def tick(self, lead: float) -> list[dict[str, Any]]:
+        """On the real clock: an episode that runs on past its plan (no event came) is continued
+        ``lead`` seconds before its plan ends; the messages that brings (none on the script clock)."""
+        session = self._session
+        if self.options.clock != "real" or session is None or self._ended or self._stalled:
+            return []
+        try:
+            out = [_occurrence(signal) for signal in session.advance(self.clock() + lead)]
+        except MseError as failure:
+            self._stalled = True  # not tried again before the next event
+            message = failure.diagnostics[0].message if failure.diagnostics else str(failure)
+            return [error_message("event", message)]
+        if out:
+            out.extend(self._closed_episodes(session))
+            block = self._block(session, interrupted=False) if self.options.bml else None
+            if block is not None:
+                out.append(block)
+        return out
 
     def _closed_episodes(self, session: Session) -> Iterator[dict[str, Any]]:
         closed = session.closed_episodes

@@ -27,6 +27,10 @@ from mse.serve.protocol import Connection, Options, error_message
 if TYPE_CHECKING:
     from websockets.asyncio.server import Server, ServerConnection
 
+#: On the real clock, an episode that runs on past its plan (no event came) is continued this
+#: many seconds before its plan ends, checked every :data:`TICK` seconds.
+LEAD = 1.0
+TICK = 0.25
 #: Seconds a message out may wait for the client to read before the connection is closed (1008).
 SEND_TIMEOUT = 5.0
 
@@ -111,6 +115,8 @@ class MseServer:
         self.sessions[name] = connection
         bucket = _Bucket(self.limits.max_rate, self.limits.max_rate)
         self._log(f"{name}: open ({len(self.sessions)} sessions)")
+        turn = asyncio.Lock()  # one message, or one tick, at a time
+        ticker = asyncio.create_task(self._tick(websocket, connection, turn))
         try:
             async for message in websocket:
                 if not bucket.take():
@@ -119,16 +125,36 @@ class MseServer:
                     await self._send(websocket, error_message(
                         "flood", f"more than {self.limits.max_rate:g} messages a second: message dropped"))
                     continue
-                for out in connection.handle(message):
-                    await self._send(websocket, out)
+                async with turn:
+                    for out in connection.handle(message):
+                        await self._send(websocket, out)
         except _Closing as closing:
             with contextlib.suppress(ConnectionClosed):
                 await asyncio.wait_for(websocket.close(closing.code, closing.reason), self.limits.send_timeout)
         except ConnectionClosed:
             pass
         finally:
+            ticker.cancel()
+            with contextlib.suppress(asyncio.CancelledError, Exception):
+                await ticker
             del self.sessions[name]
             self._log(f"{name}: closed ({len(self.sessions)} sessions)")
+
+    async def _tick(self, websocket: ServerConnection, connection: Connection, turn: asyncio.Lock) -> None:
+        """Continue a running episode on the real clock before its plan runs out."""
+        with require("serve"):
+            from websockets.exceptions import ConnectionClosed
+        try:
+            while True:
+                await asyncio.sleep(TICK)
+                async with turn:
+                    for out in connection.tick(LEAD):
+                        await self._send(websocket, out)
+        except _Closing as closing:
+            with contextlib.suppress(ConnectionClosed, TimeoutError):
+                await asyncio.wait_for(websocket.close(closing.code, closing.reason), self.limits.send_timeout)
+        except ConnectionClosed:
+            pass
 
     async def _send(self, websocket: ServerConnection, message: dict[str, Any]) -> None:
         transport = websocket.transport
@@ -162,4 +188,4 @@ def serve_forever(server: MseServer, ready: Callable[[MseServer], None] | None =
     asyncio.run(run_until_signalled(server, ready))
 
 
-__all__ = ["SEND_TIMEOUT", "Limits", "MseServer", "run_until_signalled", "serve_forever"]
+__all__ = ["LEAD", "SEND_TIMEOUT", "TICK", "Limits", "MseServer", "run_until_signalled", "serve_forever"]
