@@ -49,6 +49,13 @@ def rss_mb(pid: int) -> float:
         return int(handle.read().split()[1]) * os.sysconf("SC_PAGE_SIZE") / 2**20
 
 
+def cpu_seconds(pid: int) -> float:
+    """User and system CPU time of process ``pid`` so far."""
+    with open(f"/proc/{pid}/stat") as handle:
+        fields = handle.read().rsplit(")", 1)[1].split()
+    return (int(fields[11]) + int(fields[12])) / os.sysconf("SC_CLK_TCK")
+
+
 def percentile(values: list[float], q: float) -> float:
     ordered = sorted(values)
     return ordered[min(len(ordered) - 1, round(q * (len(ordered) - 1)))]
@@ -224,8 +231,14 @@ async def main_async(args: argparse.Namespace) -> None:
         if "latency" in args.parts:
             report("1 session", await one_session(uri, args.events, random.Random(args.seed)), 30)
         if "concurrent" in args.parts:
-            report(f"{args.concurrent} sessions, an event a second each",
-                   await concurrent(uri, args.concurrent, args.seconds, args.seed), 50)
+            server_cpu, own_cpu, wall = cpu_seconds(process.pid), time.process_time(), time.perf_counter()
+            latencies = await concurrent(uri, args.concurrent, args.seconds, args.seed)
+            server_cpu, own_cpu = cpu_seconds(process.pid) - server_cpu, time.process_time() - own_cpu
+            wall = time.perf_counter() - wall
+            report(f"{args.concurrent} sessions, an event a second each", latencies, 50)
+            print(f"  CPU over the {wall:.1f} s (sets loaded included): server {server_cpu:.1f} s "
+                  f"({100 * server_cpu / wall:.0f} % of one core), the clients {own_cpu:.1f} s; "
+                  f"load average {os.getloadavg()[0]:.2f} on {os.cpu_count()} cores")
         if "hour" in args.parts:
             await long_dialogue(uri, process.pid, args.minutes, args.seed)
         if "churn" in args.parts:
