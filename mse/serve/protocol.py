@@ -96,6 +96,9 @@ class Connection:
         self._episodes_sent = 0
         self._blocks_sent: set[int] = set()
         self._stalled = False
+        #: Messages that changed the dialogue (the face track is rebuilt when it grows).
+        self._changes = 0
+        self._track: tuple[int, Any, Any] | None = None
 
     @property
     def session(self) -> Session:
@@ -133,10 +136,12 @@ class Connection:
                        "clock": self.options.clock, "bml": self.options.bml, "keep": self.options.keep}
             elif kind == "timeline":
                 yield self._timeline()
+            elif kind == "face":
+                yield self._face(obj)
             elif kind == "clock":
                 yield {"type": "clock", "t": self.clock() if self.options.clock == "real" else self._last_t}
             else:
-                raise ProtocolError("unknown-type", f"unknown message type {kind!r}: hello, timeline, clock, "
+                raise ProtocolError("unknown-type", f"unknown message type {kind!r}: hello, timeline, face, clock, "
                                     "or an event without 'type'")
         except ProtocolError as problem:
             yield error_message(problem.code, problem.message, seq)
@@ -170,6 +175,7 @@ class Connection:
             raise ProtocolError("state", "the dialogue has not started (start with an emotion)")
         session = self.session
         self._stalled = False
+        self._changes += 1
         for signal in session.stream(event):
             yield _occurrence(signal)
         self._last_t = event.t
@@ -194,6 +200,7 @@ class Connection:
             message = failure.diagnostics[0].message if failure.diagnostics else str(failure)
             return [error_message("event", message)]
         if out:
+            self._changes += 1
             out.extend(self._closed_episodes(session))
             block = self._block(session, interrupted=False) if self.options.bml else None
             if block is not None:
@@ -230,13 +237,37 @@ class Connection:
         return {"type": "bml", "id": identifier, "episode": index, "offset": round(origin, 3),
                 "composition": composition, "bml": text}
 
-    def _timeline(self) -> dict[str, Any]:
+    def _face(self, obj: dict[str, Any]) -> dict[str, Any]:
+        """The face player's picture (SVG) at ``t`` (default: now), drawn from the dialogue so far
+        (the live page shows it; needs ``keep``)."""
+        from mse.export.face.page import face_svg, face_track
+        from mse.export.options import ExportOptions
+        from mse.export.xmltext import render
+
+        if set(obj) - {"type", "t"}:
+            raise ProtocolError("bad-message", "a face request has 'type' and 't' only")
+        t = obj.get("t", self.clock() if self.options.clock == "real" else self._last_t)
+        if not isinstance(t, int | float) or isinstance(t, bool) or not math.isfinite(t) or t < 0:
+            raise ProtocolError("bad-message", f"'t' must be a number of seconds, not {t!r}")
+        timeline = self._timeline_object()
+        if self._track is None or self._track[0] != self._changes:
+            from mse.export.face.rig import default_rig
+
+            rig = default_rig()
+            self._track = (self._changes, rig, face_track(timeline, ExportOptions(), rig))
+        _, rig, track = self._track
+        return {"type": "face", "t": round(float(t), 3), "svg": render(face_svg(rig, track, float(t)))}
+
+    def _timeline_object(self) -> Timeline:
         if self._session is None:
             raise ProtocolError("state", "the dialogue has no episode yet (start with an emotion)")
         if not self.options.keep:
             raise ProtocolError("state", "the session keeps no timeline: say {\"type\": \"hello\", \"keep\": true} "
                                 "before the first event")
-        return {"type": "timeline", "timeline": self.session.timeline().to_json()}
+        return self._session.timeline()
+
+    def _timeline(self) -> dict[str, Any]:
+        return {"type": "timeline", "timeline": self._timeline_object().to_json()}
 
 
 def _no_constant(name: str) -> Any:

@@ -14,11 +14,15 @@ from __future__ import annotations
 
 import asyncio
 import contextlib
+import functools
 import json
 import signal
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
+from html import escape
+from http import HTTPStatus
+from importlib import resources
 from typing import TYPE_CHECKING, Any
 
 from mse.extras import require
@@ -26,6 +30,7 @@ from mse.serve.protocol import Connection, Options, error_message
 
 if TYPE_CHECKING:
     from websockets.asyncio.server import Server, ServerConnection
+    from websockets.http11 import Request, Response
 
 #: On the real clock, an episode that runs on past its plan (no event came) is continued this
 #: many seconds before its plan ends, checked every :data:`TICK` seconds.
@@ -33,6 +38,17 @@ LEAD = 1.0
 TICK = 0.25
 #: Seconds a message out may wait for the client to read before the connection is closed (1008).
 SEND_TIMEOUT = 5.0
+
+
+@functools.cache
+def live_page() -> str:
+    """The live page: a button per bundled emotion, a sentence to say, the face as it plays."""
+    from mse.resources import bundled_names
+
+    buttons = "".join(f'<button type="button" data-emotion="{escape(name)}">{escape(name)}</button>'
+                      for name in bundled_names())
+    page = resources.files("mse.serve").joinpath("page.html").read_text(encoding="utf-8")
+    return page.replace("<!--EMOTIONS-->", buttons)
 
 
 @dataclass(frozen=True, slots=True)
@@ -94,7 +110,7 @@ class MseServer:
             from websockets.asyncio.server import serve
         self._server = await serve(
             self._handler, self.host, self.port, max_size=self.limits.max_message, max_queue=self.limits.max_queue,
-            write_limit=self.limits.write_limit, compression=None,
+            write_limit=self.limits.write_limit, compression=None, process_request=self._process_request,
         )
         self.port = self._server.sockets[0].getsockname()[1] if self._server.sockets else self.port
 
@@ -102,6 +118,17 @@ class MseServer:
         if self._server is not None:
             self._server.close(close_connections=True)
             await self._server.wait_closed()
+
+    def _process_request(self, connection: ServerConnection, request: Request) -> Response | None:
+        """Plain HTTP on the same port: ``GET /`` is the live page, anything else not found."""
+        if request.headers.get("Upgrade", "").lower() == "websocket":
+            return None
+        if request.path.partition("?")[0] != "/":
+            return connection.respond(HTTPStatus.NOT_FOUND, "not found: the live page is at /\n")
+        response = connection.respond(HTTPStatus.OK, live_page())
+        del response.headers["Content-Type"]
+        response.headers["Content-Type"] = "text/html; charset=utf-8"
+        return response
 
     async def _handler(self, websocket: ServerConnection) -> None:
         with require("serve"):
