@@ -13,7 +13,8 @@ def register(subparsers: Any) -> None:
     parser = subparsers.add_parser(
         "serve",
         help="plan dialogues live: a WebSocket server, one dialogue session per connection",
-        description="Serve dialogue sessions over WebSocket (protocol in docs/serve.md): send events "
+        description="Serve dialogue sessions over WebSocket (protocol 1; JSON Schema: mse/serve/protocol.schema.json): "
+        "send events "
         "({\"emotion\": \"joy\"}, {\"say\": \"...\"}, {\"end\": true}), receive the occurrences as they are "
         "committed. Listens on 127.0.0.1 unless --host says otherwise; SIGINT or SIGTERM stop it (exit 0).",
     )
