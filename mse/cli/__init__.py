@@ -19,6 +19,7 @@ COMMAND_MODULES: tuple[str, ...] = (
     "cmd_sample",
     "cmd_check",
     "cmd_live",
+    "cmd_serve",
     "cmd_repair",
     "cmd_lint",
     "cmd_list",

@@ -271,6 +271,26 @@ class Session:
         self._running = None
         return closed
 
+    def advance(self, t: float) -> list[TimelineSignal]:
+        """Continue the running episode by horizons while its plan ends before ``t`` (a live
+        session on the wall clock calls it ahead of time, with no event); the occurrences it
+        commits: the closed part's last versions, then each continuation's plan."""
+        running = self._running
+        handed: list[TimelineSignal] = []
+        if self._ended is not None:
+            return handed
+        while running is not None and running.plan_stop < t - _EPSILON:
+            closed = self._close(running, running.plan_stop)
+            start = running.plan_stop
+            running = self._open(self._models[running.emotion], running.emotion, start, _r(start + self.horizon),
+                                 False, running.intensity, self._span(), continues=True)
+            self._carry(closed, running, start)
+            self._commit(closed)
+            self._running = running
+            handed.extend(closed)
+            handed.extend(running.drain())
+        return handed
+
     def _close(self, running: _Running, t: float, *, final: bool = False) -> list[TimelineSignal]:
         """The running episode ends at ``t``: as planned, or interrupted (cut and dropped).
         At the dialogue's end (``final``) nothing follows, so cut occurrences stop at ``t``."""
@@ -401,6 +421,29 @@ class Session:
         return self._running.index if self._running is not None else None
 
     @property
+    def closed_episodes(self) -> Sequence[dict[str, Any]]:
+        """The episodes closed so far, in order (the timeline's ``episodes`` entries)."""
+        return self._episodes
+
+    def running_plan(self) -> tuple[dict[str, Any], list[TimelineSignal], list[dict[str, Any]]] | None:
+        """The episode being played (its entry as planned, its whole plan, the utterances that
+        start in it), for a realizer sent one block per episode (``mse serve``); None when none."""
+        running = self._running
+        if running is None:
+            return None
+        utterances = [u for u in self._utterances if running.start <= u["start"] < running.plan_stop]
+        return self._running_entry(running), list(running.drain()), utterances
+
+    @staticmethod
+    def _running_entry(running: _Running) -> dict[str, Any]:
+        return {
+            "index": running.index, "emotion": running.emotion, "source": running.source,
+            "start": _r(running.start), "stop": _r(running.plan_stop), "announced": running.announced,
+            "interrupted": False, "intensity": running.intensity, "plan_stop": _r(running.plan_stop),
+            **({"continues": True} if running.continues else {}),
+        }
+
+    @property
     def utterance_words(self) -> list[tuple[Word, ...]]:
         return [tuple(Word(w[0], w[1], w[2]) for w in u["words"]) for u in self._utterances]
 
@@ -412,12 +455,7 @@ class Session:
         if self._running is not None:
             running = self._running
             signals.extend(running.drain())
-            episodes.append({
-                "index": running.index, "emotion": running.emotion, "source": running.source,
-                "start": _r(running.start), "stop": _r(running.plan_stop), "announced": running.announced,
-                "interrupted": False, "intensity": running.intensity, "plan_stop": _r(running.plan_stop),
-                **({"continues": True} if running.continues else {}),
-            })
+            episodes.append(self._running_entry(running))
             duration = running.plan_stop
         if duration is None or not episodes:
             raise MseError([Diagnostic(CODE, "the dialogue has no episode yet (start with an emotion)",
