@@ -143,6 +143,8 @@ def _format_from_output(output: str | None) -> str:
     by_suffix = {suffix: name for name, suffix in SUFFIXES.items()}
     by_suffix.setdefault(".htm", "html")
     suffix = Path(output).suffix.lower() if output else ""
+    if output and "".join(Path(output).suffixes[-2:]).lower() in by_suffix:  # t.arkit.csv
+        suffix = "".join(Path(output).suffixes[-2:]).lower()
     if output and not output.endswith(("/", "\\")) and suffix in by_suffix:
         return by_suffix[suffix]
     known = ", ".join(f"{s} ({n})" for s, n in by_suffix.items())

@@ -11,7 +11,8 @@ from typing import Any
 from mse.cli.common import add_quiet, emit, print_error
 from mse.diagnostics import MseError, argument_error
 
-FORMATS = ("json", "table", "bml", "greta-bml", "svg", "html", "eaf", "mp4", "webm", "gif")
+FORMATS = ("json", "table", "bml", "greta-bml", "svg", "html", "eaf", "openface", "arkit", "arkit-json", "mp4",
+           "webm", "gif")
 REALIZERS = ("generic", "greta", "asap")
 
 

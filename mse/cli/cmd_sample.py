@@ -17,7 +17,7 @@ from mse.limits import MAX_SECONDS, solve_duration_problem
 from mse.solve.objectives import DEFAULT_OBJECTIVE, OBJECTIVES
 
 BASE_FORMATS = ("table", "json", "jsonl")
-EXPORT_FORMATS = ("bml", "greta-bml", "svg", "html", "eaf")
+EXPORT_FORMATS = ("bml", "greta-bml", "svg", "html", "eaf", "openface", "arkit", "arkit-json")
 REALIZERS = ("generic", "greta", "asap")  # mse.export.realizers.REALIZERS (not imported: start-up time)
 VIDEO_FORMATS = ("mp4", "webm", "gif")
 SAMPLE_FORMATS = BASE_FORMATS + EXPORT_FORMATS + VIDEO_FORMATS

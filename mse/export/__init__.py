@@ -1,4 +1,5 @@
-"""Timelines out to realizers and people: BML 1.0, Greta BML, SVG, HTML, ELAN (EAF 3.0).
+"""Timelines out to realizers and people: BML 1.0, Greta BML, SVG, HTML, ELAN (EAF 3.0), and
+tracks (OpenFace 2.0 CSV, ARKit blendshapes: docs/tracks.md).
 
 ``render(timeline, "bml")`` returns the text of one format.  Exporter modules are imported
 on first use, so ``import mse.export`` stays cheap for the command line.
@@ -25,6 +26,9 @@ _REGISTRY: dict[str, tuple[str, str]] = {
     "svg": ("mse.export.svg", "render_svg"),
     "html": ("mse.export.html", "render_html"),
     "eaf": ("mse.export.eaf", "render_eaf"),
+    "openface": ("mse.export.tracks.openface", "render_openface"),
+    "arkit": ("mse.export.tracks.arkit", "render_arkit"),
+    "arkit-json": ("mse.export.tracks.arkit", "render_arkit_json"),
 }
 
 FORMAT_NAMES: tuple[str, ...] = tuple(_REGISTRY)
@@ -32,6 +36,7 @@ DEFAULT_OPTIONS = ExportOptions()
 
 #: File suffix of each format (the CLI names files written into a folder with it).
 SUFFIXES: dict[str, str] = {"bml": ".bml", "greta-bml": ".xml", "svg": ".svg", "html": ".html", "eaf": ".eaf"}
+SUFFIXES.update({"openface": ".openface.csv", "arkit": ".arkit.csv", "arkit-json": ".arkit.json"})
 
 #: Binary formats written to a file by ``mse.export.video.write_video`` (not ``render``).
 VIDEO_FORMATS: tuple[str, ...] = ("mp4", "webm", "gif")
