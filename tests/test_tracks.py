@@ -21,7 +21,7 @@ from mse.export.face.lexicon import Resolver
 from mse.export.face.page import face_track
 from mse.export.face.rig import default_rig
 from mse.export.lexemes import modality_of, split_lexeme
-from mse.export.tracks.arkit import ROTATIONS, arkit_table, blendshapes, write_arkit_csv
+from mse.export.tracks.arkit import ROTATIONS, arkit_table, blendshapes
 from mse.export.tracks.model import AU_SCALE, GAZE_DEGREES, Tracks, sample
 from mse.export.tracks.openface import AU_INTENSITY, AU_PRESENCE, columns, openface_values, write_openface
 from mse.resources import bundled_names
