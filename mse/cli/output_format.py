@@ -25,6 +25,7 @@ _BY_SUFFIX: dict[str, str] = {
     ".openface.csv": "openface",
     ".arkit.csv": "arkit",
     ".arkit.json": "arkit-json",
+    ".vrma": "vrma",
 }
 _XML_FORMATS = ("greta-bml", "bml", "eaf")
 #: ``.csv`` alone could be either track format (a double suffix such as ``.arkit.csv`` names one).

@@ -15,7 +15,7 @@ from mse.diagnostics import Diagnostic, MseError, Span, argument_error
 from mse.export.options import ExportOptions
 from mse.timeline import Timeline
 
-__all__ = ["FORMAT_NAMES", "VIDEO_FORMATS", "ExportOptions", "export_notes", "render"]
+__all__ = ["BINARY_FORMATS", "FORMAT_NAMES", "VIDEO_FORMATS", "ExportOptions", "export_notes", "render", "render_bytes"]
 
 Renderer = Callable[[Timeline, ExportOptions], str]
 
@@ -38,6 +38,11 @@ DEFAULT_OPTIONS = ExportOptions()
 SUFFIXES: dict[str, str] = {"bml": ".bml", "greta-bml": ".xml", "svg": ".svg", "html": ".html", "eaf": ".eaf"}
 SUFFIXES.update({"openface": ".openface.csv", "arkit": ".arkit.csv", "arkit-json": ".arkit.json"})
 
+#: Binary formats written by :func:`render_bytes` (format name -> (module, function)).
+_BINARY_REGISTRY: dict[str, tuple[str, str]] = {"vrma": ("mse.export.tracks.vrma", "render_vrma")}
+BINARY_FORMATS: tuple[str, ...] = tuple(_BINARY_REGISTRY)
+SUFFIXES["vrma"] = ".vrma"
+
 #: Binary formats written to a file by ``mse.export.video.write_video`` (not ``render``).
 VIDEO_FORMATS: tuple[str, ...] = ("mp4", "webm", "gif")
 SUFFIXES.update({"mp4": ".mp4", "webm": ".webm", "gif": ".gif"})
@@ -58,6 +63,17 @@ def render(timeline: Timeline, fmt: str, options: ExportOptions = DEFAULT_OPTION
     if not isinstance(timeline, Timeline):
         raise MseError([Diagnostic("E212", "export needs a Timeline", Span("<export>"))])
     return renderer(fmt)(timeline, options)
+
+
+def render_bytes(timeline: Timeline, fmt: str, options: ExportOptions = DEFAULT_OPTIONS) -> bytes:
+    """The bytes of ``timeline`` in binary format ``fmt`` (one of :data:`BINARY_FORMATS`)."""
+    if not isinstance(timeline, Timeline):
+        raise MseError([Diagnostic("E212", "export needs a Timeline", Span("<export>"))])
+    entry = _BINARY_REGISTRY.get(fmt)
+    if entry is None:
+        raise argument_error(f"unknown binary export format {fmt!r} (known: {', '.join(BINARY_FORMATS)})")
+    function = getattr(importlib.import_module(entry[0]), entry[1])
+    return cast(bytes, function(timeline, options))
 
 
 def export_notes(
