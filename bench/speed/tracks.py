@@ -25,7 +25,8 @@ from pathlib import Path
 
 from mse.api import load, loads
 from mse.dialogue import Session
-from mse.export import render
+from mse.export import BINARY_FORMATS, render, render_bytes
+from mse.export.tracks.model import sample as sample_tracks
 from mse.ir import model as ir
 from mse.resources import bundled_names
 from mse.sampling import sample
@@ -35,7 +36,11 @@ from tests.test_tracks_greta import greta_differences
 
 REPO = Path(__file__).resolve().parents[2]
 SHARED = Path(os.environ.get("MSE_SHARED", REPO.parent / "shared"))
-FORMATS = ("openface", "arkit", "arkit-json")
+FORMATS = ("openface", "arkit", "arkit-json", "vrma")
+
+
+def write(timeline: Timeline, fmt: str) -> object:
+    return render_bytes(timeline, fmt) if fmt in BINARY_FORMATS else render(timeline, fmt)
 
 
 def median_ms(work: Callable[[], object], runs: int) -> float:
@@ -61,14 +66,16 @@ def speed(runs: int) -> None:
         "dialogue": dialogue(),
     }
     print(f"speed: 10 s at 30 fps, median of {runs} runs (ms); baseline: the timeline JSON")
-    print(f"{'timeline':<14} {'json':>7} " + " ".join(f"{f:>11}" for f in FORMATS) + "  ratio to json")
+    print("(curves: the track model alone, shared by every format)")
+    print(f"{'timeline':<14} {'json':>7} {'curves':>7} " + " ".join(f"{f:>11}" for f in FORMATS) + "  ratio to json")
     for name, timeline in timelines.items():
         for fmt in FORMATS:
-            render(timeline, fmt)  # import the exporter before timing
+            write(timeline, fmt)  # import the exporter before timing
         baseline = median_ms(lambda t=timeline: t.dumps(), runs)
-        measured = [median_ms(lambda t=timeline, f=fmt: render(t, f), runs) for fmt in FORMATS]
+        curves = median_ms(lambda t=timeline: sample_tracks(t), runs)
+        measured = [median_ms(lambda t=timeline, f=fmt: write(t, f), runs) for fmt in FORMATS]
         ratios = " ".join(f"{m / baseline:.1f}x" for m in measured)
-        print(f"{name:<14} {baseline:7.2f} " + " ".join(f"{m:11.2f}" for m in measured) + f"  {ratios}")
+        print(f"{name:<14} {baseline:7.2f} {curves:7.2f} " + " ".join(f"{m:11.2f}" for m in measured) + f"  {ratios}")
 
 
 def sets() -> dict[str, ir.Model]:
