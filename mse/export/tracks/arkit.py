@@ -108,8 +108,8 @@ def write_arkit_csv(tracks: Tracks) -> str:
     columns = np.concatenate([blendshapes(tracks), rotations(tracks)], axis=1)
     count = str(columns.shape[1])
     rows = [",".join(("Timecode", "BlendShapeCount", *names, *ROTATIONS))]
-    for k in range(tracks.frame_count):
-        rows.append(",".join([timecode(float(tracks.times[k]), tracks.fps), count, *(f"{v:.6f}" for v in columns[k])]))
+    for time, row in zip(tracks.times.tolist(), columns.tolist(), strict=True):
+        rows.append(",".join([timecode(time, tracks.fps), count, *("0.000000" if v == 0 else f"{v:.6f}" for v in row)]))
     return "\n".join(rows) + "\n"
 
 

@@ -112,11 +112,14 @@ def openface_values(tracks: Tracks) -> dict[str, np.ndarray]:
         "pose_Ry": -yaw,
         "pose_Rz": roll,
     }
+    au = tracks.au
     for n in AU_INTENSITY:
-        values[f"AU{n:02d}_r"] = np.round(tracks.unit(DRAWN_AS.get(n, n)), 2)
+        unit = DRAWN_AS.get(n, n)
+        intensity = au[:, tracks.units.index(unit)] if unit in tracks.units else np.zeros(tracks.frame_count)
+        values[f"AU{n:02d}_r"] = np.round(intensity, 2)
     for n in AU_PRESENCE:
-        intensity = values.get(f"AU{n:02d}_r")
-        values[f"AU{n:02d}_c"] = np.zeros(tracks.frame_count) if intensity is None else (intensity > 0).astype(float)
+        measured = values.get(f"AU{n:02d}_r")
+        values[f"AU{n:02d}_c"] = np.zeros(tracks.frame_count) if measured is None else (measured > 0).astype(float)
     return values
 
 
@@ -124,19 +127,28 @@ def write_openface(tracks: Tracks) -> str:
     """The CSV text (header and one row per frame)."""
     eyes, face = _constant_fields()
     values = openface_values(tracks)
+    count = tracks.frame_count
+
+    def formatted(name: str, digits: int) -> list[str]:
+        column = values[name]
+        if not column.any():  # most units rest most of the time
+            return [f"{0.0:.{digits}f}"] * count
+        return [f"{v:.{digits}f}" for v in column.tolist()]
+
+    gaze = [formatted(f"gaze_{eye}_{axis}", 6) for eye in (0, 1) for axis in "xyz"]
+    gaze += [formatted("gaze_angle_x", 3), formatted("gaze_angle_y", 3)]
+    pose = [formatted(name, 3) for name in ("pose_Rx", "pose_Ry", "pose_Rz")]
+    units = [formatted(f"AU{n:02d}_r", 2) for n in AU_INTENSITY] + [formatted(f"AU{n:02d}_c", 2) for n in AU_PRESENCE]
+    head = [f"{k + 1}, 0, {t:.3f}, {CONFIDENCE:.2f}, 1" for k, t in enumerate(values["timestamp"].tolist())]
+    middle = f"{eyes}, 0.0, 0.0, {DISTANCE_MM:.1f}"
     rows = [", ".join(columns())]
-    gaze_names = [f"gaze_{eye}_{axis}" for eye in (0, 1) for axis in "xyz"]
-    au_r = [values[f"AU{n:02d}_r"] for n in AU_INTENSITY]
-    au_c = [values[f"AU{n:02d}_c"] for n in AU_PRESENCE]
-    pose_t = f"0.0, 0.0, {DISTANCE_MM:.1f}"
-    for k in range(tracks.frame_count):
-        fields = [str(k + 1), "0", f"{values['timestamp'][k]:.3f}", f"{CONFIDENCE:.2f}", "1"]
-        fields += [f"{values[name][k]:.6f}" for name in gaze_names]
-        fields += [f"{values['gaze_angle_x'][k]:.3f}", f"{values['gaze_angle_y'][k]:.3f}", eyes, pose_t]
-        fields += [f"{values[name][k]:.3f}" for name in ("pose_Rx", "pose_Ry", "pose_Rz")]
-        fields.append(face)
-        fields += [f"{column[k]:.2f}" for column in au_r] + [f"{column[k]:.2f}" for column in au_c]
-        rows.append(", ".join(fields))
+    for k in range(count):
+        rows.append(
+            ", ".join(
+                [head[k], *(column[k] for column in gaze), middle, *(column[k] for column in pose), face]
+                + [column[k] for column in units]
+            )
+        )
     return "\n".join(rows) + "\n"
 
 
