@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import json
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pytest
@@ -234,3 +235,31 @@ def test_cli_writes_every_track_format(tmp_path: Path, capsys: pytest.CaptureFix
     assert json.loads((tmp_path / "c.arkit.json").read_text())["names"][0] == "eyeBlinkLeft"
     assert cli_main(["sample", "anger", "--format", "bml", "-o", str(tmp_path / "d.csv")]) == 1
     capsys.readouterr()
+
+
+# -- OpenFace in: mse learn ------------------------------------------------------------------
+def test_learn_reads_openface_presence_columns(tmp_path: Path) -> None:
+    from mse.learn.read import read_corpus
+
+    signals = (
+        TimelineSignal("smile", "face", "faceexp=smile", 1.0, 3.0),
+        TimelineSignal("frown", "face", "AU4", 4.0, 5.5),
+    )
+    (tmp_path / "a.openface.csv").write_text(render(Timeline("t", 6.0, signals), "openface"), encoding="utf-8")
+    corpus, notes = read_corpus([tmp_path])
+    assert not [n for n in notes if n.is_error]
+    assert len(corpus.sequences) == 1 and set(corpus.signals) >= {"AU12", "AU4"}
+    raw = [(a.label, a.start, a.stop) for a in _raw(tmp_path / "a.openface.csv")]
+    one_frame = 1000 / 30 + 1
+    by_label = {label: (start, stop) for label, start, stop in raw}
+    assert set(by_label) == {"AU6", "AU12", "AU4"}
+    for label, (start, stop) in (("AU12", (1000, 3000)), ("AU6", (1000, 3000)), ("AU4", (4000, 5500))):
+        assert abs(by_label[label][0] - start) <= one_frame and abs(by_label[label][1] - stop) <= one_frame
+
+
+def _raw(path: Path) -> list[Any]:
+    from mse.learn.read_table import read_table
+
+    (sequence,), problems = read_table(path)
+    assert problems == []
+    return list(sequence.annotations)
