@@ -68,7 +68,7 @@ def parse(text: str) -> etree._Element:
 
 
 def test_format_names() -> None:
-    assert FORMAT_NAMES == ("bml", "greta-bml", "svg", "html", "eaf")
+    assert FORMAT_NAMES == ("bml", "greta-bml", "svg", "html", "eaf", "openface", "arkit", "arkit-json")
 
 
 @pytest.mark.parametrize(

@@ -12,7 +12,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from mse.cli.cmd_render import add_bml_block_arguments, add_face_arguments
-from mse.export import FORMAT_NAMES, VIDEO_FORMATS  # light: the exporters themselves load lazily
+from mse.export import BINARY_FORMATS, FORMAT_NAMES, VIDEO_FORMATS  # light: the exporters themselves load lazily
 
 if TYPE_CHECKING:
     from mse.export import ExportOptions
@@ -29,7 +29,7 @@ def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) ->
     p.add_argument(
         "--format",
         "-f",
-        choices=FORMAT_NAMES + VIDEO_FORMATS,
+        choices=FORMAT_NAMES + BINARY_FORMATS + VIDEO_FORMATS,
         help="output format (default: from the -o file's extension, e.g. t.svg -> svg, t.bml -> bml)",
     )
     p.add_argument(
@@ -69,7 +69,7 @@ def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) ->
 def run(args: argparse.Namespace) -> int:
     from mse.cli.common import read_timelines
     from mse.diagnostics import Diagnostic, MseError, Span
-    from mse.export import SUFFIXES, ExportOptions, export_notes, render
+    from mse.export import SUFFIXES, ExportOptions, export_notes, render, render_bytes
     from mse.fileio import write_atomic
 
     output: str | None = args.output
@@ -106,7 +106,10 @@ def run(args: argparse.Namespace) -> int:
         if args.format in VIDEO_FORMATS:
             return _videos(timelines, args.format, output, to_folder, where, options)
         # Render everything before writing anything: bad input leaves no partial output.
-        pages = [render(t, args.format, options) for t in timelines]
+        binary = args.format in BINARY_FORMATS
+        pages: list[str | bytes] = [
+            render_bytes(t, args.format, options) if binary else render(t, args.format, options) for t in timelines
+        ]
         notes = [note for t in timelines for note in export_notes(t, args.format, options, where)]
     except MseError as error:
         for diagnostic in error.diagnostics:
@@ -116,7 +119,11 @@ def run(args: argparse.Namespace) -> int:
     for note in notes:
         print(note.render(), file=sys.stderr)
     if output is None:
-        sys.stdout.write(pages[0])
+        page = pages[0]
+        if isinstance(page, bytes):
+            sys.stdout.buffer.write(page)
+        else:
+            sys.stdout.write(page)
         return 0
     stem = Path(where).stem if where != "<stdin>" else "timeline"
     targets = (
@@ -143,6 +150,8 @@ def _format_from_output(output: str | None) -> str:
     by_suffix = {suffix: name for name, suffix in SUFFIXES.items()}
     by_suffix.setdefault(".htm", "html")
     suffix = Path(output).suffix.lower() if output else ""
+    if output and "".join(Path(output).suffixes[-2:]).lower() in by_suffix:  # t.arkit.csv
+        suffix = "".join(Path(output).suffixes[-2:]).lower()
     if output and not output.endswith(("/", "\\")) and suffix in by_suffix:
         return by_suffix[suffix]
     known = ", ".join(f"{s} ({n})" for s, n in by_suffix.items())

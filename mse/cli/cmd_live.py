@@ -11,7 +11,8 @@ from typing import Any
 from mse.cli.common import add_quiet, emit, print_error
 from mse.diagnostics import MseError, argument_error
 
-FORMATS = ("json", "table", "bml", "greta-bml", "svg", "html", "eaf", "mp4", "webm", "gif")
+FORMATS = ("json", "table", "bml", "greta-bml", "svg", "html", "eaf", "openface", "arkit", "arkit-json", "vrma",
+           "mp4", "webm", "gif")
 REALIZERS = ("generic", "greta", "asap")
 
 
@@ -56,7 +57,7 @@ def run(args: argparse.Namespace) -> int:
     import random
 
     from mse.cli.common import print_diagnostics
-    from mse.cli.sample_output import render_timelines, write_video_file
+    from mse.cli.sample_output import render_timelines, write_binary_file, write_video_file
     from mse.dialogue import plan_script
     from mse.dialogue.inputs import read_events
     from mse.limits import solve_duration_problem
@@ -74,6 +75,8 @@ def run(args: argparse.Namespace) -> int:
         args.source, args.animate, args.library = (None if args.script == "-" else args.script), None, None
         if fmt in ("mp4", "webm", "gif"):
             return write_video_file([timeline], fmt, args)
+        if fmt == "vrma":
+            return write_binary_file([timeline], fmt, args)
         text = render_timelines([timeline], fmt, args, many=False)
         emit(text, args.output, inputs=[p for p in (args.script, args.face_library) if p and p != "-"])
     except MseError as error:

@@ -17,10 +17,11 @@ from mse.limits import MAX_SECONDS, solve_duration_problem
 from mse.solve.objectives import DEFAULT_OBJECTIVE, OBJECTIVES
 
 BASE_FORMATS = ("table", "json", "jsonl")
-EXPORT_FORMATS = ("bml", "greta-bml", "svg", "html", "eaf")
+EXPORT_FORMATS = ("bml", "greta-bml", "svg", "html", "eaf", "openface", "arkit", "arkit-json")
 REALIZERS = ("generic", "greta", "asap")  # mse.export.realizers.REALIZERS (not imported: start-up time)
 VIDEO_FORMATS = ("mp4", "webm", "gif")
-SAMPLE_FORMATS = BASE_FORMATS + EXPORT_FORMATS + VIDEO_FORMATS
+BINARY_FORMATS = ("vrma",)
+SAMPLE_FORMATS = BASE_FORMATS + EXPORT_FORMATS + BINARY_FORMATS + VIDEO_FORMATS
 _PIN = re.compile(r"([A-Za-z_][A-Za-z0-9_]*)@([0-9]{1,12}(?:\.[0-9]{1,12})?)-([0-9]{1,12}(?:\.[0-9]{1,12})?)")
 
 
@@ -274,7 +275,15 @@ def _stream(model: Any, args: argparse.Namespace) -> int:
 
 def _sample(model: Any, args: argparse.Namespace) -> int:
     from mse.cli.output_format import output_format
-    from mse.cli.sample_output import is_folder, output_to, render_timelines, write_folder, write_many, write_video_file
+    from mse.cli.sample_output import (
+        is_folder,
+        output_to,
+        render_timelines,
+        write_binary_file,
+        write_folder,
+        write_many,
+        write_video_file,
+    )
     from mse.sampling import iter_timelines
 
     given = output_format(args.format, args.output, SAMPLE_FORMATS)
@@ -296,6 +305,8 @@ def _sample(model: Any, args: argparse.Namespace) -> int:
         timelines = animate_timelines([(t, model) for t in timelines], Path(args.animate), args.library, inputs=inputs)
     if fmt in VIDEO_FORMATS:
         return write_video_file(timelines, fmt, args)
+    if fmt in BINARY_FORMATS:
+        return write_binary_file(timelines, fmt, args)
     if fmt in EXPORT_FORMATS and args.output and is_folder(args.output):
         return write_folder(timelines, fmt, args)
     inputs = [p for p in (args.source, args.library, args.face_library) if p]

@@ -22,8 +22,14 @@ _BY_SUFFIX: dict[str, str] = {
     ".mp4": "mp4",
     ".webm": "webm",
     ".gif": "gif",
+    ".openface.csv": "openface",
+    ".arkit.csv": "arkit",
+    ".arkit.json": "arkit-json",
+    ".vrma": "vrma",
 }
 _XML_FORMATS = ("greta-bml", "bml", "eaf")
+#: ``.csv`` alone could be either track format (a double suffix such as ``.arkit.csv`` names one).
+_CSV_FORMATS = ("openface", "arkit")
 
 
 def _error(message: str) -> MseError:
@@ -37,7 +43,14 @@ def output_format(given: str | None, output: str | None, offered: Collection[str
     if not output or output == "-" or output.endswith(("/", "\\")):
         return given
     suffix = Path(output).suffix.lower()
-    named = _BY_SUFFIX.get(suffix)
+    named = _BY_SUFFIX.get("".join(Path(output).suffixes[-2:]).lower()) or _BY_SUFFIX.get(suffix)
+    if suffix == ".csv" and named is None:
+        if given is None:
+            raise _error(f"-o {output}: a .csv file could hold several formats; give --format "
+                         f"({', '.join(f for f in _CSV_FORMATS if f in offered)})")
+        if given not in _CSV_FORMATS:
+            raise _error(f"-o {output}: --format {given} is not CSV; name the file for what it holds")
+        return given
     if suffix == ".xml":
         if given is None:
             raise _error(f"-o {output}: an .xml file could hold several formats; give --format "

@@ -116,6 +116,18 @@ def write_video_file(timelines: list[Any], fmt: str, args: argparse.Namespace) -
     return 0
 
 
+def write_binary_file(timelines: list[Any], fmt: str, args: argparse.Namespace) -> int:
+    """One timeline in a binary export format (``vrma``) to ``-o FILE``, written atomically."""
+    from mse.export import render_bytes
+    from mse.fileio import write_atomic
+
+    if not args.output or args.output == "-" or is_folder(args.output) or len(timelines) > 1:
+        raise argument_error(f"--format {fmt} writes one timeline to a file: give -o FILE, no --count")
+    data = render_bytes(timelines[0], fmt, export_options(args))
+    write_atomic(args.output, data, inputs=[p for p in (args.source, args.face_library) if p and p != "-"])
+    return 0
+
+
 def export_options(args: argparse.Namespace) -> Any:
     from pathlib import Path
 

@@ -1,4 +1,5 @@
-"""Timelines out to realizers and people: BML 1.0, Greta BML, SVG, HTML, ELAN (EAF 3.0).
+"""Timelines out to realizers and people: BML 1.0, Greta BML, SVG, HTML, ELAN (EAF 3.0), and
+tracks (OpenFace 2.0 CSV, ARKit blendshapes: docs/tracks.md).
 
 ``render(timeline, "bml")`` returns the text of one format.  Exporter modules are imported
 on first use, so ``import mse.export`` stays cheap for the command line.
@@ -14,7 +15,7 @@ from mse.diagnostics import Diagnostic, MseError, Span, argument_error
 from mse.export.options import ExportOptions
 from mse.timeline import Timeline
 
-__all__ = ["FORMAT_NAMES", "VIDEO_FORMATS", "ExportOptions", "export_notes", "render"]
+__all__ = ["BINARY_FORMATS", "FORMAT_NAMES", "VIDEO_FORMATS", "ExportOptions", "export_notes", "render", "render_bytes"]
 
 Renderer = Callable[[Timeline, ExportOptions], str]
 
@@ -25,6 +26,9 @@ _REGISTRY: dict[str, tuple[str, str]] = {
     "svg": ("mse.export.svg", "render_svg"),
     "html": ("mse.export.html", "render_html"),
     "eaf": ("mse.export.eaf", "render_eaf"),
+    "openface": ("mse.export.tracks.openface", "render_openface"),
+    "arkit": ("mse.export.tracks.arkit", "render_arkit"),
+    "arkit-json": ("mse.export.tracks.arkit", "render_arkit_json"),
 }
 
 FORMAT_NAMES: tuple[str, ...] = tuple(_REGISTRY)
@@ -32,6 +36,12 @@ DEFAULT_OPTIONS = ExportOptions()
 
 #: File suffix of each format (the CLI names files written into a folder with it).
 SUFFIXES: dict[str, str] = {"bml": ".bml", "greta-bml": ".xml", "svg": ".svg", "html": ".html", "eaf": ".eaf"}
+SUFFIXES.update({"openface": ".openface.csv", "arkit": ".arkit.csv", "arkit-json": ".arkit.json"})
+
+#: Binary formats written by :func:`render_bytes` (format name -> (module, function)).
+_BINARY_REGISTRY: dict[str, tuple[str, str]] = {"vrma": ("mse.export.tracks.vrma", "render_vrma")}
+BINARY_FORMATS: tuple[str, ...] = tuple(_BINARY_REGISTRY)
+SUFFIXES["vrma"] = ".vrma"
 
 #: Binary formats written to a file by ``mse.export.video.write_video`` (not ``render``).
 VIDEO_FORMATS: tuple[str, ...] = ("mp4", "webm", "gif")
@@ -53,6 +63,17 @@ def render(timeline: Timeline, fmt: str, options: ExportOptions = DEFAULT_OPTION
     if not isinstance(timeline, Timeline):
         raise MseError([Diagnostic("E212", "export needs a Timeline", Span("<export>"))])
     return renderer(fmt)(timeline, options)
+
+
+def render_bytes(timeline: Timeline, fmt: str, options: ExportOptions = DEFAULT_OPTIONS) -> bytes:
+    """The bytes of ``timeline`` in binary format ``fmt`` (one of :data:`BINARY_FORMATS`)."""
+    if not isinstance(timeline, Timeline):
+        raise MseError([Diagnostic("E212", "export needs a Timeline", Span("<export>"))])
+    entry = _BINARY_REGISTRY.get(fmt)
+    if entry is None:
+        raise argument_error(f"unknown binary export format {fmt!r} (known: {', '.join(BINARY_FORMATS)})")
+    function = getattr(importlib.import_module(entry[0]), entry[1])
+    return cast(bytes, function(timeline, options))
 
 
 def export_notes(

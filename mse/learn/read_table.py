@@ -1,4 +1,5 @@
-"""CSV and TSV corpora: one annotation per row, ``sequence, tier, start, stop, label``.
+"""CSV and TSV corpora: one annotation per row, ``sequence, tier, start, stop, label``
+(an OpenFace 2.0 CSV, told by its header, is read by :mod:`mse.learn.read_openface`).
 
 Times are seconds.  A first row naming the columns (``sequence``, ``tier``, ``start``,
 ``stop``, ``label``, in any order, optionally ``duration``: the sequence's length in seconds)
@@ -28,7 +29,12 @@ def read_table(path: str | Path, data: bytes | None = None) -> tuple[list[RawSeq
         if data is None:
             return [], problems
     delimiter = "\t" if Path(name).suffix.lower() in (".tsv", ".tab") else ","
-    rows = csv.reader(io.StringIO(decode_text(data), newline=""), delimiter=delimiter)
+    from mse.learn.read_openface import is_openface_header, read_openface
+
+    text = decode_text(data)
+    if delimiter == "," and is_openface_header(text.split("\n", 1)[0].split(",")):
+        return read_openface(name, text)
+    rows = csv.reader(io.StringIO(text, newline=""), delimiter=delimiter)
     found: list[Diagnostic] = []
     order: dict[str, list[Annotation]] = {}
     durations: dict[str, int] = {}
