@@ -89,7 +89,7 @@ def _key(identity: dict[str, str]) -> str:
 def _read_entry(entry: Path, identity: dict[str, str]) -> Model | None:
     """The model in ``entry`` if every check passes, else None (a miss)."""
     try:
-        raw = read_input(entry, limit=4 * MAX_INPUT_BYTES, what="cache entry")
+        raw = read_input(entry, limit=4 * MAX_INPUT_BYTES, what="cache entry", record=False)
         envelope: Any = json.loads(raw)
         if not isinstance(envelope, dict) or any(envelope.get(k) != v for k, v in identity.items()):
             return None

@@ -61,11 +61,13 @@ def main(argv: Sequence[str] | None = None) -> int:
     from mse import progress
     from mse.extras import MissingExtra
     from mse.fileio import Terminated
+    from mse.input_files import recording_reads
 
     # Long work shows a bar on a terminal (never when piped, never under --quiet).
     progress.enable(not getattr(args, "quiet", False))
     try:
-        return int(handler(args))
+        with recording_reads():  # no output may replace a file the command read (mse/fileio.py)
+            return int(handler(args))
     except MissingExtra as missing:  # an optional part that is not installed (mse/extras.py)
         print(f"error: mse {args.command} needs the {missing.extra!r} extra: pip install 'mse[{missing.extra}]'",
               file=sys.stderr)

@@ -1,0 +1,67 @@
+"""Issue 31 (hostile input, round three): regression tests, one per item."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import pytest
+
+from mse.cli import main
+from mse.timeline import Timeline, TimelineSignal
+
+FIXTURES = Path(__file__).parent / "fixtures"
+TIMELINE = Timeline("t", 4.0, (TimelineSignal("smile", "face", "faceexp=smile", 1.0, 3.0),), solver="hand-made")
+
+
+def _corpus(folder: Path) -> Path:
+    folder.mkdir()
+    rows = "".join(f"s{i},face,{100 * i},{100 * i + 500},smile\n" for i in range(12))
+    (folder / "a.csv").write_text("sequence,tier,start,stop,label\n" + rows, encoding="utf-8")
+    return folder
+
+
+# -- item 1: no output replaces a file the command reads --------------------------------------
+@pytest.mark.parametrize("flag", ["-o", "--report"])
+def test_learn_refuses_to_overwrite_a_csv_of_its_input_folder(
+    tmp_path: Path, flag: str, capsys: pytest.CaptureFixture[str]
+) -> None:
+    folder = _corpus(tmp_path / "corpus")
+    before = (folder / "a.csv").read_bytes()
+    assert main(["learn", str(folder), flag, str(folder / "a.csv")]) == 1
+    assert "E105" in capsys.readouterr().err
+    assert (folder / "a.csv").read_bytes() == before
+
+
+def test_render_refuses_to_overwrite_its_timeline(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    pytest.importorskip("PIL")
+    source = tmp_path / "tl.png"
+    source.write_text(TIMELINE.dumps(), encoding="utf-8")
+    before = source.read_bytes()
+    assert main(["render", str(source), "-o", str(source)]) == 1
+    assert "E105" in capsys.readouterr().err
+    assert source.read_bytes() == before
+
+
+@pytest.mark.parametrize("suffix", [".bvh", ".json"])
+def test_style_train_refuses_to_overwrite_a_clip_of_its_library(
+    bandai_dir: Path, tmp_path: Path, suffix: str, capsys: pytest.CaptureFixture[str]
+) -> None:
+    library = tmp_path / "lib"
+    (library / "data").mkdir(parents=True)
+    (library / "cfg").symlink_to(bandai_dir / "cfg")
+    for clip in sorted((bandai_dir / "data").glob("dataset-1_bow_active_001.*")):
+        (library / "data" / clip.name).write_bytes(clip.read_bytes())
+    target = library / "data" / f"dataset-1_bow_active_001{suffix}"
+    before = target.read_bytes()
+    assert main(["style", "train", "--library", str(library), "--action", "bow", "-o", str(target)]) == 1
+    assert "E105" in capsys.readouterr().err
+    assert target.read_bytes() == before
+
+
+def test_a_later_command_in_the_same_process_may_write_what_an_earlier_one_read(tmp_path: Path) -> None:
+    source = tmp_path / "t.json"
+    source.write_text(TIMELINE.dumps(), encoding="utf-8")
+    assert main(["check", str(FIXTURES / "valid" / "minimal.xml"), str(source)]) in (0, 1, 2)
+    assert main(["sample", str(FIXTURES / "valid" / "minimal.xml"), "--seed", "1", "-o", str(source)]) == 0
+    assert json.loads(source.read_text())["signals"]
