@@ -65,3 +65,29 @@ def test_a_later_command_in_the_same_process_may_write_what_an_earlier_one_read(
     assert main(["check", str(FIXTURES / "valid" / "minimal.xml"), str(source)]) in (0, 1, 2)
     assert main(["sample", str(FIXTURES / "valid" / "minimal.xml"), "--seed", "1", "-o", str(source)]) == 0
     assert json.loads(source.read_text())["signals"]
+
+
+def _peak_kb(code: str) -> tuple[int, str]:
+    """Run ``code`` in a fresh interpreter; its exit code's stderr and peak memory (KB)."""
+    import subprocess
+    import sys
+
+    script = f"import resource, sys\n{code}\nprint(resource.getrusage(resource.RUSAGE_SELF).ru_maxrss)"
+    done = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True, timeout=120,
+                          cwd=Path(__file__).parent.parent)
+    assert done.returncode == 0, done.stderr
+    return int(done.stdout.split()[-1]), done.stderr
+
+
+# -- item 2: the strip of a timeline with many rows stays bounded -------------------------------
+def test_render_memory_does_not_grow_with_rows_squared(tmp_path: Path) -> None:
+    pytest.importorskip("PIL")
+    signals = tuple(TimelineSignal(f"signal_{i}", f"m{i}", "faceexp=smile", i * 0.17, i * 0.17 + 0.1)
+                    for i in range(300))  # 300 lanes of short bars: 2.3 GB before the bound
+    source = tmp_path / "many.json"
+    source.write_text(Timeline("many", 52.0, signals, solver="hand-made").dumps(), encoding="utf-8")
+    out = tmp_path / "many.png"
+    peak, _ = _peak_kb(f"from mse.cli import main; assert main(['render', {str(source)!r}, '--size', '320x180', "
+                       f"'-o', {str(out)!r}]) == 0")
+    assert out.stat().st_size > 0
+    assert peak < 400_000

@@ -34,6 +34,7 @@ if TYPE_CHECKING:
 BACKGROUND = "#ffffff"
 HEADER_HEIGHT = 26
 STRIP_SHARE = 0.36  # at most this share of the frame height goes to the strip
+MIN_STRIP_ZOOM = 0.2  # smallest scale of the strip; rows below what fits are not drawn
 PLAYHEAD = "#d62828"
 
 
@@ -91,13 +92,18 @@ class StripPainter:
         self.timeline = timeline
         self.geometry: Layout = layout(timeline, title=False)
         g = self.geometry
-        self.zoom = min(1.0, max_height / g.height)
+        # Never shrunk below MIN_STRIP_ZOOM: the rows that do not fit at that scale are left
+        # out, so the drawing (and memory) stays bounded however many rows the timeline has.
+        self.zoom = max(min(1.0, max_height / g.height), MIN_STRIP_ZOOM)
+        drawn_height = min(g.height, math.ceil(max_height / self.zoom))
         # The visible part of the drawing, in drawing pixels: lane names stay, time scrolls.
         self.view_width = width / self.zoom
-        image = Image.new("RGB", (max(g.width, math.ceil(self.view_width)), g.height), BACKGROUND)
+        image = Image.new("RGB", (max(g.width, math.ceil(self.view_width)), drawn_height), BACKGROUND)
         draw = ImageDraw.Draw(image)
         small, bold = _font(10), _font(12)
         for index, lane in enumerate(g.lanes):
+            if lane.y >= drawn_height:
+                break
             fill = "#eeeeee" if index % 2 else "#f7f7f7"
             draw.rectangle((0, lane.y, g.width, lane.y + lane.height), fill=fill)
             draw.text((10, lane.y + lane.height / 2), lane.modality, fill="#222222", font=bold, anchor="lm")
@@ -105,11 +111,13 @@ class StripPainter:
         for index in range(count + 1):
             t = index * g.tick_step
             x = g.x0 + t * g.scale
-            draw.line((x, g.top - 6, x, g.height - 8), fill="#dddddd")
+            draw.line((x, g.top - 6, x, drawn_height - 8), fill="#dddddd")
             draw.text((x, g.top - 10), f"{round(t, 3):g} s", fill="#555555", font=small, anchor="ms")
         self.bars = []
         label_font = _font(11)
         for bar in g.bars:
+            if bar.y >= drawn_height:
+                continue
             colour = LANE_COLOURS.get(bar.behaviour.modality, OTHER_COLOUR)
             box = (bar.x, bar.y, bar.x + bar.width, bar.y + BAR_HEIGHT)
             draw.rounded_rectangle(box, radius=4, fill=colour, outline="#333333")
@@ -118,7 +126,8 @@ class StripPainter:
                 draw.text((x, bar.y + BAR_HEIGHT / 2), bar.label, fill="#111111", font=label_font, anchor="lm")
             self.bars.append((bar.behaviour.signal.start, bar.behaviour.signal.stop, box))
         self.width = width
-        self.height = math.ceil(g.height * self.zoom)
+        self.drawn_height = drawn_height
+        self.height = math.ceil(drawn_height * self.zoom)
         # Zoomed once here; per frame only crops, outlines and the playhead.
         self.image = image.resize((round(image.width * self.zoom), self.height), resample=_lanczos())
 
@@ -146,7 +155,7 @@ class StripPainter:
                     box = (a * z, top + y1 * z, b * z, top + y2 * z)
                     draw.rounded_rectangle(box, radius=4 * z, outline="#000000", width=2)
         x = (g.x0 + time * g.scale - offset) * z
-        draw.line((x, top + (g.top - 6) * z, x, top + (g.height - 8) * z), fill=PLAYHEAD, width=2)
+        draw.line((x, top + (g.top - 6) * z, x, top + (self.drawn_height - 8) * z), fill=PLAYHEAD, width=2)
 
 
 def _lanczos() -> Any:
