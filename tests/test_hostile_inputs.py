@@ -91,3 +91,20 @@ def test_render_memory_does_not_grow_with_rows_squared(tmp_path: Path) -> None:
                        f"'-o', {str(out)!r}]) == 0")
     assert out.stat().st_size > 0
     assert peak < 400_000
+
+
+# -- item 3: a GIF is encoded frame by frame ---------------------------------------------------
+def test_gif_memory_does_not_grow_with_length(tmp_path: Path) -> None:
+    pytest.importorskip("av")
+    signals = tuple(TimelineSignal(f"smile{i}", "face", "faceexp=smile", i, i + 1.5) for i in range(0, 58, 3))
+    source = tmp_path / "long.json"
+    source.write_text(Timeline("long", 60.0, signals, solver="hand-made").dumps(), encoding="utf-8")
+    out = tmp_path / "long.gif"
+    # 600 frames of 960x540: Pillow's writer kept them all (417 MB); frame by frame: ~130 MB
+    peak, _ = _peak_kb(f"from mse.cli import main; assert main(['render', {str(source)!r}, '--fps', '10', '-q', "
+                       f"'-o', {str(out)!r}]) == 0")
+    assert peak < 250_000
+    from PIL import Image
+
+    with Image.open(out) as image:
+        assert image.n_frames == 600 and image.size == (960, 540) and image.info.get("loop") == 0
