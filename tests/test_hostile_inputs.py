@@ -108,3 +108,35 @@ def test_gif_memory_does_not_grow_with_length(tmp_path: Path) -> None:
 
     with Image.open(out) as image:
         assert image.n_frames == 600 and image.size == (960, 540) and image.info.get("loop") == 0
+
+
+# -- item 4: learn keeps sample's duration limit ---------------------------------------------
+def _eaf(path: Path, start: str, stop: str) -> Path:
+    path.write_text(f"""<?xml version="1.0" encoding="UTF-8"?>
+<ANNOTATION_DOCUMENT AUTHOR="t" DATE="2015-03-02T10:00:00+01:00" FORMAT="2.7" VERSION="2.7">
+  <HEADER MEDIA_FILE="" TIME_UNITS="milliseconds"/>
+  <TIME_ORDER>
+    <TIME_SLOT TIME_SLOT_ID="ts1" TIME_VALUE="{start}"/>
+    <TIME_SLOT TIME_SLOT_ID="ts2" TIME_VALUE="{stop}"/>
+  </TIME_ORDER>
+  <TIER LINGUISTIC_TYPE_REF="default-lt" TIER_ID="Face">
+    <ANNOTATION><ALIGNABLE_ANNOTATION ANNOTATION_ID="a1" TIME_SLOT_REF1="ts1" TIME_SLOT_REF2="ts2">
+      <ANNOTATION_VALUE>smile</ANNOTATION_VALUE></ALIGNABLE_ANNOTATION></ANNOTATION>
+  </TIER>
+</ANNOTATION_DOCUMENT>
+""", encoding="utf-8")
+    return path
+
+
+@pytest.mark.parametrize("stop", ["7200000", "9999999999999999999"])
+def test_learn_refuses_sequences_longer_than_sample_solves(
+    tmp_path: Path, stop: str, capsys: pytest.CaptureFixture[str]
+) -> None:
+    import time
+
+    source = _eaf(tmp_path / "long.eaf", "1000", stop)
+    started = time.perf_counter()
+    assert main(["learn", str(source)]) == 1
+    assert time.perf_counter() - started < 10
+    err = capsys.readouterr().err
+    assert f"{source}: E121" in err and "3600 s" in err and "Traceback" not in err

@@ -13,6 +13,7 @@ from pathlib import Path
 from mse import progress
 from mse.diagnostics import Diagnostic, MseError, Span, has_errors
 from mse.ir.schedule import to_ticks
+from mse.limits import MAX_SOLVE_SECONDS
 from mse.learn.corpus import DEFAULT_MAPPING, Annotation, Corpus, RawSequence, TierMapping, build_corpus
 from mse.learn.read_eaf import read_eaf
 from mse.learn.read_table import read_table
@@ -113,6 +114,7 @@ def read_corpus(paths: Iterable[str | Path], mapping: TierMapping = DEFAULT_MAPP
             sequences, problems = read_timeline_sequences(path, data)
             found.extend(problems)
             raw.extend(sequences)
+    found.extend(_too_long(raw))
     if has_errors(found):
         raise MseError(found)
     corpus, notes = build_corpus(raw, mapping)
@@ -122,3 +124,18 @@ def read_corpus(paths: Iterable[str | Path], mapping: TierMapping = DEFAULT_MAPP
         found.append(Diagnostic("E121", "no annotation to learn from (check --tiers and the files)", Span(where)))
         raise MseError(found)
     return corpus, found
+
+
+def _too_long(raw: Iterable[RawSequence]) -> list[Diagnostic]:
+    """E121 for each sequence longer than ``sample`` solves (MAX_SOLVE_SECONDS): the learned
+    set is checked and calibrated by sampling at the sequences' length."""
+    found = []
+    limit = round(MAX_SOLVE_SECONDS * 1000)
+    for sequence in raw:
+        length = sequence.duration if sequence.duration is not None else max(
+            (a.stop for a in sequence.annotations), default=0)
+        if length > limit:
+            found.append(Diagnostic("E121", f"sequence {sequence.name!r} is {length / 1000:g} s long; learn reads "
+                                    f"sequences of at most {MAX_SOLVE_SECONDS:g} s (the longest that sample "
+                                    "solves): cut the recording into shorter sequences", sequence.span))
+    return found
