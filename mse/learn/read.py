@@ -13,10 +13,10 @@ from pathlib import Path
 from mse import progress
 from mse.diagnostics import Diagnostic, MseError, Span, has_errors
 from mse.ir.schedule import to_ticks
-from mse.limits import MAX_SOLVE_SECONDS
 from mse.learn.corpus import DEFAULT_MAPPING, Annotation, Corpus, RawSequence, TierMapping, build_corpus
 from mse.learn.read_eaf import read_eaf
 from mse.learn.read_table import read_table
+from mse.limits import MAX_SOLVE_SECONDS
 from mse.syntax.reader import decode_text, read_bytes
 
 SUFFIXES: dict[str, str] = {
