@@ -140,3 +140,43 @@ def test_learn_refuses_sequences_longer_than_sample_solves(
     assert time.perf_counter() - started < 10
     err = capsys.readouterr().err
     assert f"{source}: E121" in err and "3600 s" in err and "Traceback" not in err
+
+
+# -- item 6: Ctrl-C ends a run with exit 130 and no timeline other than its seed's -------------
+def _interrupted(argv: list[str], delay: float) -> tuple[int, str, str]:
+    import signal
+    import subprocess
+    import sys
+    import time
+
+    child = subprocess.Popen([sys.executable, "-m", "mse", *argv], stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                             text=True, cwd=Path(__file__).parent.parent)
+    time.sleep(delay)
+    child.send_signal(signal.SIGINT)
+    out, err = child.communicate(timeout=120)
+    return child.returncode, out, err
+
+
+@pytest.mark.parametrize("delay", [2.0, 4.0])
+def test_ctrl_c_during_cpsat_count_exits_130_and_writes_nothing(tmp_path: Path, delay: float) -> None:
+    pytest.importorskip("ortools")
+    out = tmp_path / "many.jsonl"
+    argv = ["sample", str(FIXTURES / "valid" / "operators.xml"), "--solver", "cpsat", "--count", "300",
+            "--seed", "1", "-q"]
+    code, _, err = _interrupted([*argv, "-o", str(out)], delay)  # 300 take about 12 s
+    assert code == 130, err
+    assert not out.exists() and "Traceback" not in err
+    code, printed, err = _interrupted([*argv, "--format", "jsonl"], delay)
+    assert code == 130, err
+    shown = printed.splitlines()
+    if shown:  # what reached stdout is what the seed gives, whole lines only
+        whole = subprocess_run([*argv[:4], "--count", str(len(shown)), "--seed", "1", "-q", "--format", "jsonl"])
+        assert shown == whole.splitlines()
+
+
+def subprocess_run(argv: list[str]) -> str:
+    import subprocess
+    import sys
+
+    return subprocess.run([sys.executable, "-m", "mse", *argv], capture_output=True, text=True, check=True,
+                          timeout=120, cwd=Path(__file__).parent.parent).stdout
