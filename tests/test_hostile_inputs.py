@@ -180,3 +180,27 @@ def subprocess_run(argv: list[str]) -> str:
 
     return subprocess.run([sys.executable, "-m", "mse", *argv], capture_output=True, text=True, check=True,
                           timeout=120, cwd=Path(__file__).parent.parent).stdout
+
+
+# -- item 7: the compiled-model cache key covers all the code that compiles ---------------------
+def test_cache_key_covers_every_module_that_compiling_uses() -> None:
+    import subprocess
+    import sys
+
+    from mse.model_cache import compiler_sources
+
+    script = (
+        "import sys\nfrom pathlib import Path\nfrom mse.api import compile_source\n"
+        "from mse.ir.canonical import model_dumps\nfrom mse.ir.decode import model_from_trusted_json\n"
+        "import json\n"
+        f"model, _ = compile_source({str(FIXTURES / 'valid' / 'operators.xml')!r})\n"
+        "model_from_trusted_json(json.loads(model_dumps(model)))\n"
+        "print('\\n'.join(str(Path(m.__file__).resolve()) for n, m in list(sys.modules.items())"
+        " if (n == 'mse' or n.startswith('mse.')) and getattr(m, '__file__', None)))\n"
+    )
+    used = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True, check=True, timeout=60,
+                          cwd=Path(__file__).parent.parent).stdout.split()
+    covered = {str(p) for p in compiler_sources()}
+    assert used and not [u for u in used if u not in covered]
+    for name in ("ir/build_checker.py", "ir/build_constraints.py", "syntax/safexml.py", "ir/schedule.py"):
+        assert any(c.endswith(name) for c in covered)
