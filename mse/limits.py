@@ -31,6 +31,9 @@ MAX_JSON_INT_DIGITS = 20
 #: measured on; a 10 MB file of signals would otherwise take seconds per stage).
 MAX_ELEMENTS = 20_000
 MAX_SIGNALS = 2_000
+#: Characters of one name read from data: a learned signal id or modality, a timeline's
+#: signal id, modality or lexeme (longer ones are no names, and cost memory to draw).
+MAX_NAME_CHARS = 256
 #: Elements of any other XML input (Greta files, face libraries).
 MAX_XML_ELEMENTS = 200_000
 #: Characters of one constraint expression (its text content).

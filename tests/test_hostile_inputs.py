@@ -223,3 +223,30 @@ def test_learn_table_times_are_ascii_digits(tmp_path: Path, value: str, capsys: 
     assert main(["learn", str(source)]) == 1
     err = capsys.readouterr().err
     assert f"{source}:3:1: E121" in err and "ASCII" in err and "Traceback" not in err
+
+
+# -- item 10: learn validates names, with their location --------------------------------------------
+@pytest.mark.parametrize("mapping", ['[labels]\nsmile = "big smile"\n', '[labels]\nsmile = "a\\u0001b"\n',
+                                     '[labels]\nsmile = "x\\"y<z"\n', '[tiers]\nface = "bad modality!"\n',
+                                     f'[labels]\nsmile = "{"s" * 300}"\n'])
+def test_learn_mapping_names_are_validated(tmp_path: Path, mapping: str, capsys: pytest.CaptureFixture[str]) -> None:
+    folder = _corpus(tmp_path / "corpus")
+    (tmp_path / "m.toml").write_text(mapping, encoding="utf-8")
+    assert main(["learn", str(folder), "--mapping", str(tmp_path / "m.toml")]) == 1
+    err = capsys.readouterr().err
+    assert f"{tmp_path / 'm.toml'}:2:1: E100" in err and "Traceback" not in err
+
+
+def test_learn_refuses_huge_labels_and_odd_timeline_modalities(tmp_path: Path,
+                                                               capsys: pytest.CaptureFixture[str]) -> None:
+    table = tmp_path / "huge.csv"
+    rows = "".join(f"s{i},face,0,1,{'x' * 100_000}\n" for i in range(12))
+    table.write_text("sequence,tier,start,stop,label\n" + rows, encoding="utf-8")
+    assert main(["learn", str(table)]) == 1
+    assert f"{table}:2:1: E121" in capsys.readouterr().err
+    odd = tmp_path / "odd.jsonl"
+    one = Timeline("t", 4.0, (TimelineSignal("smile", "a b", "faceexp=smile", 1.0, 3.0),), solver="x")
+    odd.write_text("".join(one.dumps(indent=None) + "\n" for _ in range(12)), encoding="utf-8")
+    assert main(["learn", str(odd)]) == 1
+    err = capsys.readouterr().err
+    assert f"{odd}:1:1: E212" in err and "Traceback" not in err

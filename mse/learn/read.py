@@ -12,6 +12,7 @@ from pathlib import Path
 
 from mse import progress
 from mse.diagnostics import Diagnostic, MseError, Span, has_errors
+from mse.ir.build import IDENTIFIER
 from mse.ir.schedule import to_ticks
 from mse.learn.corpus import DEFAULT_MAPPING, Annotation, Corpus, RawSequence, TierMapping, build_corpus
 from mse.learn.read_eaf import read_eaf
@@ -64,6 +65,9 @@ def read_timeline_sequences(path: Path, data: bytes) -> tuple[list[RawSequence],
             start, stop = to_ticks(signal.start), to_ticks(signal.stop)
             if not 0 <= start < stop:
                 return [], [Diagnostic("E212", f"signal {signal.id!r} must have 0 <= start < stop", span)]
+            if signal.modality and not IDENTIFIER.match(signal.modality):
+                return [], [Diagnostic("E212", f"signal {signal.id[:60]!r} has the modality {signal.modality[:60]!r}, "
+                                       "which is not an identifier ([A-Za-z_][A-Za-z0-9_]*)", span)]
             action = signal.motion.get("action") if signal.motion else None
             annotations.append(Annotation(signal.modality or "unknown", signal.id, start, stop, span,
                                           lexeme=signal.lexeme, motion=str(action) if action else None,
@@ -119,6 +123,8 @@ def read_corpus(paths: Iterable[str | Path], mapping: TierMapping = DEFAULT_MAPP
         raise MseError(found)
     corpus, notes = build_corpus(raw, mapping)
     found.extend(notes)
+    if has_errors(found):
+        raise MseError(found)
     if not corpus.sequences or not corpus.signals:
         where = str(files[0]) if files else "<input>"
         found.append(Diagnostic("E121", "no annotation to learn from (check --tiers and the files)", Span(where)))
