@@ -243,3 +243,15 @@ def read_json(path: PathLike, *, limit: int = MAX_INPUT_BYTES, what: str = "file
     name = os.fspath(path)
     text = decode_utf8(read_input(path, limit=limit, what=what), name, code=code, what=what)
     return parse_json(text, name, code=code)
+
+
+def parse_toml(text: str, name: str, *, code: str = "E100", what: str = "TOML file") -> dict[str, Any]:
+    """The tables of ``text``; invalid TOML or nesting too deep for the parser -> ``code``."""
+    import tomllib
+
+    try:
+        return tomllib.loads(text)
+    except tomllib.TOMLDecodeError as error:
+        raise located_error(code, f"{what} is not valid TOML: {error}", name) from None
+    except RecursionError:
+        raise located_error(code, f"{what} nests arrays or tables too deeply", name) from None

@@ -250,3 +250,20 @@ def test_learn_refuses_huge_labels_and_odd_timeline_modalities(tmp_path: Path,
     assert main(["learn", str(odd)]) == 1
     err = capsys.readouterr().err
     assert f"{odd}:1:1: E212" in err and "Traceback" not in err
+
+
+# -- item 11: deeply nested TOML is an error, not a RecursionError ----------------------------------
+@pytest.mark.parametrize("nested", ["a = " + "[" * 100_000, "a = " + "{b = " * 50_000])
+def test_deeply_nested_toml_is_refused(tmp_path: Path, nested: str, capsys: pytest.CaptureFixture[str]) -> None:
+    deep = tmp_path / "deep.toml"
+    deep.write_text(nested + "\n", encoding="utf-8")
+    folder = _corpus(tmp_path / "corpus")
+    assert main(["learn", str(folder), "--mapping", str(deep)]) == 1
+    err = capsys.readouterr().err
+    assert f"{deep}: E100" in err and "Traceback" not in err
+    source = tmp_path / "t.json"
+    source.write_text(TIMELINE.dumps(), encoding="utf-8")
+    html = str(tmp_path / "t.html")
+    assert main(["export", str(source), "--format", "html", "--lexicon", str(deep), "-o", html]) == 1
+    err = capsys.readouterr().err
+    assert f"{deep}: E214" in err and "Traceback" not in err

@@ -51,15 +51,10 @@ def _mapping(args: argparse.Namespace) -> Any:
     tiers: dict[str, str] = {}
     labels: dict[str, str] = {}
     if args.mapping:
-        import tomllib
-
-        from mse.input_files import decode_utf8, read_input
+        from mse.input_files import decode_utf8, parse_toml, read_input
 
         text = decode_utf8(read_input(args.mapping, what="mapping"), args.mapping, what="mapping")
-        try:  # regular files only, capped, UTF-8 (mse.fileio)
-            data = tomllib.loads(text)
-        except tomllib.TOMLDecodeError as error:
-            raise MseError([Diagnostic("E100", f"invalid TOML: {error}", Span(args.mapping))]) from None
+        data = parse_toml(text, args.mapping, what="mapping")
         for table, target in (("tiers", tiers), ("labels", labels)):
             entries = data.get(table, {})
             if not isinstance(entries, dict) or not all(isinstance(v, str) for v in entries.values()):
