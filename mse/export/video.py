@@ -31,6 +31,9 @@ if TYPE_CHECKING:
     from mse.export.figures import FigureClip
 
 #: Video formats and the file suffix of each.
+#: Smallest frame that holds the face, the list and the strip (below 40 px of height the
+#: strip's lanes have no room).
+MIN_WIDTH, MIN_HEIGHT = 64, 48
 VIDEO_FORMATS: dict[str, str] = {"mp4": ".mp4", "webm": ".webm", "gif": ".gif"}
 MAX_FRAMES = 100_000
 MAX_PIXELS = 3840 * 2160
@@ -61,8 +64,9 @@ def _error(code: str, message: str, where: str) -> MseError:
 
 def check_options(video: VideoOptions, fmt: str | None = None) -> None:
     width, height = video.size
-    if not (16 <= width <= 7680 and 16 <= height <= 4320) or width * height > MAX_PIXELS:
-        raise argument_error(f"frame size {width}x{height} must be between 16x16 and 3840x2160 pixels")
+    if not (MIN_WIDTH <= width <= 7680 and MIN_HEIGHT <= height <= 4320) or width * height > MAX_PIXELS:
+        smallest = f"{MIN_WIDTH}x{MIN_HEIGHT}"
+        raise argument_error(f"frame size {width}x{height} must be between {smallest} and 3840x2160 pixels")
     if fmt in ("mp4", "webm") and (width % 2 or height % 2):
         raise argument_error(f"{fmt} needs an even frame size (got {width}x{height})")
     if not 1.0 <= video.fps <= 120.0:
