@@ -34,6 +34,8 @@ MAX_SIGNALS = 2_000
 #: Characters of one name read from data: a learned signal id or modality, a timeline's
 #: signal id, modality or lexeme (longer ones are no names, and cost memory to draw).
 MAX_NAME_CHARS = 256
+#: Characters of a file path read from data (a timeline's motion clip).
+MAX_PATH_CHARS = 4096
 #: Elements of any other XML input (Greta files, face libraries).
 MAX_XML_ELEMENTS = 200_000
 #: Characters of one constraint expression (its text content).

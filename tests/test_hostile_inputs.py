@@ -289,3 +289,16 @@ def test_render_draws_the_smallest_sizes_it_accepts(tmp_path: Path, size: str) -
     source = tmp_path / "t.json"
     source.write_text(TIMELINE.dumps(), encoding="utf-8")
     assert main(["render", str(source), "--size", size, "-o", str(tmp_path / "f.png")]) == 0
+
+
+# -- item 13: names in a timeline have a length limit (E212) ------------------------------------------
+@pytest.mark.parametrize("field", ["id", "lexeme", "modality"])
+def test_render_refuses_a_megabyte_name_in_a_timeline(tmp_path: Path, field: str,
+                                                      capsys: pytest.CaptureFixture[str]) -> None:
+    entry = {"id": "smile", "modality": "face", "lexeme": "faceexp=smile", "start": 1.0, "stop": 3.0}
+    entry[field] = "x" * 1_000_000
+    source = tmp_path / "t.json"
+    source.write_text(json.dumps({"format": "mse-timeline/1", "duration": 4.0, "signals": [entry]}), encoding="utf-8")
+    assert main(["render", str(source), "--size", "320x180", "-o", str(tmp_path / "f.png")]) == 1
+    err = capsys.readouterr().err
+    assert f"{source}:1:1: E212" in err and f"signals[0].{field} is 1000000 characters long" in err
