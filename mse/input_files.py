@@ -79,6 +79,15 @@ def note_read(path: PathLike) -> None:
             _FILES_READ.add((info.st_dev, info.st_ino))
 
 
+def read_stdin(limit: int = MAX_INPUT_BYTES) -> bytes:
+    """Standard input, at most ``limit`` bytes; closed or unreadable -> E100, larger -> E104."""
+    try:
+        return read_capped(sys.stdin.buffer, limit, "<stdin>")
+    except (OSError, AttributeError, ValueError) as error:  # started without stdin (<&-)
+        reason = error.strerror if isinstance(error, OSError) and error.strerror else "it is closed"
+        raise located_error("E100", f"cannot read standard input: {reason}", "<stdin>") from None
+
+
 def read_input(path: PathLike, *, limit: int = MAX_INPUT_BYTES, what: str = "file", record: bool = True) -> bytes:
     """The bytes of the regular file ``path`` (``-``: standard input), at most ``limit``.
 
@@ -88,7 +97,7 @@ def read_input(path: PathLike, *, limit: int = MAX_INPUT_BYTES, what: str = "fil
     are rewritten when stale)."""
     name = os.fspath(path)
     if name == "-":
-        return read_capped(sys.stdin.buffer, limit, "<stdin>")
+        return read_stdin(limit)
     try:
         # O_NONBLOCK: opening a FIFO without a writer must not hang (it is refused below).
         fd = os.open(name, os.O_RDONLY | os.O_NONBLOCK | getattr(os, "O_CLOEXEC", 0))

@@ -302,3 +302,70 @@ def test_render_refuses_a_megabyte_name_in_a_timeline(tmp_path: Path, field: str
     assert main(["render", str(source), "--size", "320x180", "-o", str(tmp_path / "f.png")]) == 1
     err = capsys.readouterr().err
     assert f"{source}:1:1: E212" in err and f"signals[0].{field} is 1000000 characters long" in err
+
+
+# -- item 15: stdio conditions and Ctrl-C at start-up give a message, never a traceback ---------------
+STDOUT_COMMANDS = [
+    ["sample", str(FIXTURES / "valid" / "minimal.xml")],
+    ["sample", str(FIXTURES / "valid" / "minimal.xml"), "--stream"],
+    ["sample", str(FIXTURES / "valid" / "minimal.xml"), "--count", "3", "--format", "jsonl"],
+    ["export", "TIMELINE", "--format", "bml"],
+    ["list"],
+    ["compile", str(FIXTURES / "valid" / "minimal.xml")],
+]
+
+
+def _run_cli(argv: list[str], **how: object) -> tuple[int, str]:
+    import subprocess
+    import sys
+
+    done = subprocess.run([sys.executable, "-m", "mse", *argv], stderr=subprocess.PIPE, text=True, timeout=60,
+                          cwd=Path(__file__).parent.parent, **how)  # type: ignore[call-overload]
+    return done.returncode, done.stderr
+
+
+@pytest.mark.parametrize("argv", STDOUT_COMMANDS, ids=lambda a: " ".join(a[:1] + a[2:]))
+@pytest.mark.parametrize("stdout", ["/dev/full", "closed"])
+def test_unwritable_stdout_is_an_error_not_a_traceback(tmp_path: Path, argv: list[str], stdout: str) -> None:
+    import os
+
+    source = tmp_path / "t.json"
+    source.write_text(TIMELINE.dumps(), encoding="utf-8")
+    argv = [str(source) if a == "TIMELINE" else a for a in argv]
+    if stdout == "closed":
+        code, err = _run_cli(argv, stdout=None, preexec_fn=lambda: os.close(1))
+        reason = "closed"
+    else:
+        if not Path("/dev/full").exists():
+            pytest.skip("no /dev/full")
+        with open("/dev/full", "w") as full:
+            code, err = _run_cli(argv, stdout=full)
+        reason = "No space left on device"
+    assert code == 1 and "Traceback" not in err and "Exception ignored" not in err
+    assert "<stdout>: E105 cannot write output" in err and reason in err
+
+
+@pytest.mark.parametrize("argv", [["check", str(FIXTURES / "valid" / "minimal.xml"), "-"],
+                                  ["render", "-", "-o", "x.png"]])
+def test_closed_stdin_is_an_error_not_a_traceback(argv: list[str]) -> None:
+    import os
+
+    code, err = _run_cli(argv, stdin=None, stdout=subprocess_devnull(), preexec_fn=lambda: os.close(0))
+    assert code == 1 and "Traceback" not in err and "<stdin>: E100 cannot read standard input" in err
+
+
+def subprocess_devnull() -> int:
+    import subprocess
+
+    return subprocess.DEVNULL
+
+
+@pytest.mark.parametrize("delay", [0.2, 0.35, 0.5])
+def test_ctrl_c_during_start_up_is_a_message_and_130(delay: float) -> None:
+    """(Before about 0.1 s the interrupt can land in the interpreter's own start-up, site
+    packages and .pth files, which print their traceback before mse runs.)"""
+    code, _, err = _interrupted(["sample", str(FIXTURES / "valid" / "operators.xml"), "--solver", "cpsat",
+                                 "--count", "300", "-q"], delay)
+    assert "Traceback" not in err, err
+    # before Python installs its handler the signal ends the process (-2); after, a message and 130
+    assert code == -2 or (code == 130 and "mse: interrupted" in err), (code, err)
