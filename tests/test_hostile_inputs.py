@@ -369,3 +369,16 @@ def test_ctrl_c_during_start_up_is_a_message_and_130(delay: float) -> None:
     assert "Traceback" not in err, err
     # before Python installs its handler the signal ends the process (-2); after, a message and 130
     assert code == -2 or (code == 130 and "mse: interrupted" in err), (code, err)
+
+
+def test_render_strip_width_is_bounded_for_signals_past_the_end(tmp_path: Path) -> None:
+    """Found by the render fuzz target: a signal starting at 10^6 s in a 10 s timeline."""
+    pytest.importorskip("PIL")
+    signals = (TimelineSignal("late", "face", "faceexp=smile", 1_000_000.0, 2.2),
+               TimelineSignal("smile", "face", "faceexp=smile", 3.0, 5.0))
+    source = tmp_path / "late.json"
+    source.write_text(Timeline("late", 10.0, signals, solver="hand-made").dumps(), encoding="utf-8")
+    out = tmp_path / "late.png"
+    peak, _ = _peak_kb(f"from mse.cli import main; assert main(['render', {str(source)!r}, '--size', '320x180', "
+                       f"'-o', {str(out)!r}]) == 0")
+    assert peak < 400_000

@@ -35,6 +35,7 @@ BACKGROUND = "#ffffff"
 HEADER_HEIGHT = 26
 STRIP_SHARE = 0.36  # at most this share of the frame height goes to the strip
 MIN_STRIP_ZOOM = 0.2  # smallest scale of the strip; rows below what fits are not drawn
+MAX_STRIP_WIDTH = 20_000  # drawing pixels (the SVG layout's widest is 16,000 within the duration)
 PLAYHEAD = "#d62828"
 
 
@@ -98,7 +99,10 @@ class StripPainter:
         drawn_height = min(g.height, math.ceil(max_height / self.zoom))
         # The visible part of the drawing, in drawing pixels: lane names stay, time scrolls.
         self.view_width = width / self.zoom
-        image = Image.new("RGB", (max(g.width, math.ceil(self.view_width)), drawn_height), BACKGROUND)
+        # Bars past the timeline's end (a signal that starts after it) widen the drawing
+        # without bound: what lies beyond MAX_STRIP_WIDTH is not drawn.
+        self.drawn_width = min(max(g.width, math.ceil(self.view_width)), MAX_STRIP_WIDTH)
+        image = Image.new("RGB", (self.drawn_width, drawn_height), BACKGROUND)
         draw = ImageDraw.Draw(image)
         small, bold = _font(10), _font(12)
         for index, lane in enumerate(g.lanes):
@@ -139,9 +143,9 @@ class StripPainter:
         g = self.geometry
         z = self.zoom
         offset = 0.0  # in drawing pixels
-        if g.width > self.view_width:
+        if self.drawn_width > self.view_width:
             wanted = time * g.scale - 0.35 * (self.view_width - g.x0)
-            offset = min(max(0.0, wanted), g.width - self.view_width)
+            offset = min(max(0.0, wanted), self.drawn_width - self.view_width)
         left = round(offset * z)
         frame.paste(self.image.crop((left, 0, left + self.width, self.height)), (0, top))
         if offset > 0:
