@@ -382,3 +382,26 @@ def test_render_strip_width_is_bounded_for_signals_past_the_end(tmp_path: Path) 
     peak, _ = _peak_kb(f"from mse.cli import main; assert main(['render', {str(source)!r}, '--size', '320x180', "
                        f"'-o', {str(out)!r}]) == 0")
     assert peak < 400_000
+
+
+# -- item 8: the motion disk caches are used only from a private folder ------------------------------
+def test_motion_disk_caches_ignore_a_shared_folder(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    from mse.motion.base import cache
+    from mse.motion.hsmm import leaf
+
+    shared = tmp_path / "shared"
+    shared.mkdir()
+    shared.chmod(0o777)
+    (shared / "k.npz").write_bytes(b"planted")
+    assert cache.disk_entry(shared, "k.npz") is None
+    assert cache.disk_entry(None, "k.npz") is None
+    private = tmp_path / "private"
+    assert cache.disk_entry(private, "k.npz") == private / "k.npz"
+
+    def planted(_path: Path) -> None:
+        pytest.fail("a cache entry was read from a folder others can write")
+
+    monkeypatch.setattr(leaf, "load_model", planted)
+    built = object()
+    assert leaf._from_disk("k", shared, lambda: built) is built  # type: ignore[arg-type]
+    assert (shared / "k.npz").read_bytes() == b"planted"

@@ -99,7 +99,7 @@ def _cached(key: str, cache_dir: Path | None, build: Callable[[], HsmmModel]) ->
 
 
 def _from_disk(key: str, cache_dir: Path | None, build: Callable[[], HsmmModel]) -> HsmmModel:
-    path = cache_dir / f"{key}.npz" if cache_dir is not None else None
+    path = cache.disk_entry(cache_dir, f"{key}.npz")
     model: HsmmModel | None = None
     if path is not None and path.is_file():
         try:
