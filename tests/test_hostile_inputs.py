@@ -405,3 +405,42 @@ def test_motion_disk_caches_ignore_a_shared_folder(tmp_path: Path, monkeypatch: 
     built = object()
     assert leaf._from_disk("k", shared, lambda: built) is built  # type: ignore[arg-type]
     assert (shared / "k.npz").read_bytes() == b"planted"
+
+
+# -- item 14: crafted HSMM model files are refused with E100 ----------------------------------------
+def _npy(header: str) -> bytes:
+    text = header.encode("latin-1")
+    text += b" " * (-(10 + len(text) + 1) % 64) + b"\n"
+    return b"\x93NUMPY\x01\x00" + len(text).to_bytes(2, "little") + text
+
+
+def _crafted(kind: str) -> bytes:
+    import io as _io
+    import zipfile
+
+    import numpy as np
+
+    buffer = _io.BytesIO()
+    with zipfile.ZipFile(buffer, "w") as archive:
+        if kind == "huge":
+            archive.writestr("meta.npy", _npy("{'descr': '<f8', 'fortran_order': False, 'shape': (1099511627776,), }"))
+        elif kind == "nested":
+            archive.writestr("meta.npy", _npy("{'descr': " + "(" * 3000 + "'<f8'" + ")" * 3000 + "}"))
+        elif kind == "token":
+            archive.writestr("meta.npy", _npy("{'descr': '<f8', 'fortran_order': False, 'shape': (1, "))
+        else:  # deeply nested metadata JSON
+            meta = _io.BytesIO()
+            np.save(meta, np.array("[" * 100_000))
+            archive.writestr("meta.npy", meta.getvalue())
+    return buffer.getvalue()
+
+
+@pytest.mark.parametrize("kind", ["huge", "nested", "token", "deep_meta"])
+def test_style_synth_refuses_crafted_model_files(tmp_path: Path, kind: str, capsys: pytest.CaptureFixture[str]) -> None:
+    pytest.importorskip("numpy")
+    model = tmp_path / "crafted.hsmm"
+    model.write_bytes(_crafted(kind))
+    assert main(["style", "synth", str(model), "--duration", "1", "-o", str(tmp_path / "out.bvh")]) == 1
+    err = capsys.readouterr().err
+    assert f"{model}: E100" in err and "Traceback" not in err
+    assert not (tmp_path / "out.bvh").exists()
