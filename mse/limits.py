@@ -36,6 +36,10 @@ MAX_SIGNALS = 2_000
 MAX_NAME_CHARS = 256
 #: Characters of a file path read from data (a timeline's motion clip).
 MAX_PATH_CHARS = 4096
+#: Distinct signals and annotations ``mse learn`` mines (every pair of signals is tested in
+#: every sequence: 300 signals take about 8 s, 1,000 about a minute).
+MAX_LEARN_SIGNALS = 300
+MAX_LEARN_ANNOTATIONS = 100_000
 #: Elements of any other XML input (Greta files, face libraries).
 MAX_XML_ELEMENTS = 200_000
 #: Characters of one constraint expression (its text content).

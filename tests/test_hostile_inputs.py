@@ -139,7 +139,7 @@ def test_learn_refuses_sequences_longer_than_sample_solves(
     assert main(["learn", str(source)]) == 1
     assert time.perf_counter() - started < 10
     err = capsys.readouterr().err
-    assert f"{source}: E121" in err and "3600 s" in err and "Traceback" not in err
+    assert f"{source}: E122" in err and "3600 s" in err and "Traceback" not in err
 
 
 # -- item 6: Ctrl-C ends a run with exit 130 and no timeline other than its seed's -------------
@@ -444,3 +444,21 @@ def test_style_synth_refuses_crafted_model_files(tmp_path: Path, kind: str, caps
     err = capsys.readouterr().err
     assert f"{model}: E100" in err and "Traceback" not in err
     assert not (tmp_path / "out.bvh").exists()
+
+
+# -- item 5: learn's mining is bounded in signals and annotations (E122) -------------------------------
+def test_learn_refuses_too_many_signals_or_annotations(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    import time
+
+    many = tmp_path / "many.csv"
+    many.write_text("sequence,tier,start,stop,label\n" + "".join(f"s{i % 40},face,0,1,l{i}\n" for i in range(1000)),
+                    encoding="utf-8")
+    started = time.perf_counter()
+    assert main(["learn", str(many)]) == 1
+    assert time.perf_counter() - started < 20
+    err = capsys.readouterr().err
+    assert f"{many}: E122 1000 distinct signals" in err
+    rows = tmp_path / "rows.csv"
+    rows.write_text("sequence,tier,start,stop,label\n" + "s,face,0,1,smile\n" * 100_001, encoding="utf-8")
+    assert main(["learn", str(rows)]) == 1
+    assert f"{rows}: E122 100001 annotations" in capsys.readouterr().err

@@ -17,7 +17,7 @@ from mse.ir.schedule import to_ticks
 from mse.learn.corpus import DEFAULT_MAPPING, Annotation, Corpus, RawSequence, TierMapping, build_corpus
 from mse.learn.read_eaf import read_eaf
 from mse.learn.read_table import read_table
-from mse.limits import MAX_SOLVE_SECONDS
+from mse.limits import MAX_LEARN_ANNOTATIONS, MAX_LEARN_SIGNALS, MAX_SOLVE_SECONDS
 from mse.syntax.reader import decode_text, read_bytes
 
 SUFFIXES: dict[str, str] = {
@@ -119,10 +119,20 @@ def read_corpus(paths: Iterable[str | Path], mapping: TierMapping = DEFAULT_MAPP
             found.extend(problems)
             raw.extend(sequences)
     found.extend(_too_long(raw))
+    annotations = sum(len(sequence.annotations) for sequence in raw)
+    if annotations > MAX_LEARN_ANNOTATIONS:
+        where = str(files[0]) if files else "<input>"
+        found.append(Diagnostic("E122", f"{annotations} annotations; learn mines at most {MAX_LEARN_ANNOTATIONS} "
+                                "(learn from a sample of the sequences)", Span(where)))
     if has_errors(found):
         raise MseError(found)
     corpus, notes = build_corpus(raw, mapping)
     found.extend(notes)
+    if len(corpus.signals) > MAX_LEARN_SIGNALS:
+        where = str(files[0]) if files else "<input>"
+        found.append(Diagnostic("E122", f"{len(corpus.signals)} distinct signals; learn mines at most "
+                                f"{MAX_LEARN_SIGNALS} (map labels together with --mapping, or read fewer tiers)",
+                                Span(where)))
     if has_errors(found):
         raise MseError(found)
     if not corpus.sequences or not corpus.signals:
@@ -141,7 +151,7 @@ def _too_long(raw: Iterable[RawSequence]) -> list[Diagnostic]:
         length = sequence.duration if sequence.duration is not None else max(
             (a.stop for a in sequence.annotations), default=0)
         if length > limit:
-            found.append(Diagnostic("E121", f"sequence {sequence.name!r} is {length / 1000:g} s long; learn reads "
+            found.append(Diagnostic("E122", f"sequence {sequence.name!r} is {length / 1000:g} s long; learn reads "
                                     f"sequences of at most {MAX_SOLVE_SECONDS:g} s (the longest that sample "
                                     "solves): cut the recording into shorter sequences", sequence.span))
     return found
