@@ -75,6 +75,12 @@ def main(argv: Sequence[str] | None = None) -> int:
     except KeyboardInterrupt:
         print(INTERRUPTED, file=sys.stderr)
         return 130
+    except ImportError as error:
+        # Ctrl-C while a compiled extension initialises (ortools) comes back as an ImportError
+        if not isinstance(error.__cause__ or error.__context__, KeyboardInterrupt):
+            raise
+        print(INTERRUPTED, file=sys.stderr)
+        return 130
     except Terminated as signal_received:  # temporary files were removed on the way out
         return 128 + signal_received.signum
     except BrokenPipeError:
