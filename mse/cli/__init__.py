@@ -96,12 +96,33 @@ INTERRUPTED = "mse: interrupted"
 
 class _ClosedStream:
     """Stands for a standard stream the process was started without (``>&-``, ``<&-``):
-    writing or reading it fails with EBADF like any other unwritable output or input."""
+    reading or writing it fails with EBADF like any other unreadable input or unwritable
+    output (other attributes are missing, as on any object)."""
 
-    def __getattr__(self, name: str) -> object:
+    @staticmethod
+    def _closed() -> OSError:
         import errno
 
-        raise OSError(errno.EBADF, "the stream is closed")
+        return OSError(errno.EBADF, "the stream is closed")
+
+    @property
+    def buffer(self) -> object:
+        raise self._closed()
+
+    def write(self, _text: str) -> int:
+        raise self._closed()
+
+    def writelines(self, _lines: object) -> None:
+        raise self._closed()
+
+    def read(self, _size: int = -1) -> str:
+        raise self._closed()
+
+    def readline(self, _size: int = -1) -> str:
+        raise self._closed()
+
+    def fileno(self) -> int:
+        raise self._closed()
 
     def isatty(self) -> bool:
         return False
