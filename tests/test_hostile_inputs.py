@@ -462,3 +462,15 @@ def test_learn_refuses_too_many_signals_or_annotations(tmp_path: Path, capsys: p
     rows.write_text("sequence,tier,start,stop,label\n" + "s,face,0,1,smile\n" * 100_001, encoding="utf-8")
     assert main(["learn", str(rows)]) == 1
     assert f"{rows}: E122 100001 annotations" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("odd", ["a\u0085b", "a\u2028b", "a\x7fb", "a\u200eb"])
+def test_render_draws_names_with_control_characters(tmp_path: Path, odd: str,
+                                                    capsys: pytest.CaptureFixture[str]) -> None:
+    """Found by the render fuzz target: Pillow's text layout fails on U+0085 in a lexeme."""
+    pytest.importorskip("PIL")
+    signals = (TimelineSignal("bow", "torso", odd, 0.4, 4.0), TimelineSignal(f"s{odd}", "face", "faceexp=smile", 1, 3))
+    source = tmp_path / "odd.json"
+    source.write_text(Timeline("odd", 5.0, signals, solver="hand-made").dumps(), encoding="utf-8")
+    assert main(["render", str(source), "--size", "320x180", "--at", "2", "-o", str(tmp_path / "f.png")]) == 0
+    assert "Traceback" not in capsys.readouterr().err

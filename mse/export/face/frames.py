@@ -59,7 +59,12 @@ def _font(size: int) -> ImageFont.FreeTypeFont | ImageFont.ImageFont:
 
 
 def _text(font: object, text: str) -> str:
-    """Pillow's fallback font has no em dash."""
+    """``text`` as it can be drawn: control and format characters (U+0085, U+2028...) make
+    Pillow's text layout fail, so they show as "?"; Pillow's fallback font has no em dash."""
+    import unicodedata
+
+    if not text.isprintable():
+        text = "".join(c if c == " " or unicodedata.category(c)[0] not in "CZ" else "?" for c in text)
     return text if "DejaVu" in str(getattr(font, "path", "")) else text.replace("—", "-")
 
 
@@ -110,7 +115,8 @@ class StripPainter:
                 break
             fill = "#eeeeee" if index % 2 else "#f7f7f7"
             draw.rectangle((0, lane.y, g.width, lane.y + lane.height), fill=fill)
-            draw.text((10, lane.y + lane.height / 2), lane.modality, fill="#222222", font=bold, anchor="lm")
+            modality = _text(bold, lane.modality)
+            draw.text((10, lane.y + lane.height / 2), modality, fill="#222222", font=bold, anchor="lm")
         count = math.floor(timeline.duration / g.tick_step + 1e-9)
         for index in range(count + 1):
             t = index * g.tick_step
@@ -127,7 +133,8 @@ class StripPainter:
             draw.rounded_rectangle(box, radius=4, fill=colour, outline="#333333")
             if bar.label:
                 x = bar.x + 4 if bar.label_inside else bar.x + bar.width + 3
-                draw.text((x, bar.y + BAR_HEIGHT / 2), bar.label, fill="#111111", font=label_font, anchor="lm")
+                draw.text((x, bar.y + BAR_HEIGHT / 2), _text(label_font, bar.label), fill="#111111", font=label_font,
+                          anchor="lm")
             self.bars.append((bar.behaviour.signal.start, bar.behaviour.signal.stop, box))
         self.width = width
         self.drawn_height = drawn_height
@@ -284,7 +291,7 @@ class FramePainter:
             caption = self.body.paint(frame, self.layout.body_box, time)
             if caption:
                 bl, _, _, bb = self.layout.body_box
-                draw.text((bl + 8, bb - 8), caption, fill="#333333", font=self.small, anchor="ls")
+                draw.text((bl + 8, bb - 8), _text(self.small, caption), fill="#333333", font=self.small, anchor="ls")
         width = self.layout.size[0]
         draw.text((width - 10, HEADER_HEIGHT / 2), f"{time:6.2f} s", fill="#222222", font=self.clock_font, anchor="rm")
         if self.strip is not None:
