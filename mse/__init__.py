@@ -24,9 +24,12 @@ from __future__ import annotations
 
 __version__ = "0.1.0"
 
-from typing import TYPE_CHECKING, Any
-
+# No import at run time: a Ctrl-C while the package loads can then only come before the
+# command line's own handler (mse/__main__.py), never as a traceback from inside an import.
+TYPE_CHECKING = False
 if TYPE_CHECKING:
+    from typing import Any
+
     from mse.api import check, lint, load, loads, repair
     from mse.diagnostics import Diagnostic, MseError
     from mse.ir.evaluate import Violation

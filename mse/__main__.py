@@ -1,3 +1,9 @@
-from mse.cli import console_main
+try:
+    from mse.cli import console_main
+except KeyboardInterrupt:  # Ctrl-C while the command line loads
+    import sys
+
+    print("mse: interrupted", file=sys.stderr)
+    raise SystemExit(130) from None
 
 console_main()

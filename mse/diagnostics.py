@@ -53,6 +53,7 @@ CODES: dict[str, str] = {
     "E112": "invalid number",
     "E120": "annotation file cannot be read (ELAN, CSV/TSV)",
     "E121": "invalid annotation",
+    "E122": "corpus beyond the limits of learn (sequence length, distinct signals, annotations)",
     # E130: the command line or a library call asked for something invalid
     "E130": "invalid argument or option value",
     "E150": "FML-APML or EmotionML structure mse cannot read",

@@ -28,7 +28,7 @@ from collections.abc import Iterable, Iterator, Sequence
 from pathlib import Path
 
 from mse.diagnostics import MseError
-from mse.input_files import PathLike, file_kind, located_error
+from mse.input_files import PathLike, file_kind, located_error, was_read
 
 _SIGNALS = tuple(s for s in (signal.SIGTERM, signal.SIGINT, getattr(signal, "SIGHUP", None)) if s is not None)
 
@@ -90,6 +90,8 @@ def refuse_inputs(path: PathLike, inputs: Iterable[PathLike]) -> None:
 def _refuse_inputs(name: str, target: os.stat_result | None, inputs: Iterable[PathLike]) -> None:
     if target is None:
         return
+    if was_read(target):
+        raise _write_error(name, "refusing to overwrite a file this command reads")
     for source in inputs:
         source_name = os.fspath(source)
         if source_name == "-":
@@ -253,6 +255,9 @@ def staged_folder(out: PathLike, *, inputs: Sequence[PathLike] = (), empty: bool
         raise _write_error(name, "cannot write output: exists and is not a folder")
     if empty and target.is_dir() and any(target.iterdir()):
         raise _write_error(name, "the output folder must be new or empty (its files would mix with this run's)")
+    with contextlib.suppress(OSError):
+        if target.exists() and was_read(os.stat(name)):
+            raise _write_error(name, "refusing to write into a file this command reads")
     for source in inputs:
         source_name = os.fspath(source)
         with contextlib.suppress(OSError):

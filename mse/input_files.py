@@ -13,6 +13,7 @@ import os
 import re
 import stat
 import sys
+from collections.abc import Iterator
 from typing import Any, BinaryIO
 
 from mse.diagnostics import Diagnostic, MseError, Span
@@ -47,14 +48,56 @@ def read_capped(stream: BinaryIO, limit: int, name: str) -> bytes:
     return data
 
 
-def read_input(path: PathLike, *, limit: int = MAX_INPUT_BYTES, what: str = "file") -> bytes:
+#: (device, inode) of every file read while :func:`recording_reads` is active: a command's
+#: outputs must never replace one of them (mse.fileio), including the files a folder
+#: argument expanded to, which no list of command-line paths names.
+_FILES_READ: set[tuple[int, int]] | None = None
+
+
+@contextlib.contextmanager
+def recording_reads() -> Iterator[None]:
+    """Within this block (one command), remember every file :func:`read_input` reads."""
+    global _FILES_READ
+    previous = _FILES_READ
+    _FILES_READ = set()
+    try:
+        yield
+    finally:
+        _FILES_READ = previous
+
+
+def was_read(info: os.stat_result) -> bool:
+    """True when the file ``info`` describes was read within :func:`recording_reads`."""
+    return _FILES_READ is not None and (info.st_dev, info.st_ino) in _FILES_READ
+
+
+def note_read(path: PathLike) -> None:
+    """Record ``path`` as read (for readers that do not go through :func:`read_input`)."""
+    if _FILES_READ is not None:
+        with contextlib.suppress(OSError, ValueError):
+            info = os.stat(os.fspath(path))
+            _FILES_READ.add((info.st_dev, info.st_ino))
+
+
+def read_stdin(limit: int = MAX_INPUT_BYTES) -> bytes:
+    """Standard input, at most ``limit`` bytes; closed or unreadable -> E100, larger -> E104."""
+    try:
+        return read_capped(sys.stdin.buffer, limit, "<stdin>")
+    except (OSError, AttributeError, ValueError) as error:  # started without stdin (<&-)
+        reason = error.strerror if isinstance(error, OSError) and error.strerror else "it is closed"
+        raise located_error("E100", f"cannot read standard input: {reason}", "<stdin>") from None
+
+
+def read_input(path: PathLike, *, limit: int = MAX_INPUT_BYTES, what: str = "file", record: bool = True) -> bytes:
     """The bytes of the regular file ``path`` (``-``: standard input), at most ``limit``.
 
     Missing, unreadable, non-regular (devices, FIFOs, directories) -> E100; larger than the
-    limit -> E104.  Never blocks on a FIFO and never reads more than ``limit + 1`` bytes."""
+    limit -> E104.  Never blocks on a FIFO and never reads more than ``limit + 1`` bytes.
+    ``record``: remember the file as an input of the command (off for cache entries, which
+    are rewritten when stale)."""
     name = os.fspath(path)
     if name == "-":
-        return read_capped(sys.stdin.buffer, limit, "<stdin>")
+        return read_stdin(limit)
     try:
         # O_NONBLOCK: opening a FIFO without a writer must not hang (it is refused below).
         fd = os.open(name, os.O_RDONLY | os.O_NONBLOCK | getattr(os, "O_CLOEXEC", 0))
@@ -69,6 +112,8 @@ def read_input(path: PathLike, *, limit: int = MAX_INPUT_BYTES, what: str = "fil
             raise located_error("E100", f"cannot read {what}: is {file_kind(info.st_mode)}{hint}", name)
         if info.st_size > limit:
             raise located_error("E104", f"{what} is {info.st_size} bytes; the limit is {limit}", name)
+        if record and _FILES_READ is not None:
+            _FILES_READ.add((info.st_dev, info.st_ino))
         chunks: list[bytes] = []
         total = 0
         while total <= limit:
@@ -207,3 +252,15 @@ def read_json(path: PathLike, *, limit: int = MAX_INPUT_BYTES, what: str = "file
     name = os.fspath(path)
     text = decode_utf8(read_input(path, limit=limit, what=what), name, code=code, what=what)
     return parse_json(text, name, code=code)
+
+
+def parse_toml(text: str, name: str, *, code: str = "E100", what: str = "TOML file") -> dict[str, Any]:
+    """The tables of ``text``; invalid TOML or nesting too deep for the parser -> ``code``."""
+    import tomllib
+
+    try:
+        return tomllib.loads(text)
+    except tomllib.TOMLDecodeError as error:
+        raise located_error(code, f"{what} is not valid TOML: {error}", name) from None
+    except RecursionError:
+        raise located_error(code, f"{what} nests arrays or tables too deeply", name) from None

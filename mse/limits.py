@@ -31,6 +31,15 @@ MAX_JSON_INT_DIGITS = 20
 #: measured on; a 10 MB file of signals would otherwise take seconds per stage).
 MAX_ELEMENTS = 20_000
 MAX_SIGNALS = 2_000
+#: Characters of one name read from data: a learned signal id or modality, a timeline's
+#: signal id, modality or lexeme (longer ones are no names, and cost memory to draw).
+MAX_NAME_CHARS = 256
+#: Characters of a file path read from data (a timeline's motion clip).
+MAX_PATH_CHARS = 4096
+#: Distinct signals and annotations ``mse learn`` mines (every pair of signals is tested in
+#: every sequence: 300 signals take about 8 s, 1,000 about a minute).
+MAX_LEARN_SIGNALS = 300
+MAX_LEARN_ANNOTATIONS = 100_000
 #: Elements of any other XML input (Greta files, face libraries).
 MAX_XML_ELEMENTS = 200_000
 #: Characters of one constraint expression (its text content).

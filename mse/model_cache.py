@@ -5,8 +5,8 @@ Where: ``$MSE_CACHE_DIR/models`` (default ``$XDG_CACHE_HOME/mse/models`` or
 can write it or swap a folder above it (:func:`mse.fileio.private_folder`).
 
 Why it cannot change an answer: an entry is named by a hash of the code that compiles
-(mse's version and the bytes of the grammar, the schema and the modules that read and
-build a model), the file's path (as given and absolute) and its exact bytes; the entry
+(mse's version and the bytes of the grammar, the schema, the top-level modules and
+every module of the syntax and ir layers), the file's path (as given and absolute) and its exact bytes; the entry
 repeats all of these and a SHA-256 of the model text it holds, and every one is checked on
 reading.  Any mismatch, damage, truncation, oversize, deep nesting or decoding problem is
 a miss: the file is compiled again (from the same bytes that were hashed) and the entry
@@ -34,20 +34,11 @@ from mse.resources import grammar_dir
 #: ``compile_source(path, data)``; with ``data`` None it reads (and reports on) the file.
 Compile = Callable[[Path, bytes | None], tuple[Model | None, list[Diagnostic]]]
 
-FORMAT = "mse-model-cache/2"
-#: Modules whose code decides what a file compiles to (relative to the package).
-_COMPILER_SOURCES = (
-    "limits.py",
-    "syntax/reader.py",
-    "syntax/source.py",
-    "syntax/expression.py",
-    "syntax/ast.py",
-    "ir/build.py",
-    "ir/model.py",
-    "ir/canonical.py",
-    "ir/decode.py",
-    "ir/printer.py",
-)
+FORMAT = "mse-model-cache/3"
+#: The code that decides what a file compiles to: the package's top-level modules and the
+#: syntax and ir layers, whole (tests/test_architecture.py keeps these layers from importing
+#: anything above them), so no change to a module they use can leave a stale entry.
+_COMPILER_PACKAGES = ("syntax", "ir")
 
 
 def cache_dir() -> Path:
@@ -58,13 +49,25 @@ def _sha256(data: bytes) -> str:
     return hashlib.sha256(data).hexdigest()
 
 
+def compiler_sources() -> list[Path]:
+    """The files whose bytes make up :func:`compiler_fingerprint`."""
+    package = Path(__file__).resolve().parent
+    sources = sorted(package.glob("*.py"))
+    for name in _COMPILER_PACKAGES:
+        sources += sorted((package / name).rglob("*.py"))
+    grammar = grammar_dir()
+    return [*sources, grammar / "constraints.lark", grammar / "mse.xsd"]
+
+
 @functools.cache
 def compiler_fingerprint() -> str:
-    """A hash of mse's version and of the code and grammar that compile a file."""
+    """A hash of mse's version, of the source of every module that reads and builds a model
+    and of the grammar and schema (computed once per process, about 1 ms)."""
     digest = hashlib.sha256(__version__.encode())
     package = Path(__file__).resolve().parent
-    grammar = grammar_dir()
-    for path in [package / name for name in _COMPILER_SOURCES] + [grammar / "constraints.lark", grammar / "mse.xsd"]:
+    for path in compiler_sources():
+        name = path.relative_to(package) if path.is_relative_to(package) else Path(path.name)
+        digest.update(name.as_posix().encode() + b"\0")
         try:
             digest.update(path.read_bytes())
         except OSError:
@@ -89,7 +92,7 @@ def _key(identity: dict[str, str]) -> str:
 def _read_entry(entry: Path, identity: dict[str, str]) -> Model | None:
     """The model in ``entry`` if every check passes, else None (a miss)."""
     try:
-        raw = read_input(entry, limit=4 * MAX_INPUT_BYTES, what="cache entry")
+        raw = read_input(entry, limit=4 * MAX_INPUT_BYTES, what="cache entry", record=False)
         envelope: Any = json.loads(raw)
         if not isinstance(envelope, dict) or any(envelope.get(k) != v for k, v in identity.items()):
             return None

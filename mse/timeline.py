@@ -25,7 +25,14 @@ from typing import Any, TypeGuard
 from mse.diagnostics import Diagnostic, MseError, Span
 from mse.envelope import Envelope
 from mse.ir.schedule import Occurrence, Schedule, to_seconds, to_ticks
-from mse.limits import MAX_SECONDS, MIN_DURATION_SECONDS, time_problem, xml_char_problem
+from mse.limits import (
+    MAX_NAME_CHARS,
+    MAX_PATH_CHARS,
+    MAX_SECONDS,
+    MIN_DURATION_SECONDS,
+    time_problem,
+    xml_char_problem,
+)
 
 FORMAT = "mse-timeline/1"
 _KNOWN_KEYS = {"format", "expression", "duration", "solver", "seed", "signals"}
@@ -237,12 +244,12 @@ class Timeline:
                 if problem is not None:
                     raise fail(f"signals[{position}].{key} {problem}")
             for key in ("id", "modality", "lexeme"):
-                problem = xml_char_problem(str(entry.get(key, "")))
+                problem = _name_problem(str(entry.get(key, "")))
                 if problem is not None:
                     raise fail(f"signals[{position}].{key} {problem}")
             motion = entry.get("motion")
             if isinstance(motion, dict) and isinstance(motion.get("file"), str):
-                problem = xml_char_problem(motion["file"])
+                problem = _name_problem(motion["file"], MAX_PATH_CHARS)
                 if problem is not None:
                     raise fail(f"signals[{position}].motion.file {problem}")
             signals.append(
@@ -257,7 +264,7 @@ class Timeline:
                 )
             )
         for key in ("expression", "solver"):
-            problem = xml_char_problem(str(obj.get(key, "")))
+            problem = _name_problem(str(obj.get(key, "")))
             if problem is not None:
                 raise fail(f"'{key}' {problem}")
         seed = obj.get("seed")
@@ -269,6 +276,13 @@ class Timeline:
             seed=seed if isinstance(seed, int) and not isinstance(seed, bool) else None,
             extra={k: v for k, v in obj.items() if k not in _KNOWN_KEYS},
         )
+
+
+def _name_problem(text: str, limit: int = MAX_NAME_CHARS) -> str | None:
+    """Why ``text`` cannot be a name of a timeline (too long, or characters XML cannot hold)."""
+    if len(text) > limit:
+        return f"is {len(text)} characters long; at most {limit}"
+    return xml_char_problem(text)
 
 
 def _dialogue_fields(entry: Mapping[str, Any], position: int, fail: Any) -> dict[str, Any]:

@@ -13,6 +13,11 @@ traceback, i.e. a bug):
 * ``timeline``: timeline JSON (one, an array or JSON lines) -> check, export, dump and re-read.
 * ``bvh``: a motion clip -> ``mse lma`` (exit 0 with strict JSON, or exit 1 with an E-code).
 * ``ir_json``: compiled IR JSON -> a model or an MseError.
+* ``learn_input``: a CSV/TSV table or ELAN file -> ``mse learn`` (exit 0, or 1 with an E-code;
+  the input never overwritten, not even by ``-o`` naming it).
+* ``render_input``: timeline JSON and a hostile ``--size`` -> ``mse render`` one PNG (the
+  timeline never overwritten).
+* ``stdio``: a command writing to an unwritable stdout -> ``<stdout>: E105``, exit 1.
 
 Generators (hypothesis strategies) mutate real documents at the token level and draw
 expressions from the grammar, with a dictionary of hostile tokens.  :func:`bounded` runs one
@@ -24,6 +29,7 @@ from __future__ import annotations
 import contextlib
 import io
 import json
+import os
 import re
 import resource
 import signal
@@ -221,12 +227,112 @@ def ir_json(data: bytes, seed: int = 0) -> None:
     _exercise_model(model, seed)
 
 
+def _cli(argv: list[str]) -> tuple[int, str, str]:
+    """``mse ARGV`` in this process: exit code, stdout, stderr (argparse's exit is a code)."""
+    from mse.cli import main
+
+    out, err = io.StringIO(), io.StringIO()
+    with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
+        code = main(argv)
+    return code, out.getvalue(), err.getvalue()
+
+
+def _refused_with_a_code(code: int, err: str, usage: bool = False) -> None:
+    """Exit 1 with an E-code diagnostic (exit 2 too for argument errors when ``usage``)."""
+    _require("Traceback" not in err, f"traceback: {err}")
+    if code == 2 and usage:
+        return
+    _require(code == 1 and re.search(r"E\d{3} ", err) is not None, f"exit {code}: {err[-2000:]}")
+
+
+def learn_input(data: bytes, seed: int = 0) -> None:
+    """Annotation files (the first byte picks CSV, TSV or ELAN) -> ``mse learn -o``: exit 0,
+    or exit 1 with an E-code; the input is never overwritten, not even by ``-o`` naming it."""
+    kind = (".csv", ".tsv", ".eaf")[data[0] % 3] if data else ".csv"
+    with tempfile.TemporaryDirectory() as folder:
+        source = Path(folder) / f"corpus{kind}"
+        source.write_bytes(data[1:])
+        target = source if seed % 5 == 0 else Path(folder) / "learned.xml"
+        code, _, err = _cli(["learn", folder, "--no-calibrate", "-o", str(target), "-q"])
+        _require(source.read_bytes() == data[1:], "the input file was changed")
+    if code != 0:
+        _refused_with_a_code(code, err)
+
+
+RENDER_SIZES = ("320x180", "64x48", "16x16", "0320x180", "\uff13\uff12\uff10x180", "99999x99999", "320x")
+
+
+def render_input(text: str, seed: int = 0) -> None:
+    """Timeline JSON -> ``mse render`` one small PNG (the size drawn from hostile ones): a PNG,
+    or exit 1 (2 for a bad --size) with an E-code; the timeline file is never overwritten."""
+    with tempfile.TemporaryDirectory() as folder:
+        source = Path(folder) / "t.json"
+        source.write_text(text, encoding="utf-8", errors="surrogatepass")
+        before = source.read_bytes()
+        size = RENDER_SIZES[seed // 3 % len(RENDER_SIZES)] if seed % 3 == 0 else "320x180"
+        target = Path(folder) / ("t.json.png" if seed % 7 else "t.png")
+        if seed % 11 == 0:
+            target = source.with_suffix(".png")
+            source.rename(target)  # then render reads t.png and writes t.png: refused
+            source = target
+        code, _, err = _cli(["render", str(source), "--size", size, "--at", str(seed % 5), "-o", str(target)])
+        if source != target:
+            _require(source.read_bytes() == before, "the timeline file was changed")
+            if code == 0:
+                _require(target.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n", "not a PNG")
+        else:
+            _require(code != 0 and source.read_bytes() == before, "render wrote over its input")
+    if code != 0:
+        _refused_with_a_code(code, err, usage=True)
+
+
+class _FullStream(io.TextIOBase):
+    """A standard output that cannot be written (a full disk, a closed descriptor)."""
+
+    def __init__(self, errno_value: int) -> None:
+        self.errno_value = errno_value
+
+    def write(self, text: str) -> int:
+        raise OSError(self.errno_value, os.strerror(self.errno_value))
+
+    def fileno(self) -> int:
+        raise io.UnsupportedOperation("no descriptor")
+
+
+STDIO_COMMANDS = (
+    ["sample", "anger"], ["sample", "anger", "--stream"], ["sample", "anger", "--count", "3", "--format", "jsonl"],
+    ["export", "TIMELINE", "--format", "bml"], ["list"], ["compile", "anger"],
+)  # fmt: skip
+
+
+def stdio(data: bytes, seed: int = 0) -> None:
+    """A command writing to an unwritable stdout (ENOSPC, EBADF, EIO): exit 1 with
+    ``<stdout>: E105``, never a traceback.  ``data`` picks the command and the error."""
+    import errno
+
+    argv = list(STDIO_COMMANDS[(data[0] if data else 0) % len(STDIO_COMMANDS)])
+    error = (errno.ENOSPC, errno.EBADF, errno.EIO)[(data[1] if len(data) > 1 else 0) % 3]
+    with tempfile.TemporaryDirectory() as folder:
+        source = Path(folder) / "t.json"
+        source.write_text(seed_timelines()[0], encoding="utf-8")
+        argv = [str(source) if a == "TIMELINE" else a for a in argv] + ["--seed", str(seed)] * (argv[0] == "sample")
+        err = io.StringIO()
+        with contextlib.redirect_stdout(_FullStream(error)), contextlib.redirect_stderr(err):
+            from mse.cli import main
+
+            code = main(argv)
+    _require(code == 1 and "<stdout>: E105 cannot write output" in err.getvalue(), f"exit {code}: {err.getvalue()}")
+
+
 TARGETS: dict[str, Callable[..., None]] = {
     "xml": xml_document,
     "expression": expression,
     "timeline": timeline,
     "bvh": bvh,
     "ir": ir_json,
+    "learn": learn_input,
+    "render": render_input,
+    "stdio": stdio,
 }
 
 
@@ -415,10 +521,42 @@ def ir_texts(draw: st.DrawFn) -> bytes:
     return text.encode("utf-8", errors="surrogatepass")
 
 
+SEED_TABLE = "sequence,tier,start,stop,label\n" + "".join(
+    f"s{i},face,{i % 3}.5,{i % 3 + 2},smile\ns{i},gaze,0,1.25,look down\n" for i in range(12)
+)
+SEED_EAF = (
+    '<?xml version="1.0" encoding="UTF-8"?>\n<ANNOTATION_DOCUMENT AUTHOR="f" FORMAT="2.7" VERSION="2.7">\n'
+    '<HEADER MEDIA_FILE="" TIME_UNITS="milliseconds"><PROPERTY NAME="mse:duration">4000</PROPERTY></HEADER>\n'
+    '<TIME_ORDER><TIME_SLOT TIME_SLOT_ID="ts1" TIME_VALUE="200"/><TIME_SLOT TIME_SLOT_ID="ts2" TIME_VALUE="1500"/>'
+    "</TIME_ORDER>\n"
+    '<TIER LINGUISTIC_TYPE_REF="lt" TIER_ID="Face"><ANNOTATION><ALIGNABLE_ANNOTATION ANNOTATION_ID="a1" '
+    'TIME_SLOT_REF1="ts1" TIME_SLOT_REF2="ts2"><ANNOTATION_VALUE>smile</ANNOTATION_VALUE>'
+    "</ALIGNABLE_ANNOTATION></ANNOTATION></TIER>\n</ANNOTATION_DOCUMENT>\n"
+)
+
+
+@st.composite
+def learn_texts(draw: st.DrawFn) -> bytes:
+    """A CSV/TSV table or an ELAN file mutated at the token level; the first byte picks the kind."""
+    kind = draw(st.integers(0, 2))
+    seed = SEED_EAF if kind == 2 else SEED_TABLE.replace(",", "\t") if kind == 1 else SEED_TABLE
+    extra = ("9" * 19, "7200", "7200000", "\u00b2", "x" * 5000, ",", "\t", "\n", '"', "s1", "TIME_VALUE")
+    text = draw(mutated([seed], extra=extra))
+    return bytes([kind]) + text.encode("utf-8", errors="surrogatepass")
+
+
+@st.composite
+def stdio_cases(draw: st.DrawFn) -> bytes:
+    return bytes([draw(st.integers(0, len(STDIO_COMMANDS) - 1)), draw(st.integers(0, 2))])
+
+
 STRATEGIES: dict[str, st.SearchStrategy[Any]] = {
     "xml": documents(),
     "expression": expressions(),
     "timeline": timelines(),
     "bvh": bvh_texts(),
     "ir": ir_texts(),
+    "learn": learn_texts(),
+    "render": timelines(),
+    "stdio": stdio_cases(),
 }

@@ -21,7 +21,8 @@ from tests.fuzzing import STRATEGIES, TARGETS, bounded, peak_rss_kib
 CASE_SECONDS = 60.0
 #: Growth of the worker's peak RSS over the whole fuzz run (the bugs took gigabytes).
 RSS_GROWTH_KIB = 1_000_000
-EXAMPLES = {"xml": 400, "expression": 400, "timeline": 300, "bvh": 150, "ir": 200}
+EXAMPLES = {"xml": 400, "expression": 400, "timeline": 300, "bvh": 150, "ir": 200, "learn": 60, "render": 40,
+            "stdio": 12}
 #: MSE_FUZZ_SCALE=10 runs ten times as many examples (locally; CI keeps the default).
 SCALE = float(os.environ.get("MSE_FUZZ_SCALE", "1"))
 
@@ -73,3 +74,18 @@ def test_fuzz_bvh_clips() -> None:
 @pytest.mark.slow
 def test_fuzz_compiled_ir() -> None:
     _fuzz("ir")()
+
+
+@pytest.mark.slow
+def test_fuzz_learn_inputs() -> None:
+    _fuzz("learn")()
+
+
+@pytest.mark.slow
+def test_fuzz_render_inputs() -> None:
+    _fuzz("render")()
+
+
+@pytest.mark.slow
+def test_fuzz_unwritable_stdout() -> None:
+    _fuzz("stdio")()

@@ -33,7 +33,7 @@ from typing import Any
 
 from bench.baseline import NEUTRAL, environment
 
-TARGET_NAMES = ("xml", "expression", "timeline", "bvh", "ir")
+TARGET_NAMES = ("xml", "expression", "timeline", "bvh", "ir", "learn", "render", "stdio")
 
 
 # -- one case ---------------------------------------------------------------------------------------
@@ -132,6 +132,9 @@ def _seed_corpus(folder: Path) -> None:
     seeds += [(2, text.encode()) for text in fuzzing.seed_timelines()]
     seeds.append((3, fuzzing.SEED_BVH.encode()))
     seeds += [(4, text.encode()) for text in fuzzing.seed_ir()]
+    seeds += [(5, bytes([0]) + fuzzing.SEED_TABLE.encode()), (5, bytes([2]) + fuzzing.SEED_EAF.encode())]
+    seeds += [(6, text.encode()) for text in fuzzing.seed_timelines()]
+    seeds += [(7, bytes([command, 0])) for command in range(len(fuzzing.STDIO_COMMANDS))]
     for number, (target, data) in enumerate(seeds):
         (folder / f"seed-{number}").write_bytes(bytes([target]) + data)
 
@@ -151,7 +154,8 @@ def atheris_worker(args: argparse.Namespace, stats: Stats) -> None:
         if name not in names:
             return
         payload = data[1:]
-        case: Any = payload if name in ("xml", "bvh", "ir") else payload.decode("utf-8", errors="replace")
+        binary = name in ("xml", "bvh", "ir", "learn", "stdio")
+        case: Any = payload if binary else payload.decode("utf-8", errors="replace")
         run_case(name, case, stats, args.case_seconds)
 
     corpus = Path(tempfile.mkdtemp(prefix="mse-fuzz-corpus-"))

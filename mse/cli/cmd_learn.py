@@ -51,18 +51,20 @@ def _mapping(args: argparse.Namespace) -> Any:
     tiers: dict[str, str] = {}
     labels: dict[str, str] = {}
     if args.mapping:
-        import tomllib
+        from mse.input_files import decode_utf8, parse_toml, read_input
 
-        from mse.input_files import decode_utf8, read_input
-
-        try:  # regular files only, capped, UTF-8 (mse.fileio)
-            data = tomllib.loads(decode_utf8(read_input(args.mapping, what="mapping"), args.mapping, what="mapping"))
-        except tomllib.TOMLDecodeError as error:
-            raise MseError([Diagnostic("E100", f"invalid TOML: {error}", Span(args.mapping))]) from None
+        text = decode_utf8(read_input(args.mapping, what="mapping"), args.mapping, what="mapping")
+        data = parse_toml(text, args.mapping, what="mapping")
         for table, target in (("tiers", tiers), ("labels", labels)):
             entries = data.get(table, {})
             if not isinstance(entries, dict) or not all(isinstance(v, str) for v in entries.values()):
                 raise MseError([Diagnostic("E100", f"[{table}] must map names to strings", Span(args.mapping))])
+            for key, value in entries.items():
+                problem = _name_problem(value)
+                if problem:
+                    what = "modality" if table == "tiers" else "signal id"
+                    raise MseError([Diagnostic("E100", f"[{table}] {key[:60]!r} = {value[:60]!r}: the {what} {problem}",
+                                               Span(args.mapping, _line_of(text, key), 1))])
             target.update(entries)
     listed = bool(args.tiers) or bool(tiers)
     for item in (args.tiers or "").split(","):
@@ -71,6 +73,27 @@ def _mapping(args: argparse.Namespace) -> Any:
         tier, _, modality = item.partition("=")
         tiers[tier.strip()] = identifier(modality.strip() or tier.strip()).lower()
     return TierMapping(tiers, labels, only_listed=listed)
+
+
+def _name_problem(name: str) -> str | None:
+    """Why ``name`` cannot be a signal id or modality of the learned set (None: it can)."""
+    from mse.ir.build import IDENTIFIER
+    from mse.limits import MAX_NAME_CHARS
+
+    if len(name) > MAX_NAME_CHARS:
+        return f"is {len(name)} characters long (at most {MAX_NAME_CHARS})"
+    if not IDENTIFIER.match(name):
+        return "must be an identifier ([A-Za-z_][A-Za-z0-9_]*)"
+    return None
+
+
+def _line_of(text: str, key: str) -> int:
+    """The line of ``text`` that defines ``key`` (0 when not found: a dotted or odd key)."""
+    for number, line in enumerate(text.splitlines(), start=1):
+        stripped = line.lstrip()
+        if stripped.startswith((key, f'"{key}"', f"'{key}'")) and "=" in stripped:
+            return number
+    return 0
 
 
 def _default_name(inputs: list[str]) -> str:

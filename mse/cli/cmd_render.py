@@ -17,11 +17,11 @@ from typing import Any
 
 from mse.cli.common import add_quiet
 
-_SIZE = re.compile(r"^(\d{1,5})x(\d{1,5})$")
+_SIZE = re.compile(r"([1-9][0-9]{0,4})x([1-9][0-9]{0,4})")  # ASCII digits, no leading zero
 
 
 def _size(text: str) -> tuple[int, int]:
-    match = _SIZE.match(text.strip().lower())
+    match = _SIZE.fullmatch(text.strip(" ").lower())
     if match is None:
         raise argparse.ArgumentTypeError(f"{text!r} is not WIDTHxHEIGHT (e.g. 960x540)")
     return int(match.group(1)), int(match.group(2))

@@ -131,6 +131,7 @@ def _run_step(step: Callable[[], str], source: str, output: str, verb: str, prod
 
 
 def run_train(args: argparse.Namespace) -> int:
+    from mse.motion.base.library import load_library
     from mse.motion.hsmm.api import Options
     from mse.motion.hsmm.io import save_model
     from mse.motion.hsmm.leaf import train_from_library
@@ -141,6 +142,11 @@ def run_train(args: argparse.Namespace) -> int:
         return print_error(argument_error("--takes must be 0 (all) or more"))
     if args.takes and args.style is None:
         return print_error(argument_error("--takes goes with --style"))
+    try:  # the library's clips are inputs: -o must not name one (E105)
+        load_library(args.library)
+        refuse_inputs(args.output, [args.library])
+    except MseError as error:
+        return print_error(error)
 
     def step() -> str:
         options = Options(states=args.states, blocks=args.blocks)
@@ -157,14 +163,16 @@ def run_train(args: argparse.Namespace) -> int:
 
 
 def run_adapt(args: argparse.Namespace) -> int:
+    from mse.motion.base.library import load_library
     from mse.motion.hsmm.api import Options
     from mse.motion.hsmm.io import load_model, save_model
     from mse.motion.hsmm.leaf import adapt_from_library
 
     if args.takes < 0:
         return print_error(argument_error("--takes must be 0 (all) or more"))
-    try:
-        refuse_inputs(args.output, [args.model])
+    try:  # the model and the library's clips are inputs: -o must not name one (E105)
+        load_library(args.library)
+        refuse_inputs(args.output, [args.model, args.library])
     except MseError as error:
         return print_error(error)
 

@@ -11,7 +11,7 @@ from typing import TYPE_CHECKING, TextIO
 
 from mse.diagnostics import Diagnostic, MseError
 from mse.fileio import write_atomic
-from mse.input_files import decode_utf8, read_capped, read_input
+from mse.input_files import decode_utf8, read_input, read_stdin
 from mse.limits import MAX_INPUT_BYTES
 
 if TYPE_CHECKING:
@@ -62,7 +62,7 @@ def emit(text: str, output: str | None, *, inputs: Iterable[str | os.PathLike[st
 
 def read_stdin_bytes() -> bytes:
     """Standard input, at most MAX_INPUT_BYTES (E104 beyond)."""
-    return read_capped(sys.stdin.buffer, MAX_INPUT_BYTES, "<stdin>")
+    return read_stdin(MAX_INPUT_BYTES)
 
 
 def read_timelines(name: str) -> list[Timeline]:

@@ -1,7 +1,7 @@
 """Timelines as video: MP4 (H.264), WebM (VP9), GIF, or a folder of PNG frames.
 
 Frames come from :class:`mse.export.face.frames.FramePainter` (face, body, timeline strip
-and playhead); MP4 and WebM are encoded with PyAV, GIF and PNG with Pillow.  Frame ``i``
+and playhead); MP4, WebM and GIF are encoded with PyAV (frame by frame), PNG with Pillow.  Frame ``i``
 shows time ``i / fps``; a ``d`` s timeline gives ``round(d * fps)`` frames.  Output is
 written to a temporary file (or folder) beside the target and renamed at the end, so a
 reader never sees half a video and a failed render replaces nothing.
@@ -31,6 +31,9 @@ if TYPE_CHECKING:
     from mse.export.figures import FigureClip
 
 #: Video formats and the file suffix of each.
+#: Smallest frame that holds the face, the list and the strip (below 40 px of height the
+#: strip's lanes have no room).
+MIN_WIDTH, MIN_HEIGHT = 64, 48
 VIDEO_FORMATS: dict[str, str] = {"mp4": ".mp4", "webm": ".webm", "gif": ".gif"}
 MAX_FRAMES = 100_000
 MAX_PIXELS = 3840 * 2160
@@ -61,8 +64,9 @@ def _error(code: str, message: str, where: str) -> MseError:
 
 def check_options(video: VideoOptions, fmt: str | None = None) -> None:
     width, height = video.size
-    if not (16 <= width <= 7680 and 16 <= height <= 4320) or width * height > MAX_PIXELS:
-        raise argument_error(f"frame size {width}x{height} must be between 16x16 and 3840x2160 pixels")
+    if not (MIN_WIDTH <= width <= 7680 and MIN_HEIGHT <= height <= 4320) or width * height > MAX_PIXELS:
+        smallest = f"{MIN_WIDTH}x{MIN_HEIGHT}"
+        raise argument_error(f"frame size {width}x{height} must be between {smallest} and 3840x2160 pixels")
     if fmt in ("mp4", "webm") and (width % 2 or height % 2):
         raise argument_error(f"{fmt} needs an even frame size (got {width}x{height})")
     if not 1.0 <= video.fps <= 120.0:
@@ -187,8 +191,12 @@ def _encode(images: Iterator[Image.Image], path: Path, fmt: str, video: VideoOpt
 
 
 def _write_gif(images: Iterator[Image.Image], path: Path, fps: float, samples: Sequence[Image.Image]) -> None:
-    """One palette for the whole clip (from sample frames), no dithering: small and stable."""
+    """One palette for the whole clip (from sample frames), no dithering: small and stable.
+
+    Encoded with PyAV one frame at a time (Pillow's GIF writer keeps every frame until the
+    end), so memory does not grow with the length of the clip."""
     with require("video"):
+        import av
         from PIL import Image
 
     width, height = samples[0].size
@@ -196,20 +204,18 @@ def _write_gif(images: Iterator[Image.Image], path: Path, fps: float, samples: S
     for index, sample in enumerate(samples):
         sheet.paste(sample, (0, index * height))
     palette = sheet.quantize(colors=255, method=Image.Quantize.MEDIANCUT)
-
-    def quantized() -> Iterator[Image.Image]:
+    colours = np.zeros((256, 4), dtype=np.uint8)  # ARGB entries, opaque
+    colours[:, 0] = 255
+    rgb = np.asarray(palette.getpalette() or [], dtype=np.uint8).reshape(-1, 3)[:256]
+    colours[: len(rgb), 1:] = rgb
+    with av.open(str(path), mode="w", format="gif") as container:
+        stream = container.add_stream("gif", rate=Fraction(fps).limit_denominator(1001))
+        stream.width, stream.height = width, height
+        stream.pix_fmt = "pal8"
         for image in images:
-            yield image.quantize(palette=palette, dither=Image.Dither.NONE)
-
-    frames = quantized()
-    head = next(frames)
-    head.save(
-        path,
-        format="GIF",
-        save_all=True,
-        append_images=frames,
-        duration=round(1000.0 / fps),
-        loop=0,
-        optimize=False,
-        disposal=1,
-    )
+            indices = np.asarray(image.quantize(palette=palette, dither=Image.Dither.NONE), dtype=np.uint8)
+            frame = av.VideoFrame.from_ndarray((indices, colours), format="pal8")  # type: ignore[arg-type]  # pal8 takes (indices, palette)
+            for packet in stream.encode(frame):
+                container.mux(packet)
+        for packet in stream.encode(None):
+            container.mux(packet)

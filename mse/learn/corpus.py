@@ -16,6 +16,7 @@ from dataclasses import dataclass, field
 
 from mse.diagnostics import Diagnostic, Span
 from mse.ir.model import KNOWN_MODALITIES
+from mse.limits import MAX_NAME_CHARS
 
 _NOT_IDENTIFIER = re.compile(r"[^A-Za-z0-9_]+")
 
@@ -125,6 +126,11 @@ def build_corpus(
             if modality is None:
                 continue
             signal = mapping.labels.get(annotation.label) or identifier(annotation.label)
+            longest = max(len(signal), len(modality))
+            if longest > MAX_NAME_CHARS:
+                notes.append(Diagnostic("E121", f"annotation label or tier name of {longest} characters; "
+                                        f"names are at most {MAX_NAME_CHARS}", annotation.span))
+                continue
             if not signal:
                 notes.append(Diagnostic("W503", f"annotation {annotation.label!r} has no usable name; left out",
                                         annotation.span))

@@ -12,10 +12,12 @@ from pathlib import Path
 
 from mse import progress
 from mse.diagnostics import Diagnostic, MseError, Span, has_errors
+from mse.ir.build import IDENTIFIER
 from mse.ir.schedule import to_ticks
 from mse.learn.corpus import DEFAULT_MAPPING, Annotation, Corpus, RawSequence, TierMapping, build_corpus
 from mse.learn.read_eaf import read_eaf
 from mse.learn.read_table import read_table
+from mse.limits import MAX_LEARN_ANNOTATIONS, MAX_LEARN_SIGNALS, MAX_SOLVE_SECONDS
 from mse.syntax.reader import decode_text, read_bytes
 
 SUFFIXES: dict[str, str] = {
@@ -63,6 +65,9 @@ def read_timeline_sequences(path: Path, data: bytes) -> tuple[list[RawSequence],
             start, stop = to_ticks(signal.start), to_ticks(signal.stop)
             if not 0 <= start < stop:
                 return [], [Diagnostic("E212", f"signal {signal.id!r} must have 0 <= start < stop", span)]
+            if signal.modality and not IDENTIFIER.match(signal.modality):
+                return [], [Diagnostic("E212", f"signal {signal.id[:60]!r} has the modality {signal.modality[:60]!r}, "
+                                       "which is not an identifier ([A-Za-z_][A-Za-z0-9_]*)", span)]
             action = signal.motion.get("action") if signal.motion else None
             annotations.append(Annotation(signal.modality or "unknown", signal.id, start, stop, span,
                                           lexeme=signal.lexeme, motion=str(action) if action else None,
@@ -113,12 +118,40 @@ def read_corpus(paths: Iterable[str | Path], mapping: TierMapping = DEFAULT_MAPP
             sequences, problems = read_timeline_sequences(path, data)
             found.extend(problems)
             raw.extend(sequences)
+    found.extend(_too_long(raw))
+    annotations = sum(len(sequence.annotations) for sequence in raw)
+    if annotations > MAX_LEARN_ANNOTATIONS:
+        where = str(files[0]) if files else "<input>"
+        found.append(Diagnostic("E122", f"{annotations} annotations; learn mines at most {MAX_LEARN_ANNOTATIONS} "
+                                "(learn from a sample of the sequences)", Span(where)))
     if has_errors(found):
         raise MseError(found)
     corpus, notes = build_corpus(raw, mapping)
     found.extend(notes)
+    if len(corpus.signals) > MAX_LEARN_SIGNALS:
+        where = str(files[0]) if files else "<input>"
+        found.append(Diagnostic("E122", f"{len(corpus.signals)} distinct signals; learn mines at most "
+                                f"{MAX_LEARN_SIGNALS} (map labels together with --mapping, or read fewer tiers)",
+                                Span(where)))
+    if has_errors(found):
+        raise MseError(found)
     if not corpus.sequences or not corpus.signals:
         where = str(files[0]) if files else "<input>"
         found.append(Diagnostic("E121", "no annotation to learn from (check --tiers and the files)", Span(where)))
         raise MseError(found)
     return corpus, found
+
+
+def _too_long(raw: Iterable[RawSequence]) -> list[Diagnostic]:
+    """E121 for each sequence longer than ``sample`` solves (MAX_SOLVE_SECONDS): the learned
+    set is checked and calibrated by sampling at the sequences' length."""
+    found = []
+    limit = round(MAX_SOLVE_SECONDS * 1000)
+    for sequence in raw:
+        length = sequence.duration if sequence.duration is not None else max(
+            (a.stop for a in sequence.annotations), default=0)
+        if length > limit:
+            found.append(Diagnostic("E122", f"sequence {sequence.name!r} is {length / 1000:g} s long; learn reads "
+                                    f"sequences of at most {MAX_SOLVE_SECONDS:g} s (the longest that sample "
+                                    "solves): cut the recording into shorter sequences", sequence.span))
+    return found

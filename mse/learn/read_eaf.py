@@ -18,6 +18,7 @@ from lxml import etree
 
 from mse.diagnostics import Diagnostic, Span
 from mse.learn.corpus import Annotation, RawSequence
+from mse.limits import XML_SPACE, parse_integer
 from mse.syntax.reader import parse_xml, read_bytes
 
 #: Header property holding a timeline's duration in ms (written by mse.export.eaf).
@@ -94,10 +95,12 @@ class _EafReader:
         for prop in header.iter("PROPERTY"):
             if prop.get("NAME") == DURATION_PROPERTY:
                 value = (prop.text or "").strip()
-                if not value.isdigit() or int(value) <= 0:
-                    self.error(f"{DURATION_PROPERTY} must be a positive number of milliseconds, not {value!r}", prop)
+                duration = _milliseconds(value)
+                if duration is None or duration <= 0:
+                    self.error(f"{DURATION_PROPERTY} must be a positive number of milliseconds, "
+                               f"not {value[:40]!r}", prop)
                     return None
-                return int(value)
+                return duration
         return None
 
     def _time_slots(self, order: etree._Element | None) -> dict[str, int | None] | None:
@@ -117,10 +120,12 @@ class _EafReader:
             if value is None:
                 slots[slot_id] = None  # unaligned
                 continue
-            if not value.strip().isdigit():
-                self.error(f"TIME_VALUE of {slot_id!r} must be a whole number of milliseconds, not {value!r}", slot)
+            milliseconds = _milliseconds(value)
+            if milliseconds is None:
+                self.error(f"TIME_VALUE of {slot_id!r} must be a whole number of milliseconds "
+                           f"(ASCII digits, at most 15), not {value[:40]!r}", slot)
                 continue
-            slots[slot_id] = int(value)
+            slots[slot_id] = milliseconds
         return slots
 
     def _tiers(self, slots: dict[str, int | None]) -> list[Annotation]:
@@ -173,3 +178,9 @@ class _EafReader:
 def _value(element: etree._Element) -> str:
     value = element.find("ANNOTATION_VALUE")
     return (value.text or "").strip() if value is not None else ""
+
+
+def _milliseconds(text: str) -> int | None:
+    """A whole number of milliseconds in ASCII digits (``str.isdigit`` also takes "²" and
+    Arabic-Indic or full-width digits), at most 15 digits (31,000 years), else None."""
+    return parse_integer(text, max_digits=15) if not text.strip(XML_SPACE).startswith(("+", "-")) else None

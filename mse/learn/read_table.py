@@ -16,6 +16,7 @@ from pathlib import Path
 
 from mse.diagnostics import Diagnostic, Span
 from mse.learn.corpus import Annotation, RawSequence
+from mse.limits import parse_double
 from mse.syntax.reader import decode_text, read_bytes
 
 COLUMNS = ("sequence", "tier", "start", "stop", "label")
@@ -107,12 +108,12 @@ def _row(
 
 
 def _seconds(text: str, what: str, span: Span, found: list[Diagnostic]) -> int | None:
-    try:
-        value = float(text)
-    except ValueError:
-        found.append(Diagnostic("E121", f"{what} must be a number of seconds, not {text!r}", span))
+    value = parse_double(text)  # ASCII digits only (float() also takes "1_0" and other scripts' digits)
+    if value is None:
+        found.append(Diagnostic("E121", f"{what} must be a number of seconds in ASCII digits, not {text[:40]!r}",
+                                span))
         return None
     if not math.isfinite(value) or not 0 <= value < 1e7:
-        found.append(Diagnostic("E121", f"{what} must be between 0 and 10^7 seconds, not {text!r}", span))
+        found.append(Diagnostic("E121", f"{what} must be between 0 and 10^7 seconds, not {text[:40]!r}", span))
         return None
     return round(value * 1000)

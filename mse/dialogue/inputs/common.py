@@ -86,6 +86,8 @@ def _read_table(path: Path) -> dict[str, dict[str, str]]:
         ) from None
     except (tomllib.TOMLDecodeError, UnicodeDecodeError) as error:
         raise MseError([Diagnostic("E214", f"emotion name table is not valid TOML: {error}", where)]) from None
+    except RecursionError:
+        raise MseError([Diagnostic("E214", "emotion name table nests too deeply", where)]) from None
     tables: dict[str, dict[str, str]] = {}
     for section, entries in raw.items():
         if not isinstance(entries, dict) or not all(isinstance(v, str) for v in entries.values()):

@@ -34,6 +34,8 @@ if TYPE_CHECKING:
 BACKGROUND = "#ffffff"
 HEADER_HEIGHT = 26
 STRIP_SHARE = 0.36  # at most this share of the frame height goes to the strip
+MIN_STRIP_ZOOM = 0.2  # smallest scale of the strip; rows below what fits are not drawn
+MAX_STRIP_WIDTH = 20_000  # drawing pixels (the SVG layout's widest is 16,000 within the duration)
 PLAYHEAD = "#d62828"
 
 
@@ -57,7 +59,12 @@ def _font(size: int) -> ImageFont.FreeTypeFont | ImageFont.ImageFont:
 
 
 def _text(font: object, text: str) -> str:
-    """Pillow's fallback font has no em dash."""
+    """``text`` as it can be drawn: control and format characters (U+0085, U+2028...) make
+    Pillow's text layout fail, so they show as "?"; Pillow's fallback font has no em dash."""
+    import unicodedata
+
+    if not text.isprintable():
+        text = "".join(c if c == " " or unicodedata.category(c)[0] not in "CZ" else "?" for c in text)
     return text if "DejaVu" in str(getattr(font, "path", "")) else text.replace("—", "-")
 
 
@@ -91,34 +98,47 @@ class StripPainter:
         self.timeline = timeline
         self.geometry: Layout = layout(timeline, title=False)
         g = self.geometry
-        self.zoom = min(1.0, max_height / g.height)
+        # Never shrunk below MIN_STRIP_ZOOM: the rows that do not fit at that scale are left
+        # out, so the drawing (and memory) stays bounded however many rows the timeline has.
+        self.zoom = max(min(1.0, max_height / g.height), MIN_STRIP_ZOOM)
+        drawn_height = min(g.height, math.ceil(max_height / self.zoom))
         # The visible part of the drawing, in drawing pixels: lane names stay, time scrolls.
         self.view_width = width / self.zoom
-        image = Image.new("RGB", (max(g.width, math.ceil(self.view_width)), g.height), BACKGROUND)
+        # Bars past the timeline's end (a signal that starts after it) widen the drawing
+        # without bound: what lies beyond MAX_STRIP_WIDTH is not drawn.
+        self.drawn_width = min(max(g.width, math.ceil(self.view_width)), MAX_STRIP_WIDTH)
+        image = Image.new("RGB", (self.drawn_width, drawn_height), BACKGROUND)
         draw = ImageDraw.Draw(image)
         small, bold = _font(10), _font(12)
         for index, lane in enumerate(g.lanes):
+            if lane.y >= drawn_height:
+                break
             fill = "#eeeeee" if index % 2 else "#f7f7f7"
             draw.rectangle((0, lane.y, g.width, lane.y + lane.height), fill=fill)
-            draw.text((10, lane.y + lane.height / 2), lane.modality, fill="#222222", font=bold, anchor="lm")
+            modality = _text(bold, lane.modality)
+            draw.text((10, lane.y + lane.height / 2), modality, fill="#222222", font=bold, anchor="lm")
         count = math.floor(timeline.duration / g.tick_step + 1e-9)
         for index in range(count + 1):
             t = index * g.tick_step
             x = g.x0 + t * g.scale
-            draw.line((x, g.top - 6, x, g.height - 8), fill="#dddddd")
+            draw.line((x, g.top - 6, x, drawn_height - 8), fill="#dddddd")
             draw.text((x, g.top - 10), f"{round(t, 3):g} s", fill="#555555", font=small, anchor="ms")
         self.bars = []
         label_font = _font(11)
         for bar in g.bars:
+            if bar.y >= drawn_height:
+                continue
             colour = LANE_COLOURS.get(bar.behaviour.modality, OTHER_COLOUR)
             box = (bar.x, bar.y, bar.x + bar.width, bar.y + BAR_HEIGHT)
             draw.rounded_rectangle(box, radius=4, fill=colour, outline="#333333")
             if bar.label:
                 x = bar.x + 4 if bar.label_inside else bar.x + bar.width + 3
-                draw.text((x, bar.y + BAR_HEIGHT / 2), bar.label, fill="#111111", font=label_font, anchor="lm")
+                draw.text((x, bar.y + BAR_HEIGHT / 2), _text(label_font, bar.label), fill="#111111", font=label_font,
+                          anchor="lm")
             self.bars.append((bar.behaviour.signal.start, bar.behaviour.signal.stop, box))
         self.width = width
-        self.height = math.ceil(g.height * self.zoom)
+        self.drawn_height = drawn_height
+        self.height = math.ceil(drawn_height * self.zoom)
         # Zoomed once here; per frame only crops, outlines and the playhead.
         self.image = image.resize((round(image.width * self.zoom), self.height), resample=_lanczos())
 
@@ -130,9 +150,9 @@ class StripPainter:
         g = self.geometry
         z = self.zoom
         offset = 0.0  # in drawing pixels
-        if g.width > self.view_width:
+        if self.drawn_width > self.view_width:
             wanted = time * g.scale - 0.35 * (self.view_width - g.x0)
-            offset = min(max(0.0, wanted), g.width - self.view_width)
+            offset = min(max(0.0, wanted), self.drawn_width - self.view_width)
         left = round(offset * z)
         frame.paste(self.image.crop((left, 0, left + self.width, self.height)), (0, top))
         if offset > 0:
@@ -146,7 +166,7 @@ class StripPainter:
                     box = (a * z, top + y1 * z, b * z, top + y2 * z)
                     draw.rounded_rectangle(box, radius=4 * z, outline="#000000", width=2)
         x = (g.x0 + time * g.scale - offset) * z
-        draw.line((x, top + (g.top - 6) * z, x, top + (g.height - 8) * z), fill=PLAYHEAD, width=2)
+        draw.line((x, top + (g.top - 6) * z, x, top + (self.drawn_height - 8) * z), fill=PLAYHEAD, width=2)
 
 
 def _lanczos() -> Any:
@@ -271,7 +291,7 @@ class FramePainter:
             caption = self.body.paint(frame, self.layout.body_box, time)
             if caption:
                 bl, _, _, bb = self.layout.body_box
-                draw.text((bl + 8, bb - 8), caption, fill="#333333", font=self.small, anchor="ls")
+                draw.text((bl + 8, bb - 8), _text(self.small, caption), fill="#333333", font=self.small, anchor="ls")
         width = self.layout.size[0]
         draw.text((width - 10, HEADER_HEIGHT / 2), f"{time:6.2f} s", fill="#222222", font=self.clock_font, anchor="rm")
         if self.strip is not None:

@@ -115,6 +115,8 @@ def parse_table(text: str, source: str, where: str) -> dict[str, Action]:
         data = tomllib.loads(text)
     except tomllib.TOMLDecodeError as error:
         raise _fail(where, f"not a valid TOML lexeme table: {error}") from None
+    except RecursionError:
+        raise _fail(where, "not a valid TOML lexeme table: arrays or tables nest too deeply") from None
     table: dict[str, Action] = {}
     for name, entry in data.items():
         if not isinstance(entry, dict):

@@ -36,7 +36,7 @@ from pathlib import Path
 from typing import Any
 
 from mse.diagnostics import Diagnostic, MseError, Span
-from mse.input_files import decode_utf8, read_input, read_json
+from mse.input_files import decode_utf8, note_read, read_input, read_json
 from mse.limits import MAX_CSV_FIELD
 from mse.motion.base import cache
 from mse.motion.base.bvh import Motion, read_bvh
@@ -285,7 +285,17 @@ def read_index(index: str | os.PathLike[str]) -> MotionLibrary:
 
 
 def load_library(location: str | os.PathLike[str]) -> MotionLibrary:
-    """A library folder (``library.json``/``.csv`` or the Bandai layout) or an index file."""
+    """A library folder (``library.json``/``.csv`` or the Bandai layout) or an index file.
+
+    Its clips count as read by the command (:func:`mse.input_files.note_read`) even when a
+    cache spares reading them, so no output of the command can replace one."""
+    library = _load_library(location)
+    for clip in library.clips:
+        note_read(clip.source)
+    return library
+
+
+def _load_library(location: str | os.PathLike[str]) -> MotionLibrary:
     path = Path(location)
     if path.is_file():
         return read_index(path)

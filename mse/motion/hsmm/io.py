@@ -22,6 +22,7 @@ from __future__ import annotations
 import io
 import json
 import os
+import tokenize
 import zipfile
 import zlib
 from typing import Any, cast
@@ -125,10 +126,30 @@ def _read_arrays(name: str) -> dict[str, Any]:
         with zipfile.ZipFile(io.BytesIO(data)) as archive:
             if sum(member.file_size for member in archive.infolist()) > MAX_MODEL_BYTES:
                 raise _error(name, f"HSMM model expands beyond {MAX_MODEL_BYTES} bytes")
+            for member in archive.infolist():  # what each header claims, before numpy allocates it
+                if member.filename.endswith(".npy") and _claimed_bytes(archive, member) > MAX_MODEL_BYTES:
+                    raise _error(name, f"HSMM model array {member.filename[:80]!r} claims more than "
+                                 f"{MAX_MODEL_BYTES} bytes")
         with np.load(io.BytesIO(data), allow_pickle=False) as arrays:
             return {key: arrays[key] for key in arrays.files}
-    except (OSError, ValueError, EOFError, KeyError, NotImplementedError, zipfile.BadZipFile, zlib.error):
+    except (OSError, ValueError, EOFError, KeyError, NotImplementedError, zipfile.BadZipFile, zlib.error,
+            RecursionError, MemoryError, SyntaxError, TypeError, tokenize.TokenError):
+        # (crafted .npy headers: numpy parses them as Python literals)
         raise _error(name, f"cannot read HSMM model: not an {FORMAT} archive (damaged?)") from None
+
+
+def _claimed_bytes(archive: zipfile.ZipFile, member: zipfile.ZipInfo) -> int:
+    """The bytes the .npy header of ``member`` says its array holds."""
+    with archive.open(member) as stream:
+        version = np.lib.format.read_magic(stream)
+        if version == (1, 0):
+            shape, _, dtype = np.lib.format.read_array_header_1_0(stream)
+        else:
+            shape, _, dtype = np.lib.format.read_array_header_2_0(stream)
+    count = 1
+    for size in shape:
+        count *= int(size)
+    return count * max(1, int(dtype.itemsize))
 
 
 def _check(model: HsmmModel) -> str | None:
@@ -225,7 +246,9 @@ def load_model(path: str | os.PathLike[str]) -> HsmmModel:
         )
         problem = _check(model)
     except (KeyError, IndexError, TypeError, ValueError, AttributeError) as error:
-        raise _error(name, f"malformed HSMM model: {error!r}") from None
+        raise _error(name, f"malformed HSMM model: {str(error)[:200]!r}") from None
+    except RecursionError:  # the meta JSON nests too deeply
+        raise _error(name, "malformed HSMM model: its metadata nests too deeply") from None
     if problem is not None:
         raise _error(name, f"malformed HSMM model: {problem}")
     return model

@@ -99,7 +99,7 @@ def _cached(key: str, cache_dir: Path | None, build: Callable[[], HsmmModel]) ->
 
 
 def _from_disk(key: str, cache_dir: Path | None, build: Callable[[], HsmmModel]) -> HsmmModel:
-    path = cache_dir / f"{key}.npz" if cache_dir is not None else None
+    path = cache.disk_entry(cache_dir, f"{key}.npz")
     model: HsmmModel | None = None
     if path is not None and path.is_file():
         try:
@@ -109,8 +109,8 @@ def _from_disk(key: str, cache_dir: Path | None, build: Callable[[], HsmmModel])
     if model is None:
         model = build()
         if path is not None:
-            # The cache is an optimisation: a read-only disk must not fail a leaf.
-            with contextlib.suppress(OSError):
+            # The cache is an optimisation: a read-only disk (E105) must not fail a leaf.
+            with contextlib.suppress(OSError, MseError):
                 save_model(path, model)
     return model
 

@@ -53,7 +53,6 @@ import os
 import time
 from collections.abc import Sequence
 from dataclasses import asdict, dataclass, field
-from pathlib import Path
 
 import numpy as np
 
@@ -325,7 +324,7 @@ def generate_motion(
     original = original_style or desired_clip.style
     excluded = set(exclude)
     key = _key(library, action, style, desired_clip.id, original, params, excluded)
-    disk = Path(cache_dir) / f"{key}.npz" if cache_dir is not None else None
+    disk = cache.disk_entry(cache_dir, f"{key}.npz")
     built: list[bool] = []
 
     def build() -> Modulated:

@@ -28,6 +28,9 @@ def make_solver(
     solver.parameters.max_time_in_seconds = max(0.001, float(time_limit))
     solver.parameters.num_workers = max(1, int(workers))
     solver.parameters.random_seed = seed % (2**31)
+    # Ctrl-C is Python's: CP-SAT's own handler would end the search early and hand back
+    # whatever it had (a different timeline for the seed, and the interrupt swallowed).
+    solver.parameters.catch_sigint_signal = False
     return solver
 
 
