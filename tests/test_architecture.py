@@ -73,6 +73,7 @@ def _imports(path: Path) -> list[tuple[str, int, bool]]:
     return result
 
 
+@pytest.mark.slow
 def test_lower_layers_never_import_higher_ones() -> None:
     problems = []
     for module, path in _modules():
@@ -116,6 +117,7 @@ def test_cli_paths_do_not_load_heavy_libraries(argv: list[str]) -> None:
     assert out.stdout.startswith("0 "), out.stdout + out.stderr
 
 
+@pytest.mark.slow
 def test_no_import_cycles() -> None:
     """Imports run one way: no module reaches itself again through mse imports (lazy ones too)."""
     names = {module for module, _ in _modules()}

@@ -157,6 +157,7 @@ def test_lint_strict_is_clean() -> None:
     assert _errors_and_warnings(mse.api.lint([behaviour_sets_dir()])) == []
 
 
+@pytest.mark.slow
 def test_solver_backed_lint_is_clean() -> None:
     """No dead, forced or never-instantiated signal, no redundant constraint (W4xx)."""
     assert _errors_and_warnings(mse.api.lint([behaviour_sets_dir()], deep=True)) == []

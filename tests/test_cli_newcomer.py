@@ -319,6 +319,7 @@ def test_every_public_function_has_a_docstring_with_an_example() -> None:
     assert lacking == [], lacking
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("module", [mse, mse.api, mse.sampling], ids=lambda m: m.__name__)
 def test_docstring_examples_run(module: object) -> None:
     result = doctest.testmod(module, optionflags=doctest.ELLIPSIS)  # type: ignore[arg-type]

@@ -70,6 +70,7 @@ def test_enumerations_agree_on_the_fixture() -> None:
 small_models = models(min_signals=1, max_signals=4, max_constraints=4)
 
 
+@pytest.mark.slow
 @ORACLE
 @given(model=small_models, seed=st.integers(0, 1000), data=st.data())
 def test_csp_feasible_implies_cpsat_feasible(model: ir.Model, seed: int, data: st.DataObject) -> None:

@@ -85,6 +85,7 @@ def test_api_lint_deep_runs_the_rules() -> None:
     assert any(d.code == "E401" for d in found)
 
 
+@pytest.mark.slow
 def test_bundled_sets_deep_lint_finds_timelines() -> None:
     # Lint time (target 5 s) is measured by bench/speed/cpsat.py, not asserted here.
     if not bundled_names():

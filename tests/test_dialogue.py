@@ -151,6 +151,7 @@ def test_announced_episodes_are_expressions_of_exactly_their_length(tmp_path: Pa
     assert timeline.utterances[0]["stress"] == ["believe"] and timeline.utterances[0]["stop"] == 1.2
 
 
+@pytest.mark.slow
 def test_every_set_in_random_dialogues_is_consistent_episode_by_episode() -> None:
     rng = random.Random(5)
     pool = bundled_names()
@@ -189,6 +190,7 @@ def test_an_interruption_cuts_open_occurrences_and_drops_later_ones(tmp_path: Pa
     assert mse.check(mse.load("embarrassment"), Timeline("embarrassment", 10.0, tuple(restored))) == []
 
 
+@pytest.mark.slow
 def test_an_event_changes_nothing_before_its_time() -> None:
     rng = random.Random(11)
     events = random_script(rng, bundled_names(), 90.0)[:-1]

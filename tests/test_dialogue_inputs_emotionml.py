@@ -82,6 +82,7 @@ def written(tmp_path: Path) -> dict[str, Path]:
     return files
 
 
+@pytest.mark.slow
 def test_inputs_written_here_are_valid_emotionml(shared_dir: Path, written: dict[str, Path]) -> None:
     verdicts = _check(shared_dir, list(written.values()))
     assert set(verdicts.values()) == {"VALID"}, verdicts
@@ -113,6 +114,7 @@ def test_relative_times(written: dict[str, Path]) -> None:
     assert caught.value.diagnostics[0].code == "E151"
 
 
+@pytest.mark.slow
 def test_checker_and_mse_agree_on_the_kit_documents(shared_dir: Path) -> None:
     """Every document of the checker's kit: the checker rejects it exactly when mse does
     (valid ones may still play nothing: their emotions have no time, and that is reported)."""

@@ -213,6 +213,7 @@ def test_readme_pictures_are_what_their_recipe_makes(tmp_path: Path) -> None:
     assert made == committed, "the README picture is stale: run python docs/images/make_pictures.py"
 
 
+@pytest.mark.slow
 def test_readme_format_example_lints_clean(tmp_path: Path) -> None:
     """The README's format example is a whole behaviour set: it compiles and lints clean."""
     text = (REPO_ROOT / "README.md").read_text(encoding="utf-8")

@@ -97,6 +97,7 @@ def _loaded(driver: Any, page: Path) -> Any:
     return driver
 
 
+@pytest.mark.slow
 def test_one_bar_per_signal_and_hover_shows_times(driver: Any, page: Path, timeline: Timeline) -> None:
     from selenium.webdriver.common.action_chains import ActionChains
     from selenium.webdriver.common.by import By
@@ -148,6 +149,7 @@ def test_screenshot_is_not_blank(driver: Any, page: Path) -> None:
     assert inked > 0.03
 
 
+@pytest.mark.slow
 def test_playhead_and_stick_figure_advance(driver: Any, page: Path) -> None:
     from selenium.webdriver.common.by import By
     from selenium.webdriver.support.ui import WebDriverWait
@@ -295,6 +297,7 @@ def test_blink_closes_the_lids(driver: Any, face_page: Path) -> None:
     assert iris_pixels(_face_shot(browser, BLINKING)) < 10
 
 
+@pytest.mark.slow
 def test_page_and_video_draw_the_same_face(driver: Any, face_page: Path, face_timeline: Timeline) -> None:
     """face.js and the numpy evaluator give the same paths; the SVG and the aggdraw frame
     look the same (anti-aliasing differs only at edges)."""

@@ -153,6 +153,7 @@ def test_core_commands_work_without_extras_and_the_others_name_theirs(tmp_path: 
     assert sorted(p.name for p in tmp_path.iterdir() if p.name != "cache") == ["bow.avg", "t.json"]
 
 
+@pytest.mark.slow
 def test_import_and_sampling_load_no_optional_package() -> None:
     script = (
         "import sys, mse\n"

@@ -22,6 +22,7 @@ def _corpus(folder: Path) -> Path:
 
 
 # -- item 1: no output replaces a file the command reads --------------------------------------
+@pytest.mark.slow
 @pytest.mark.parametrize("flag", ["-o", "--report"])
 def test_learn_refuses_to_overwrite_a_csv_of_its_input_folder(
     tmp_path: Path, flag: str, capsys: pytest.CaptureFixture[str]
@@ -94,6 +95,7 @@ def test_render_memory_does_not_grow_with_rows_squared(tmp_path: Path) -> None:
 
 
 # -- item 3: a GIF is encoded frame by frame ---------------------------------------------------
+@pytest.mark.slow
 def test_gif_memory_does_not_grow_with_length(tmp_path: Path) -> None:
     pytest.importorskip("av")
     signals = tuple(TimelineSignal(f"smile{i}", "face", "faceexp=smile", i, i + 1.5) for i in range(0, 58, 3))
@@ -157,6 +159,7 @@ def _interrupted(argv: list[str], delay: float) -> tuple[int, str, str]:
     return child.returncode, out, err
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("delay", [2.0, 4.0])
 def test_ctrl_c_during_cpsat_count_exits_130_and_writes_nothing(tmp_path: Path, delay: float) -> None:
     pytest.importorskip("ortools")
@@ -447,6 +450,7 @@ def test_style_synth_refuses_crafted_model_files(tmp_path: Path, kind: str, caps
 
 
 # -- item 5: learn's mining is bounded in signals and annotations (E122) -------------------------------
+@pytest.mark.slow
 def test_learn_refuses_too_many_signals_or_annotations(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     import time
 

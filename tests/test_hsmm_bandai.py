@@ -56,6 +56,7 @@ def _bone_lengths(motion: Motion, root: int) -> np.ndarray:
     )
 
 
+@pytest.mark.slow
 def test_average_walk_model_has_step_units(walk_average: HsmmModel) -> None:
     assert walk_average.cyclic
     assert {"inner-a", "inner-b"} <= set(walk_average.units)
@@ -65,6 +66,7 @@ def test_average_walk_model_has_step_units(walk_average: HsmmModel) -> None:
         assert np.all(unit.duration_means >= 1.0)
 
 
+@pytest.mark.slow
 def test_adapted_walk_is_slower_like_the_sad_data(
     walk_average: HsmmModel, walk_sad: HsmmModel
 ) -> None:
@@ -74,6 +76,7 @@ def test_adapted_walk_is_slower_like_the_sad_data(
     assert sad_step > average_step + 3
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("seconds", [0.1, 1.0, 5.0])
 def test_synthesized_walk_has_requested_length_and_rigid_bones(
     walk_sad: HsmmModel, seconds: float
@@ -133,6 +136,7 @@ def test_model_file_round_trip(walk_sad: HsmmModel, tmp_path: Path) -> None:
     assert np.allclose(a.values, b.values)
 
 
+@pytest.mark.slow
 def test_leaf_gets_its_scheduled_duration(small_library: MotionLibrary, tmp_path: Path) -> None:
     two_walks = MotionLibrary(
         "two-walks",

@@ -78,6 +78,7 @@ def run_library(bandai_dir: Path) -> MotionLibrary:
     return MotionLibrary("bandai-runs", tuple(keep))
 
 
+@pytest.mark.slow
 def test_generated_runs_fly_and_the_profiles_survive_a_file(run_library: MotionLibrary, tmp_path: Path) -> None:
     clips = [(run_library.motion(c), c.style) for c in run_library.select(action="run")]
     model = api.train_average(clips, "run")

@@ -153,6 +153,7 @@ def test_long_flat_chains_are_fine() -> None:
     assert len(model.constraints[0].expr.operands) == 4000  # type: ignore[union-attr]
 
 
+@pytest.mark.slow
 def test_long_chains_use_memory_linear_in_their_length() -> None:
     """Item 5: 10,000 `exists(a)` joined by `and` took 523 MB, 20,000 took 2 GB."""
     script = (
@@ -336,6 +337,7 @@ def test_a_cache_folder_others_can_write_is_not_used(tmp_path: Path, monkeypatch
     assert list(entries.iterdir()) == []
 
 
+@pytest.mark.slow
 def test_concurrent_processes_share_one_cache(tmp_path: Path) -> None:
     env = {**os.environ, "MSE_CACHE_DIR": str(tmp_path / "cache")}
     command = [sys.executable, "-m", "mse", "sample", "relief", "--seed", "3", "--format", "json"]

@@ -41,6 +41,7 @@ def test_lma_bad_file(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> Non
     assert f"{bad}:4:1: E100" in capsys.readouterr().err
 
 
+@pytest.mark.slow
 def test_animate_bundled_expression(tmp_path: Path) -> None:
     timeline = Timeline(
         "embarrassment",

@@ -187,6 +187,7 @@ def test_sigterm_while_writing_leaves_no_temporary_file(tmp_path: Path) -> None:
     assert list(tmp_path.iterdir()) == []
 
 
+@pytest.mark.slow
 def test_sigterm_of_the_command_line_exits_143_without_temporaries(tmp_path: Path) -> None:
     out = tmp_path / "many.jsonl"
     command = [sys.executable, "-m", "mse", "sample", "relief", "--count", "200000", "--format", "jsonl"]

@@ -95,6 +95,7 @@ def test_library_calls_draw_nothing_unless_asked(monkeypatch: pytest.MonkeyPatch
     assert err.getvalue() == ""
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize(
     "args,label",
     [

@@ -131,6 +131,7 @@ def _bad_messages() -> list[tuple[str | bytes, str, str]]:
     ]
 
 
+@pytest.mark.slow
 def test_every_kind_of_bad_message_is_answered_and_the_session_goes_on(server: BackgroundServer) -> None:
     cases = _bad_messages()
     assert len({code + piece for _, code, piece in cases if code}) >= 20
@@ -165,6 +166,7 @@ def _closed_with(uri: str, send: list[str | bytes], **connect_options: Any) -> t
     raise AssertionError("not closed")
 
 
+@pytest.mark.slow
 def test_limits_close_with_a_code_and_a_reason() -> None:
     with BackgroundServer(max_sessions=2, max_message=1000, max_rate=20) as server:
         assert _closed_with(server.uri, ['{"say": "' + "a" * 2000 + '"}'])[0] == 1009
@@ -188,6 +190,7 @@ def test_limits_close_with_a_code_and_a_reason() -> None:
             assert list(client.send({"type": "clock"})) == [{"type": "clock", "t": 0.0}]
 
 
+@pytest.mark.slow
 def test_a_client_that_does_not_read_is_closed() -> None:
     with BackgroundServer(write_limit=2000, send_timeout=0.5) as server, connect(server.uri, max_size=None) as socket:
         socket.send(json.dumps({"type": "hello", "clock": "script", "keep": True}))
@@ -209,6 +212,7 @@ def _serve(*args: str) -> subprocess.Popen[str]:
                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("signum", [signal.SIGINT, signal.SIGTERM])
 def test_signals_shut_it_down_cleanly(signum: int) -> None:
     process = _serve()
@@ -231,6 +235,7 @@ def test_signals_shut_it_down_cleanly(signum: int) -> None:
     assert "Traceback" not in err
 
 
+@pytest.mark.slow
 def test_bad_options_and_a_taken_port_exit_1() -> None:
     for args in (["--max-sessions", "0"], ["--port", "70000"]):
         done = subprocess.run([sys.executable, "-m", "mse", "serve", *args], cwd=ROOT, capture_output=True, text=True,
@@ -252,6 +257,7 @@ def test_the_docs_client_runs(server: BackgroundServer) -> None:
     assert "occurrence" in done.stdout and "episode 0 anger" in done.stdout
 
 
+@pytest.mark.slow
 def test_on_the_real_clock_an_episode_goes_on_without_events() -> None:
     with BackgroundServer() as server, connect(server.uri, max_size=None) as socket:
         socket.send(json.dumps({"type": "hello", "seed": 2}))

@@ -42,6 +42,7 @@ def driver() -> Iterator[Any]:
             instance.quit()
 
 
+@pytest.mark.slow
 def test_the_page_is_served_and_other_paths_are_not_found() -> None:
     with BackgroundServer() as server:
         page = urllib.request.urlopen(f"http://127.0.0.1:{server.server.port}/", timeout=30)
@@ -61,6 +62,7 @@ def _wait(condition: Any, seconds: float) -> Any:
     raise AssertionError("timed out")
 
 
+@pytest.mark.slow
 def test_a_click_on_an_emotion_changes_the_face(driver: Any) -> None:
     from selenium.webdriver.common.by import By
 

@@ -295,6 +295,7 @@ def test_cli_sample_with_speech_then_check(solver: str, tmp_path: Path) -> None:
     assert _mse("check", str(talking), str(with_utterances)).returncode == 0
 
 
+@pytest.mark.slow
 def test_cli_anchors_without_speech_and_bad_speech(tmp_path: Path) -> None:
     talking = str(FIXTURES / "talking.xml")
     missing = _mse("sample", talking, "-d", "4")

@@ -97,6 +97,7 @@ def shared_with_java(shared_dir: Path) -> Path:
     return shared_dir
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("name", bundled_names())
 def test_greta_reads_every_frame_of_every_bundled_set(name: str, shared_with_java: Path, tmp_path: Path) -> None:
     for seed in (1, 2):
@@ -106,6 +107,7 @@ def test_greta_reads_every_frame_of_every_bundled_set(name: str, shared_with_jav
         assert read.summary["frames_sent"] > 0
 
 
+@pytest.mark.slow
 def test_greta_reads_imported_greta_sets(shared_with_java: Path, tmp_path: Path) -> None:
     from mse.syntax.greta import import_greta
 

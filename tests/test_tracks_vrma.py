@@ -162,6 +162,7 @@ def gltf_validator(tmp_path_factory: pytest.TempPathFactory) -> Path:
     return folder
 
 
+@pytest.mark.slow
 def test_gltf_validator_finds_no_error_or_warning(gltf_validator: Path, tmp_path: Path, shared_dir: Path) -> None:
     files = []
     timelines = [sample_timeline(mse.api.load(name, cache=True), 10.0, seed=1) for name in bundled_names()]
