@@ -324,6 +324,61 @@ def stdio(data: bytes, seed: int = 0) -> None:
     _require(code == 1 and "<stdout>: E105 cannot write output" in err.getvalue(), f"exit {code}: {err.getvalue()}")
 
 
+_MODEL_ARCHIVES: list[dict[str, bytes]] = []
+
+
+def seed_model_archive() -> dict[str, bytes]:
+    """The members of a real HSMM model file (the starter library's bow, trained once)."""
+    if not _MODEL_ARCHIVES:
+        import zipfile
+
+        from mse.motion.base.starter import starter_library
+        from mse.motion.hsmm import api
+        from mse.motion.hsmm.io import save_model
+
+        library = starter_library()
+        clips = [(library.motion(c), c.style) for c in library.select(action="bow")][:3]
+        with tempfile.TemporaryDirectory() as folder:
+            target = Path(folder) / "bow.hsmm"
+            save_model(target, api.train_average(clips, "bow", api.Options(states=3)))
+            with zipfile.ZipFile(target) as archive:
+                _MODEL_ARCHIVES.append({name: archive.read(name) for name in archive.namelist()})
+    return _MODEL_ARCHIVES[0]
+
+
+def model_file(data: bytes, seed: int = 0) -> None:
+    """A model file for ``mse style synth``: a real archive with one member replaced by
+    ``data`` (or ``data`` alone as the file, for every seventh seed): a clip, or exit 1 with an
+    E-code; never a traceback, an allocation the header asks for, or code run from the file."""
+    import zipfile
+
+    members = dict(seed_model_archive())
+    with tempfile.TemporaryDirectory() as folder:
+        model = Path(folder) / "fuzzed.hsmm"
+        if seed % 7 == 0:
+            model.write_bytes(data)
+        else:
+            names = sorted(members)
+            name = names[seed % len(names)]
+            original = members[name]
+            cut = seed % (len(original) + 1)
+            # the member's head (an .npy header, JSON) or its body replaced by the fuzzed bytes
+            if seed % 2:
+                members[name] = original[:cut] + data + original[cut + len(data):]
+            else:
+                members[name] = data + original[len(data):]
+            with zipfile.ZipFile(model, "w") as archive:
+                for member, content in members.items():
+                    archive.writestr(member, content)
+        target = Path(folder) / "out.bvh"
+        code, _, err = _cli(["style", "synth", str(model), "--duration", "1", "-o", str(target)])
+        if code == 0:
+            _require(target.read_bytes().startswith(b"HIERARCHY"), "synth wrote something that is not a BVH clip")
+            return
+        _require(not target.exists(), "a failed synth left its output")
+    _refused_with_a_code(code, err, usage=True)
+
+
 TARGETS: dict[str, Callable[..., None]] = {
     "xml": xml_document,
     "expression": expression,
@@ -333,6 +388,7 @@ TARGETS: dict[str, Callable[..., None]] = {
     "learn": learn_input,
     "render": render_input,
     "stdio": stdio,
+    "model": model_file,
 }
 
 
@@ -550,6 +606,17 @@ def stdio_cases(draw: st.DrawFn) -> bytes:
     return bytes([draw(st.integers(0, len(STDIO_COMMANDS) - 1)), draw(st.integers(0, 2))])
 
 
+def model_bytes() -> st.SearchStrategy[bytes]:
+    """Bytes for a model archive's member: random, or the headers that broke numpy's reader."""
+    crafted = st.sampled_from([
+        b"\x93NUMPY\x01\x00v\x00{'descr': '<f8', 'fortran_order': False, 'shape': (1099511627776,), }",
+        b"\x93NUMPY\x01\x00v\x00{'descr': " + b"(" * 3000,
+        b"\x93NUMPY\x01\x00v\x00{'descr': '<f8', 'fortran_order': False, 'shape': (1, ",
+        b"[" * 100_000, b"{}", b"\x80\x04\x95",  # the last: a pickle's opening bytes
+    ])
+    return st.one_of(crafted, st.binary(max_size=2048))
+
+
 STRATEGIES: dict[str, st.SearchStrategy[Any]] = {
     "xml": documents(),
     "expression": expressions(),
@@ -559,4 +626,5 @@ STRATEGIES: dict[str, st.SearchStrategy[Any]] = {
     "learn": learn_texts(),
     "render": timelines(),
     "stdio": stdio_cases(),
+    "model": model_bytes(),
 }

@@ -22,7 +22,7 @@ CASE_SECONDS = 60.0
 #: Growth of the worker's peak RSS over the whole fuzz run (the bugs took gigabytes).
 RSS_GROWTH_KIB = 1_000_000
 EXAMPLES = {"xml": 400, "expression": 400, "timeline": 300, "bvh": 150, "ir": 200, "learn": 60, "render": 40,
-            "stdio": 12}
+            "stdio": 12, "model": 30}
 #: MSE_FUZZ_SCALE=10 runs ten times as many examples (locally; CI keeps the default).
 SCALE = float(os.environ.get("MSE_FUZZ_SCALE", "1"))
 
@@ -89,3 +89,8 @@ def test_fuzz_render_inputs() -> None:
 @pytest.mark.slow
 def test_fuzz_unwritable_stdout() -> None:
     _fuzz("stdio")()
+
+
+@pytest.mark.slow
+def test_fuzz_model_files() -> None:
+    _fuzz("model")()

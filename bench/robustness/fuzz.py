@@ -33,7 +33,7 @@ from typing import Any
 
 from bench.baseline import NEUTRAL, environment
 
-TARGET_NAMES = ("xml", "expression", "timeline", "bvh", "ir", "learn", "render", "stdio")
+TARGET_NAMES = ("xml", "expression", "timeline", "bvh", "ir", "learn", "render", "stdio", "model")
 
 
 # -- one case ---------------------------------------------------------------------------------------
@@ -154,7 +154,7 @@ def atheris_worker(args: argparse.Namespace, stats: Stats) -> None:
         if name not in names:
             return
         payload = data[1:]
-        binary = name in ("xml", "bvh", "ir", "learn", "stdio")
+        binary = name in ("xml", "bvh", "ir", "learn", "stdio", "model")
         case: Any = payload if binary else payload.decode("utf-8", errors="replace")
         run_case(name, case, stats, args.case_seconds)
 
