@@ -22,6 +22,7 @@ worlds) the masks are single values and the evaluation is exactly :mod:`mse.ir.e
 
 from __future__ import annotations
 
+import functools
 from collections.abc import Callable, Mapping, Sequence
 from typing import Any
 
@@ -35,6 +36,7 @@ from mse.solve.greedy.masks import Box, Env, N, Node, T
 MAX_WORLD_SIGNALS = 5
 
 
+@functools.lru_cache(maxsize=8192)
 def absent_gate(expr: ir.Expr, signal: str) -> str | None:
     """A signal other than ``signal`` that every atom of ``expr`` names, if any (the first
     in order): while it does not occur, every atom is unknown, so the whole expression is
@@ -320,3 +322,22 @@ class CompiledConstraint:
             return found
 
         return visit(0)
+
+
+@functools.lru_cache(maxsize=4096)
+def _compiled(constraint: ir.Constraint, duration: int | None) -> CompiledConstraint:
+    return CompiledConstraint(constraint, duration if duration is not None else 0)
+
+
+def compiled_constraint(constraint: ir.Constraint, duration: int) -> CompiledConstraint:
+    """``constraint`` compiled for ``duration`` ms, shared by every plan that can share it: the
+    duration enters a check only through ``duration`` terms (relations.known_time), so a
+    constraint without one compiles once for every length (a dialogue plans a new length for
+    most episodes).  The compiled checks are pure; sharing them changes no result."""
+    uses_duration = any(
+        isinstance(term, ir.DurationTime)
+        for node in ir.walk(constraint.expr)
+        if isinstance(node, ir.Compare)
+        for term in (node.left, node.right)
+    )
+    return _compiled(constraint, duration if uses_duration else None)

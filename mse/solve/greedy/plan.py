@@ -22,7 +22,7 @@ from mse.ir.profile import RATE_UNIT
 from mse.ir.schedule import to_ticks
 from mse.solve.greedy.edges import Edge, StartBound, edges_of, start_bounds_of
 from mse.solve.greedy.order import needs_before
-from mse.solve.greedy.partial import CompiledConstraint, absent_gate
+from mse.solve.greedy.partial import CompiledConstraint, absent_gate, compiled_constraint
 
 #: Default length of a time stamp in seconds (the original implementation's ~1 s).
 DEFAULT_SLOT = 1.0
@@ -263,7 +263,7 @@ def build_plan(model: ir.Model, duration: int, slot: float, with_constraints: bo
     # Constraints that say the same thing (Greta's sets repeat some) are checked once: the
     # walk's verdicts are the same, and the final check names every violated one anyway.
     distinct = {c.expr: c for c in reversed(model.constraints)} if with_constraints else {}
-    constraints = tuple(CompiledConstraint(c, duration) for c in model.constraints if distinct.get(c.expr) is c)
+    constraints = tuple(compiled_constraint(c, duration) for c in model.constraints if distinct.get(c.expr) is c)
     by_signal = {s.id: [c for c in constraints if s.id in c.mentioned] for s in signals}
     related = {
         s.id: tuple(sorted({name for c in by_signal[s.id] for name in c.mentioned} | {s.id})) for s in signals
