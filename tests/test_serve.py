@@ -57,6 +57,13 @@ def test_a_dialogue_on_the_script_clock(server: BackgroundServer) -> None:
             assert all(m["type"] != "error" for m in answer), answer
             received += answer
         (whole,) = client.send({"type": "timeline"})
+        _valid({"type": "tracks", "format": "arkit-json"}, "in")
+        (tracks,) = client.send({"type": "tracks", "format": "arkit-json"})
+        (openface,) = client.send({"type": "tracks", "format": "openface"})
+    _valid(tracks, "out")
+    curves = json.loads(tracks["data"])
+    assert "jawOpen" in curves["names"] and len(curves["frames"]) >= 8.7 * curves["fps"] - 1
+    assert openface["data"].startswith("frame, face_id, timestamp")
     for message in received:
         _valid(message, "out")
     kinds = [m["type"] for m in received]

@@ -138,11 +138,13 @@ class Connection:
                 yield self._timeline()
             elif kind == "face":
                 yield self._face(obj)
+            elif kind == "tracks":
+                yield self._tracks(obj)
             elif kind == "clock":
                 yield {"type": "clock", "t": self.clock() if self.options.clock == "real" else self._last_t}
             else:
-                raise ProtocolError("unknown-type", f"unknown message type {kind!r}: hello, timeline, face, clock, "
-                                    "or an event without 'type'")
+                raise ProtocolError("unknown-type", f"unknown message type {kind!r}: hello, timeline, face, tracks, "
+                                    "clock, or an event without 'type'")
         except ProtocolError as problem:
             yield error_message(problem.code, problem.message, seq)
             return
@@ -258,6 +260,19 @@ class Connection:
         _, rig, track = self._track
         return {"type": "face", "t": round(float(t), 3), "svg": render(face_svg(rig, track, float(t)))}
 
+    def _tracks(self, obj: dict[str, Any]) -> dict[str, Any]:
+        """The dialogue so far as curves an avatar or robot plays (docs/tracks.md): ARKit
+        blendshapes (``arkit-json``, the default; ``arkit`` CSV) or OpenFace 2.0 action units
+        (``openface``), as text (needs ``keep``)."""
+        from mse.export import render
+
+        if set(obj) - {"type", "format"}:
+            raise ProtocolError("bad-message", "a tracks request has 'type' and 'format' only")
+        fmt = obj.get("format", "arkit-json")
+        if fmt not in TRACK_FORMATS:
+            raise ProtocolError("bad-message", f"'format' is one of {', '.join(TRACK_FORMATS)}, not {fmt!r}")
+        return {"type": "tracks", "format": fmt, "data": render(self._timeline_object(), fmt)}
+
     def _timeline_object(self) -> Timeline:
         if self._session is None:
             raise ProtocolError("state", "the dialogue has no episode yet (start with an emotion)")
@@ -268,6 +283,10 @@ class Connection:
 
     def _timeline(self) -> dict[str, Any]:
         return {"type": "timeline", "timeline": self._timeline_object().to_json()}
+
+
+#: The track formats a session hands out as text (``vrma`` is binary: ``mse export``).
+TRACK_FORMATS = ("arkit-json", "arkit", "openface")
 
 
 def _no_constant(name: str) -> Any:
