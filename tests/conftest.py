@@ -57,3 +57,7 @@ def _private_motion_cache(tmp_path_factory: pytest.TempPathFactory) -> None:
     MSE_CACHE_DIR names one)."""
     if not os.environ.get("MSE_CACHE_DIR"):
         os.environ["MSE_CACHE_DIR"] = str(tmp_path_factory.mktemp("mse-cache"))
+
+# The one headless Chromium of the browser tests (tests/test_export_browser.py defines it; a
+# module-scoped fixture, so each module that asks for ``driver`` starts its own).
+from tests.test_export_browser import driver  # noqa: E402, F401

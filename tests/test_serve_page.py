@@ -3,12 +3,9 @@ click on an emotion makes the face change (compared on screenshots), a sentence 
 
 from __future__ import annotations
 
-import shutil
-import tempfile
 import time
 import urllib.error
 import urllib.request
-from collections.abc import Iterator
 from typing import Any
 
 import pytest
@@ -16,30 +13,6 @@ import pytest
 pytest.importorskip("websockets")
 
 from tests.serve_server import BackgroundServer
-
-
-@pytest.fixture(scope="module")
-def driver() -> Iterator[Any]:
-    webdriver = pytest.importorskip("selenium.webdriver", reason="selenium is not installed")
-    browser = shutil.which("chromium") or shutil.which("chromium-browser")
-    chromedriver = shutil.which("chromedriver")
-    if browser is None or chromedriver is None:
-        pytest.skip("chromium/chromedriver not found: apt-get install -y chromium chromium-driver")
-    from selenium.webdriver.chrome.service import Service
-
-    from tests.test_export_browser import CHROME_FLAGS
-
-    options = webdriver.ChromeOptions()
-    options.binary_location = browser
-    for flag in CHROME_FLAGS:
-        options.add_argument(flag)
-    with tempfile.TemporaryDirectory(prefix="mse-chromium-") as profile:
-        options.add_argument(f"--user-data-dir={profile}")
-        instance = webdriver.Chrome(service=Service(chromedriver), options=options)
-        try:
-            yield instance
-        finally:
-            instance.quit()
 
 
 @pytest.mark.slow
