@@ -3,6 +3,7 @@ the server against bad clients, and the page clicked through in headless Chromiu
 
 from __future__ import annotations
 
+import contextlib
 import csv
 import http.client
 import itertools
@@ -181,6 +182,12 @@ def test_make_a_behaviour_set_path(tmp_path: Path) -> None:
 @pytest.fixture()
 def served(study: Path, tmp_path: Path) -> Iterator[tuple[Path, str]]:
     """A copy of the study served by ``mse study serve --port 0``: (folder, base URL)."""
+    with _serve(study, tmp_path) as running:
+        yield running
+
+
+@contextlib.contextmanager
+def _serve(study: Path, tmp_path: Path) -> Iterator[tuple[Path, str]]:
     folder = tmp_path / "study"
     shutil.copytree(study, folder)
     env = {**os.environ, "PYTHONPATH": str(REPO)}
@@ -358,15 +365,21 @@ def test_unknown_participant_is_refused(driver: Any, study: Path) -> None:
 
 
 @pytest.mark.slow
-def test_simulated_study_recovers_the_confusion_matrix(driver: Any, served: tuple[Path, str]) -> None:
+def test_simulated_study_recovers_the_confusion_matrix(driver: Any, tmp_path: Path) -> None:
     """Participants answer from a known confusion matrix (by quota, so the counts are exact) and
     a believability share; counting the CSVs the page wrote gives both back."""
-    folder, url = served
+    made = tmp_path / "made"
+    assert main(["study", "make", "--emotions", "anger,relief", "-o", str(made), "--seed", "11", "--participants",
+                 "4", "-q", "-d", "1", "--size", "64x48", "--fps", "4"]) == 0
+    with _serve(made, tmp_path) as (folder, url):
+        _simulate(driver, folder, url)
+
+
+def _simulate(driver: Any, folder: Path, url: str) -> None:
     manifest = _manifest(folder)
     by_id = {s["id"]: s for s in manifest["stimuli"]}
     participants = [p["id"] for p in manifest["participants"]]
-    conditions = ("mse", "control", "image", "face")
-    answers_per_emotion = len(participants) * len(conditions)  # 16
+    answers_per_emotion = len(participants) * len(manifest["conditions"])  # 4 x 3
     confusion = {"anger": {"anger": 0.75, "relief": 0.0, "other": 0.25},
                  "relief": {"anger": 0.25, "relief": 0.5, "other": 0.25}}
     prefer_mse = {"anger": 0.75, "relief": 0.5}
@@ -383,7 +396,7 @@ def test_simulated_study_recovers_the_confusion_matrix(driver: Any, served: tupl
         return next(quotas[emotion])
 
     for participant in participants:
-        assert take_part(driver, url, participant, answer) == "saved"
+        assert take_part(driver, f"{url}?speed=8", participant, answer) == "saved"
     rows = [row for p in participants for row in _rows(folder / "results" / f"{p}.csv")]
     counted: dict[str, Counter[str]] = {e: Counter() for e in confusion}
     preferred: dict[str, list[bool]] = {e: [] for e in confusion}

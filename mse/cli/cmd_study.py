@@ -170,7 +170,7 @@ def run_serve(args: argparse.Namespace) -> int:
             raise MseError([Diagnostic("E100", message, Span(str(args.folder)))]) from None
     except MseError as error:
         return print_error(error)
-    host, port = server.server_address[:2]
+    host, port = str(server.server_address[0]), int(server.server_address[1])
     shown = "127.0.0.1" if host in ("0.0.0.0", "") else host
     print(f"serving {args.folder} at http://{shown}:{port}/ (Ctrl-C to stop)", flush=True)
     try:

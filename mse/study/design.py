@@ -15,6 +15,7 @@ image and its face-only version are made from the same draw as its MSE video.
 
 from __future__ import annotations
 
+import itertools
 import random
 from collections.abc import Sequence
 from dataclasses import dataclass, field
@@ -183,7 +184,7 @@ def apex(timeline: dict[str, Any]) -> float:
     signals = timeline.get("signals") or []
     edges = sorted({0.0, float(timeline["duration"])} | {float(s[k]) for s in signals for k in ("start", "stop")})
     best: tuple[int, float, float] = (-1, 0.0, 0.0)
-    for start, stop in zip(edges, edges[1:], strict=False):
+    for start, stop in itertools.pairwise(edges):
         if stop <= start:
             continue
         middle = (start + stop) / 2

@@ -30,7 +30,7 @@ class StudyHandler(http.server.SimpleHTTPRequestHandler):
         self.manifest = manifest
         super().__init__(*args, directory=str(folder), **kwargs)
 
-    def log_message(self, format: str, *args: Any) -> None:  # noqa: A002 - the base class's name
+    def log_message(self, format: str, *args: Any) -> None:
         """Quiet: the server reports stored results, not every file served."""
 
     def _reply(self, status: int, message: str) -> None:

@@ -4,6 +4,9 @@
   "use strict";
   const study = window.STUDY;
   const $ = (id) => document.getElementById(id);
+  const params = new URLSearchParams(location.search);
+  // ?speed=4: every clip 4 times faster (for the experimenter's own run-through, never for participants)
+  const speed = Math.min(16, Math.max(0.25, Number(params.get("speed")) || 1));
   let participant = "";
   let trials = [];
   let rows = [];
@@ -43,7 +46,7 @@
     if (stimulus.kind === "image") {
       const image = document.createElement("img");
       image.alt = "";
-      image.addEventListener("load", () => setTimeout(onDone, study.duration * 1000));
+      image.addEventListener("load", () => setTimeout(onDone, study.duration * 1000 / speed));
       image.addEventListener("error", () => failed(stimulus.file));
       image.src = stimulus.file;
       figure.appendChild(image);
@@ -53,12 +56,14 @@
     video.muted = true;
     video.playsInline = true;
     video.preload = "auto";
+    video.defaultPlaybackRate = speed;
+    video.playbackRate = speed;
     video.addEventListener("ended", onDone);
     video.addEventListener("error", () => failed(stimulus.file));
     video.src = stimulus.file;
     video.autoplay = true;
     figure.appendChild(video);
-    const replay = () => { video.currentTime = 0; video.play(); };
+    const replay = () => { video.currentTime = 0; video.playbackRate = speed; video.play(); };
     return { figure, replay };
   }
 
@@ -183,7 +188,7 @@
     }
   }
 
-  const given = new URLSearchParams(location.search).get("participant");
+  const given = params.get("participant");
   if (given) $("participant").value = given;
   $("begin").addEventListener("click", begin);
   $("participant").addEventListener("keydown", (event) => { if (event.key === "Enter") begin(); });
