@@ -410,3 +410,11 @@ def _simulate(driver: Any, folder: Path, url: str) -> None:
         assert total == answers_per_emotion
         assert {label: counted[emotion][label] / total for label in row} == row
         assert sum(preferred[emotion]) / len(preferred[emotion]) == prefer_mse[emotion]
+
+
+def test_titles_are_left_out_when_render_can(study: Path) -> None:
+    """A title names the emotion: every render command carries --no-title once mse render has it."""
+    from mse.cli.cmd_study import _render_flags
+
+    renders = [argv for s in _manifest(study)["stimuli"] for argv in s["commands"] if argv[1] == "render"]
+    assert all(("--no-title" in argv) == ("--no-title" in _render_flags()) for argv in renders)

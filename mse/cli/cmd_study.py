@@ -133,9 +133,13 @@ def run_make(args: argparse.Namespace) -> int:
             import av  # noqa: F401
             import PIL  # noqa: F401
         seed = args.seed if args.seed is not None else random.SystemRandom().randrange(2**31)
+        render_flags = _render_flags()
+        if "--no-title" not in render_flags:
+            print("mse study: warning: this mse's render has no --no-title: the title of every video frame and "
+                  "image names the emotion", file=sys.stderr)
         settings = Settings(duration=args.duration, seed=seed, participants=args.participants,
                             per_condition=args.stimuli_per_condition, face_only=args.face_only,
-                            size=args.size, fps=args.fps, render_flags=_render_flags())
+                            size=args.size, fps=args.fps, render_flags=render_flags)
         command = ["mse", "study", "make", "--emotions", ",".join(args.emotions), "-o", str(args.output),
                    "--participants", str(args.participants), "--seed", str(seed), "-d", f"{args.duration:g}",
                    "--stimuli-per-condition", str(args.stimuli_per_condition),
