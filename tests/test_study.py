@@ -137,10 +137,31 @@ def test_make_refuses_a_non_empty_folder_unless_forced(study: Path, tmp_path: Pa
     args = ["study", "make", "--emotions", "anger", "-o", str(out), "--seed", "1", "-q", *FAST]
     assert main(args) == 1
     assert "not empty" in capsys.readouterr().err
+    assert main([*args, "--force"]) == 1  # not a study: never deleted
+    assert "replaces only a study folder" in capsys.readouterr().err
     assert [p.name for p in out.iterdir()] == ["notes.txt"]
-    assert main([*args, "--force"]) == 0
-    assert not (out / "notes.txt").exists() and (out / "manifest.json").exists()
+    (out / "notes.txt").unlink()
+    assert main(args) == 0  # an empty folder is fine
+    (out / "stimuli" / "mine.txt").write_text("mine", encoding="utf-8")
+    assert main(args) == 1
+    assert main([*args, "--force"]) == 0  # a study made before is replaced, whole
+    assert not (out / "stimuli" / "mine.txt").exists() and (out / "manifest.json").exists()
     assert not [p for p in tmp_path.iterdir() if p.name.startswith(".")]  # no staging folder left
+
+
+def test_force_never_deletes_an_input(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    out = tmp_path / "s"
+    assert main(["study", "make", "--emotions", "anger", "-o", str(out), "--seed", "1", "-q", *FAST]) == 0
+    source = out / "mine.xml"
+    shutil.copy(REPO / "behaviour_sets" / "tension.xml", source)
+    assert main(["study", "make", "--emotions", str(source), "-o", str(out), "--force", "-q", *FAST]) == 1
+    assert "would delete" in capsys.readouterr().err
+    assert source.exists()
+
+
+def test_study_without_a_subcommand_shows_help(capsys: pytest.CaptureFixture[str]) -> None:
+    assert main(["study"]) == 2
+    assert "make" in capsys.readouterr().err
 
 
 @pytest.mark.parametrize(

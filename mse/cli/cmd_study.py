@@ -28,7 +28,7 @@ def register(subparsers: Any) -> None:
     p = subparsers.add_parser(
         "study",
         help="perception studies: make the stimuli and a study page, serve it, collect the answers",
-        description="Perception studies of MSE stimuli (docs/study.md): 'make' builds a study folder, "
+        description="Perception studies of MSE stimuli: 'make' builds a study folder, "
         "'serve' serves its page and stores each participant's answers as CSV.",
     )
     commands = p.add_subparsers(dest="study_command", metavar="SUBCOMMAND")
@@ -54,7 +54,7 @@ def register(subparsers: Any) -> None:
                       help="stimuli per emotion and condition (default 1)")
     make.add_argument("--size", type=_size, default=(640, 480), metavar="WxH", help="frame size (default 640x480)")
     make.add_argument("--fps", type=float, default=25.0, help="frames per second (default 25)")
-    make.add_argument("--force", action="store_true", help="replace a non-empty DIR")
+    make.add_argument("--force", action="store_true", help="replace DIR when it holds a study made before")
     add_quiet(make)
     make.set_defaults(handler=run_make)
     serve = commands.add_parser(
@@ -68,7 +68,7 @@ def register(subparsers: Any) -> None:
     serve.add_argument("--host", default="127.0.0.1",
                        help="address to listen on (default 127.0.0.1; 0.0.0.0 for other machines)")
     serve.set_defaults(handler=run_serve)
-    # mse study analyze: registered here by mse.cli.study_analyze.register(commands)
+    # `mse study analyze` (issue 34 §2) is registered on this line: mse.cli.study_analyze.register(commands)
     p.set_defaults(handler=lambda _args: _usage(p))
 
 

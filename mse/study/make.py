@@ -170,12 +170,23 @@ def manifest(emotions: Sequence[Emotion], settings: Settings, stimuli: Sequence[
     }
 
 
-def _check_target(out: Path, force: bool) -> None:
+def _check_target(out: Path, force: bool, emotions: Sequence[Emotion]) -> None:
+    """A new or empty folder; with ``force``, also a study folder made before (never another
+    folder, the current one or one holding a behaviour set of this study: all of it is replaced)."""
     where = str(out)
     if out.exists() and not out.is_dir():
         raise _error(where, "cannot write the study: exists and is not a folder")
-    if out.is_dir() and any(out.iterdir()) and not force:
-        raise _error(where, "the study folder is not empty (give --force to replace it)")
+    if not (out.is_dir() and any(out.iterdir())):
+        return
+    if not force:
+        raise _error(where, "the study folder is not empty (give --force to replace a study made before)")
+    if not (out / MANIFEST).is_file():
+        raise _error(where, f"--force replaces only a study folder (with a {MANIFEST}); this one is not: "
+                     "remove it yourself or choose another")
+    inside = out.resolve()
+    for held in (Path.cwd(), *(Path(e.source) for e in emotions if Path(e.source).is_absolute())):
+        if held.resolve().is_relative_to(inside):
+            raise _error(where, f"--force would delete {held}: choose another folder")
 
 
 def make_study(names: Sequence[str], out: Path, settings: Settings, run: Runner, *, force: bool = False,
@@ -185,7 +196,7 @@ def make_study(names: Sequence[str], out: Path, settings: Settings, run: Runner,
     from mse.study.page import write_page
 
     emotions = resolve_emotions(names)
-    _check_target(out, force)
+    _check_target(out, force, emotions)
     try:
         parent = out.resolve().parent
         parent.mkdir(parents=True, exist_ok=True)
