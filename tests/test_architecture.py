@@ -34,6 +34,7 @@ LAYERS: dict[str, int] = {
     "mse.model_cache": 6,
     "mse.dialogue": 6,
     "mse.serve": 6,
+    "mse.study": 6,
     "mse.cli": 7,
     "mse.__main__": 7,
 }

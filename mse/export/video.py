@@ -167,7 +167,9 @@ def _encode(images: Iterator[Image.Image], path: Path, fmt: str, video: VideoOpt
         import av
 
     rate = Fraction(video.fps).limit_denominator(1001)
-    with av.open(str(path), mode="w", format="mp4" if fmt == "mp4" else "webm") as container:
+    # WebM: bitexact muxing (no random segment id, no date), so a render is reproducible byte for byte
+    muxer = {} if fmt == "mp4" else {"fflags": "+bitexact"}
+    with av.open(str(path), mode="w", format="mp4" if fmt == "mp4" else "webm", options=muxer) as container:
         if fmt == "mp4":
             stream = container.add_stream("libx264", rate=rate)
             stream.options = {"crf": str(video.quality), "preset": "veryfast", "tune": "animation"}
