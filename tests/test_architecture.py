@@ -34,10 +34,12 @@ LAYERS: dict[str, int] = {
     "mse.model_cache": 6,
     "mse.dialogue": 6,
     "mse.serve": 6,
+    "mse.study": 6,
     "mse.cli": 7,
     "mse.__main__": 7,
 }
-HEAVY = ("ortools", "hmmlearn", "scipy", "sklearn", "matplotlib", "selenium", "constraint", "av", "aggdraw", "PIL")
+HEAVY = ("ortools", "hmmlearn", "scipy", "sklearn", "matplotlib", "statsmodels", "selenium", "constraint", "av",
+         "aggdraw", "PIL")
 
 
 def _layer(module: str) -> int | None:

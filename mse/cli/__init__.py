@@ -30,6 +30,7 @@ COMMAND_MODULES: tuple[str, ...] = (
     "cmd_animate",
     "cmd_lma",
     "cmd_style",
+    "cmd_study",
 )
 
 
