@@ -116,7 +116,8 @@ class Analysis:
     labels: tuple[str, ...]
     #: How the labels offered were determined (the option, or the names seen in the answers).
     labels_source: str
-    chance: float
+    #: 1 / the number of labels offered (None: no label answers).
+    chance: float | None
     results: tuple[LabelResult, ...]
     confusions: tuple[Confusion, ...]
     agreements: tuple[Agreement, ...]
@@ -129,7 +130,7 @@ def analyze(answers: Sequence[Answer], options: Options = Options(), files: Sequ
     labelled = [a for a in answers if a.task == "label"]
     paired = [a for a in answers if a.task == "pair"]
     labels, source = _labels(labelled, options)
-    chance = 1 / len(labels)
+    chance = 1 / len(labels) if labels else None
     confusions = tuple(_confusion(condition, labelled, labels) for condition in _ordered(a.condition for a in labelled))
     results = _label_results(confusions, len(labels), options)
     agreements = tuple(_agreement(c.condition, [a for a in labelled if a.condition == c.condition], labels)
@@ -156,6 +157,8 @@ def _ordered(names: Iterable[str]) -> list[str]:
 def _labels(labelled: Sequence[Answer], options: Options) -> tuple[tuple[str, ...], str]:
     seen = _ordered([a.emotion for a in labelled] + [a.response for a in labelled])
     if options.labels is None:
+        if not labelled:
+            return (), "no label answers"
         if len(seen) < 2:
             raise argument_error("the answers use fewer than two labels: name the labels offered with --labels")
         return tuple(seen), "the intended emotions and the responses seen in the answers"

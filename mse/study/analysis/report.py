@@ -48,7 +48,7 @@ def to_json(analysis: Analysis) -> dict[str, Any]:
         "files": list(analysis.files),
         "labels_offered": list(analysis.labels),
         "labels_from": analysis.labels_source,
-        "chance": _number(analysis.chance),
+        "chance": None if analysis.chance is None else _number(analysis.chance),
         "ci": {"method": options.ci, "level": options.level},
         "alpha": options.alpha,
         "correction": options.correction,
@@ -94,7 +94,8 @@ def to_markdown(analysis: Analysis, pictures: Mapping[str, str] | None = None) -
         "## Method",
         "",
         f"- Labels offered ({len(analysis.labels)}, from {analysis.labels_source}): {', '.join(analysis.labels)}; "
-        f"chance = 1/{len(analysis.labels)} = {_percent(analysis.chance)}.",
+        f"chance = 1/{len(analysis.labels)} = {_percent(analysis.chance)}." if analysis.chance is not None
+        else "- No label answers (no recognition statistics).",
         f"- Hit rate: answers naming the intended emotion; {level} {_CI_NAMES[options.ci]} interval; "
         "one-sided exact binomial test against chance. Every answer counts as one trial (answers of one "
         "participant to several stimuli or turns are treated as independent).",

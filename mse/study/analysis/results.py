@@ -79,7 +79,7 @@ def read_results(paths: Sequence[str]) -> tuple[Answer, ...]:
     answers: list[Answer] = []
     problems: list[Diagnostic] = []
     for path in results_files(paths):
-        text = decode_utf8(read_input(path, what="results"), path, code="E170", what="results")
+        text = decode_utf8(read_input(path, what="results file"), path, code="E170", what="results file")
         found, file_problems = parse_results(text, path)
         answers.extend(found)
         problems.extend(file_problems)
