@@ -306,3 +306,12 @@ def test_bad_arguments_and_labels(tmp_path: Path, capsys: pytest.CaptureFixture[
     one = _write(tmp_path / "one.csv", [["p1", "label", "anger", "mse", "anger", "", "", ""]])
     assert main(["study", "analyze", str(one)]) == 1
     assert "name the labels offered with --labels" in capsys.readouterr().err
+
+
+def test_emotion_outside_labels_and_too_many_names(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    results = _write(tmp_path / "r.csv", [["p1", "label", "anger", "mse", "joy", "", "", ""]])
+    assert main(["study", "analyze", str(results), "--labels", "joy,other"]) == 1
+    assert capsys.readouterr().err == f"{results}:2:1: E171 emotion 'anger' is not one of --labels\n"
+    many = _write(tmp_path / "many.csv", [["p1", "label", f"e{i}", "mse", f"r{i}", "", "", ""] for i in range(60)])
+    assert main(["study", "analyze", str(many)]) == 1
+    assert capsys.readouterr().err == f"{many}:52:1: E171 more than 100 distinct emotions and labels in the results\n"

@@ -163,10 +163,11 @@ def _labels(labelled: Sequence[Answer], options: Options) -> tuple[tuple[str, ..
             raise argument_error("the answers use fewer than two labels: name the labels offered with --labels")
         return tuple(seen), "the intended emotions and the responses seen in the answers"
     offered = set(options.labels)
-    stray = [a for a in labelled if a.response not in offered]
+    stray = [Diagnostic("E171", f"{what} {value!r} is not one of --labels", a.span)
+             for a in labelled for what, value in (("emotion", a.emotion), ("response", a.response))
+             if value not in offered]
     if stray:
-        raise MseError([Diagnostic("E171", f"response {a.response!r} is not one of --labels", a.span)
-                        for a in stray[:20]])
+        raise MseError(stray[:20])
     return tuple(options.labels), "--labels"
 
 

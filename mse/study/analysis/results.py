@@ -24,7 +24,7 @@ from pathlib import Path
 
 from mse.diagnostics import Diagnostic, MseError, Span
 from mse.input_files import decode_utf8, read_input
-from mse.limits import MAX_NAME_CHARS
+from mse.limits import MAX_NAME_CHARS, MAX_STUDY_ANSWERS, MAX_STUDY_CONDITIONS, MAX_STUDY_LABELS, MAX_STUDY_STIMULI
 
 REQUIRED = ("participant", "task", "emotion", "condition", "response")
 OPTIONAL = ("stimulus", "trial", "seconds")
@@ -33,9 +33,6 @@ TASKS = ("label", "pair")
 MSE_CONDITION = "mse"
 #: Emotions, conditions and labels: names that can go into a file name and a Markdown table.
 NAME = re.compile(r"[A-Za-z0-9_][A-Za-z0-9_.\-]*\Z")
-#: At most this many answers in all the files of one analysis (10x a study of 1,000
-#: participants answering 100 questions; every answer costs a few hundred bytes of memory).
-MAX_ANSWERS = 1_000_000
 _CONTROL = re.compile(r"[\x00-\x1f\x7f]")
 
 
@@ -83,13 +80,32 @@ def read_results(paths: Sequence[str]) -> tuple[Answer, ...]:
         found, file_problems = parse_results(text, path)
         answers.extend(found)
         problems.extend(file_problems)
-        if len(answers) > MAX_ANSWERS:
-            raise MseError([Diagnostic("E170", f"more than {MAX_ANSWERS} answers in all", Span(path))])
+        if len(answers) > MAX_STUDY_ANSWERS:
+            raise MseError([Diagnostic("E170", f"more than {MAX_STUDY_ANSWERS} answers in all", Span(path))])
     if problems:
         raise MseError(problems[:200])
+    _check_sizes(answers)
     if not answers:
         raise MseError([Diagnostic("E170", "no answers in the results", Span(paths[0] if paths else "<arguments>"))])
     return tuple(answers)
+
+
+def _check_sizes(answers: Sequence[Answer]) -> None:
+    """E171 at the answer that brings one name too many (mse/limits.py)."""
+    labels: set[str] = set()
+    conditions: set[str] = set()
+    stimuli: set[str] = set()
+    for answer in answers:
+        labels.add(answer.emotion)
+        if answer.task == "label":
+            labels.add(answer.response)
+        conditions.update(answer.conditions)
+        stimuli.add(answer.stimulus)
+        for found, limit, what in ((labels, MAX_STUDY_LABELS, "emotions and labels"),
+                                   (conditions, MAX_STUDY_CONDITIONS, "conditions"),
+                                   (stimuli, MAX_STUDY_STIMULI, "stimuli")):
+            if len(found) > limit:
+                raise MseError([Diagnostic("E171", f"more than {limit} distinct {what} in the results", answer.span)])
 
 
 def parse_results(text: str, path: str) -> tuple[list[Answer], list[Diagnostic]]:
@@ -186,20 +202,7 @@ def _answer(cells: list[str], starts: list[int], columns: dict[str, int], row: S
     response = cell("response")
     conditions: tuple[str, ...] = ()
     if task == "pair":
-        conditions = tuple(part.strip() for part in condition.split("|"))
-        if len(conditions) != 2:
-            fail("condition", f"a pair's condition {condition[:60]!r} must be two conditions as LEFT|RIGHT, "
-                 f"e.g. {MSE_CONDITION}|control")
-        elif not all(_check_name(part, "condition", "condition", fail) for part in conditions):
-            pass
-        elif conditions[0] == conditions[1]:
-            fail("condition", f"a pair shows two different conditions, not {condition!r}")
-        elif MSE_CONDITION not in conditions:
-            fail("condition", f"a believability pair compares {MSE_CONDITION!r} with another condition, "
-                 f"not {condition!r}")
-        elif response not in conditions:
-            fail("response", f"a pair's response {response[:60]!r} must be one of the conditions shown "
-                 f"({' or '.join(conditions)})")
+        conditions = _pair(condition, response, fail)
     elif task == "label":
         if "|" in condition:
             fail("condition", f"a label answer has one condition, not {condition[:60]!r}")
@@ -218,6 +221,28 @@ def _answer(cells: list[str], starts: list[int], columns: dict[str, int], row: S
     if len(problems) > before:
         return None
     return Answer(participant, task, emotion, conditions, response, stimulus, trial, seconds, row)
+
+
+def _pair(condition: str, response: str, fail: Callable[[str, str], None]) -> tuple[str, ...]:
+    """The two conditions of a believability pair, LEFT|RIGHT, one of them ``mse`` (() when bad)."""
+    conditions = tuple(part.strip() for part in condition.split("|"))
+    if len(conditions) != 2:
+        fail("condition", f"a pair's condition {condition[:60]!r} must be two conditions as LEFT|RIGHT, "
+             f"e.g. {MSE_CONDITION}|control")
+        return ()
+    names = [_check_name(part, "condition", "condition", fail) for part in conditions]  # each bad one reported
+    if not all(names):
+        return ()
+    if conditions[0] == conditions[1]:
+        fail("condition", f"a pair shows two different conditions, not {condition!r}")
+    elif MSE_CONDITION not in conditions:
+        fail("condition", f"a believability pair compares {MSE_CONDITION!r} with another condition, not {condition!r}")
+    elif response not in conditions:
+        fail("response", f"a pair's response {response[:60]!r} must be one of the conditions shown "
+             f"({' or '.join(conditions)})")
+    else:
+        return conditions
+    return ()
 
 
 def _check_name(value: str, column: str, what: str, fail: Callable[[str, str], None]) -> bool:
