@@ -9,7 +9,8 @@ from typing import Any
 
 
 def register(subparsers: Any) -> None:
-    parser = subparsers.add_parser("study", help="perception studies: analyze the answers")
+    parser = subparsers.add_parser("study", help="perception studies: analyze the answers",
+                                   description="Perception studies of the generated expressions.")
     commands = parser.add_subparsers(dest="study_command", metavar="STUDY_COMMAND")
     from mse.cli import study_analyze
 
