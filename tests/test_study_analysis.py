@@ -104,6 +104,21 @@ def test_table1_kappa_by_equation_1_read_literally(tmp_path: Path, capsys: pytes
     assert ours.index(min(ours)) == 3  # embarrassment lowest, as in the paper
 
 
+def test_table1_hits_against_the_strongest_confusion(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    """Section 5.2.2: anger, cheerfulness, panic fear and relief get their label significantly more
+    often than any other (McNemar, p < .05); anxiety and embarrassment are confused with each other
+    (p > .05).  Pride and tension the paper tests per turn (p = .066), which its table does not give."""
+    report = _analyze(capsys, str(_table1_csv(tmp_path / "table1.csv")), "--correction", "none")
+    labels = report["labels"]
+    assert isinstance(labels, dict)
+    strongest = {emotion: cells["mse"]["strongest_confusion"] for emotion, cells in labels.items()}
+    for emotion in ("anger", "cheerfulness", "panic_fear", "relief"):
+        assert strongest[emotion]["hits_exceed"], (emotion, strongest[emotion])
+    assert strongest["anxiety"]["label"] == "embarrassment" and not strongest["anxiety"]["hits_exceed"]
+    assert strongest["embarrassment"]["label"] == "anxiety" and not strongest["embarrassment"]["hits_exceed"]
+    assert strongest["pride"]["label"] == "relief" and strongest["tension"]["label"] == "embarrassment"
+
+
 def _readings(counts: list[list[int]]) -> dict[str, list[float]]:
     """The other readings of equation (1) docs/study-analysis.md lists, with what each gives."""
     m = np.array(counts, dtype=float)

@@ -65,6 +65,12 @@ class LabelResult:
     significant: bool
     #: The unbiased hit rate of the paper's equation (1) (statistics.unbiased_kappa).
     kappa: float
+    #: The other label chosen most often (None: no other), how often, and the test of the hits
+    #: against it (statistics.hits_against_confusion), adjusted like the tests against chance.
+    confusion: str | None
+    confused: int
+    confusion_p: float
+    confusion_p_adjusted: float
 
 
 @dataclass(frozen=True, slots=True)
@@ -185,18 +191,25 @@ def _label_results(confusions: Sequence[Confusion], labels: int, options: Option
     rows = []
     for confusion in confusions:
         for index, emotion in enumerate(confusion.emotions):
-            answers = sum(confusion.counts[index])
+            counts = confusion.counts[index]
             column = confusion.labels.index(emotion) if emotion in confusion.labels else None
-            hits = confusion.counts[index][column] if column is not None else 0
-            rows.append((emotion, confusion.condition, answers, hits,
-                         statistics.unbiased_kappa(confusion.counts, index, column, labels)))
-    p_values = [statistics.above_chance(hits, answers, 1 / labels) for _, _, answers, hits, _ in rows]
+            hits = counts[column] if column is not None else 0
+            others = [(count, label) for label, count in zip(confusion.labels, counts, strict=True)
+                      if label != emotion and count > 0]
+            # the most chosen other label; a tie goes to the first in the matrix' column order
+            count, label = max(others, key=lambda item: item[0]) if others else (0, None)
+            rows.append((emotion, confusion.condition, sum(counts), hits,
+                         statistics.unbiased_kappa(confusion.counts, index, column, labels), label, count))
+    p_values = [statistics.above_chance(row[3], row[2], 1 / labels) for row in rows]
     corrected = statistics.adjusted(p_values, options.correction)
+    confusion_p = [statistics.hits_against_confusion(row[3], row[6]) for row in rows]
+    confusion_corrected = statistics.adjusted(confusion_p, options.correction)
     return tuple(
         LabelResult(emotion, condition, answers, hits, hits / answers,
                     statistics.proportion_interval(hits, answers, options.level, options.ci),
-                    p, p_adjusted, p_adjusted < options.alpha, kappa)
-        for (emotion, condition, answers, hits, kappa), p, p_adjusted in zip(rows, p_values, corrected, strict=True)
+                    p, p_adjusted, p_adjusted < options.alpha, kappa, label, count, c_p, c_adjusted)
+        for (emotion, condition, answers, hits, kappa, label, count), p, p_adjusted, c_p, c_adjusted
+        in zip(rows, p_values, corrected, confusion_p, confusion_corrected, strict=True)
     )
 
 

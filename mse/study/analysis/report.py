@@ -5,7 +5,7 @@ from __future__ import annotations
 from collections.abc import Mapping
 from typing import Any
 
-from mse.study.analysis.analyze import Analysis
+from mse.study.analysis.analyze import Analysis, LabelResult
 from mse.study.analysis.statistics import CORRECTIONS
 
 _DIGITS = 6
@@ -41,6 +41,11 @@ def to_json(analysis: Analysis) -> dict[str, Any]:
             "p_adjusted": _number(result.p_adjusted),
             "significant": result.significant,
             "kappa": _number(result.kappa),
+            "strongest_confusion": None if result.confusion is None else {
+                "label": result.confusion, "n": result.confused, "p": _number(result.confusion_p),
+                "p_adjusted": _number(result.confusion_p_adjusted),
+                "hits_exceed": result.confusion_p_adjusted < options.alpha and result.hits > result.confused,
+            },
         }
     return {
         "answers": analysis.answers,
@@ -81,6 +86,12 @@ def _percent(value: float) -> str:
     return f"{100 * value:.1f} %"
 
 
+def _confusion(result: LabelResult) -> str:
+    if result.confusion is None:
+        return "none | –"
+    return f"{result.confusion} ({result.confused}) | {_p(result.confusion_p_adjusted)}"
+
+
 def to_markdown(analysis: Analysis, pictures: Mapping[str, str] | None = None) -> str:
     """The report; ``pictures``: condition -> file name of its heatmap (beside the report)."""
     options = analysis.options
@@ -99,6 +110,8 @@ def to_markdown(analysis: Analysis, pictures: Mapping[str, str] | None = None) -
         f"- Hit rate: answers naming the intended emotion; {level} {_CI_NAMES[options.ci]} interval; "
         "one-sided exact binomial test against chance. Every answer counts as one trial (answers of one "
         "participant to several stimuli or turns are treated as independent).",
+        "- Strongest confusion: the other label chosen most often; the hits against it by an exact "
+        "binomial test among the answers giving either (McNemar's exact test, as in the paper).",
         "- κ: the unbiased hit rate of the MSE paper's equation (1), κ = ((h + cr) − r_exp) / (i·j − h_exp), "
         "with r_exp = i·j / labels and h_exp = answers to the emotion / labels.",
         "- Agreement: Fleiss' κ over the participants' labels, per condition.",
@@ -109,13 +122,14 @@ def to_markdown(analysis: Analysis, pictures: Mapping[str, str] | None = None) -
     ]
     if analysis.results:
         lines += ["## Recognition", "",
-                  "| emotion | condition | n | hits | hit rate | " + level + " CI | p | adjusted p | κ (eq. 1) |",
-                  "|---|---|---:|---:|---:|---|---:|---:|---:|"]
+                  "| emotion | condition | n | hits | hit rate | " + level + " CI | p | adjusted p | κ (eq. 1) "
+                  "| strongest confusion | adjusted p |",
+                  "|---|---|---:|---:|---:|---|---:|---:|---:|---|---:|"]
         for r in analysis.results:
             mark = " *" if r.significant else ""
             lines.append(f"| {r.emotion} | {r.condition} | {r.answers} | {r.hits} | {_percent(r.hit_rate)}{mark} | "
                          f"{_percent(r.ci[0])} – {_percent(r.ci[1])} | {_p(r.p)} | {_p(r.p_adjusted)} | "
-                         f"{r.kappa:.3f} |")
+                         f"{r.kappa:.3f} | {_confusion(r)} |")
         lines += ["", f"\\* above chance (adjusted p < {options.alpha:g}).", ""]
         above = sum(r.significant for r in analysis.results)
         lines += [f"{above} of {len(analysis.results)} emotion × condition cells are recognised above chance.", ""]

@@ -33,6 +33,17 @@ def above_chance(hits: int, total: int, chance: float) -> float:
     return float(binomtest(hits, total, chance, alternative="greater").pvalue)
 
 
+def hits_against_confusion(hits: int, confused: int) -> float:
+    """Two-sided exact p-value that the intended label and the most chosen other one are chosen equally
+    often: a binomial test among the answers giving either, which is McNemar's exact test (the paper's)
+    on one multinomial sample."""
+    if hits + confused == 0:
+        return 1.0
+    with require("study"):
+        from scipy.stats import binomtest
+    return float(binomtest(hits, hits + confused, 0.5).pvalue)
+
+
 def preference_p(chosen: int, total: int, test: str) -> float:
     """Two-sided p-value of ``chosen`` out of ``total`` against an even choice (``test``: binomial or chi2)."""
     with require("study"):
