@@ -2,7 +2,7 @@
 
 Every layer reports problems as :class:`Diagnostic` records; front-ends (the CLI, an
 editor, CI) decide how to render them.  Codes: ``E1xx`` unreadable input (``E130``: a bad
-argument or option value; ``E15x``: dialogue inputs), ``E2xx`` semantics, ``W3xx`` static
+argument or option value; ``E15x``: dialogue inputs; ``E17x``: study results), ``E2xx`` semantics, ``W3xx`` static
 lint, ``E4xx``/``W4xx``/``N4xx`` solver-backed lint (``N``: notes, never counted by
 ``--strict``), ``W5xx`` import/conversion notes, ``W6xx`` export notes, ``W7xx``/``E7xx``
 repair notes.
@@ -59,6 +59,9 @@ CODES: dict[str, str] = {
     "E150": "FML-APML or EmotionML structure mse cannot read",
     "E151": "time reference that names nothing, or times on different bases",
     "E152": "invalid number or time in an FML-APML or EmotionML input",
+    # E17x: the answers of a perception study (mse study analyze)
+    "E170": "study results file cannot be read as a results table (CSV, header)",
+    "E171": "invalid study answer (task, emotion, condition, response, trial, seconds)",
     # E2xx: well-formed but meaningless
     "E201": "duplicate signal id",
     "E202": "duplicate constraint id",

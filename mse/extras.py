@@ -3,8 +3,9 @@
 ``pip install mse`` compiles, checks, lints, samples (every solver) and exports text, BML,
 SVG, HTML and ELAN.  Motion generation (``animate``, ``sample --animate``, ``style``) needs
 the ``motion`` extra, video (``render``, ``--format mp4|webm|gif``) the ``video`` extra, and
-``learn`` the ``learn`` extra, ``serve`` the ``serve`` extra.  Every import of one of their packages sits in a
-``with require(EXTRA):`` block, so that a missing package says which extra to install::
+``learn`` the ``learn`` extra, ``serve`` the ``serve`` extra, ``study analyze`` the ``study``
+extra.  Every import of one of their packages sits in a ``with require(EXTRA):`` block, so
+that a missing package says which extra to install::
 
     with require("video"):
         import av
@@ -21,6 +22,7 @@ EXTRAS: dict[str, tuple[str, ...]] = {
     "video": ("av", "aggdraw", "PIL"),
     "learn": ("scipy",),
     "serve": ("websockets",),
+    "study": ("scipy", "statsmodels", "PIL"),
 }
 
 

@@ -47,6 +47,17 @@ MAX_CONSTRAINT_CHARS = 100_000
 #: Characters of all constraints of one file together (parsing takes about 4 us each).
 MAX_CONSTRAINT_TEXT = 500_000
 
+# -- perception-study results (mse study analyze) -------------------------------------------
+#: Answers in all the files of one analysis (10x a study of 1,000 participants answering 100
+#: questions; every answer costs a few hundred bytes).
+MAX_STUDY_ANSWERS = 1_000_000
+#: Distinct emotions and labels, conditions and stimuli of one analysis: a confusion matrix is
+#: labels x labels, drawn 44 px a cell (100 labels: a 4,400 px square PNG), one per condition;
+#: Fleiss' table is stimuli x labels.
+MAX_STUDY_LABELS = 100
+MAX_STUDY_CONDITIONS = 20
+MAX_STUDY_STIMULI = 10_000
+
 # -- times ----------------------------------------------------------------------------------
 #: Every time in seconds (durations of signals, constants and offsets in constraints,
 #: tolerances, timeline starts, stops and durations) must lie in [-MAX_SECONDS, MAX_SECONDS]

@@ -38,7 +38,8 @@ LAYERS: dict[str, int] = {
     "mse.cli": 7,
     "mse.__main__": 7,
 }
-HEAVY = ("ortools", "hmmlearn", "scipy", "sklearn", "matplotlib", "selenium", "constraint", "av", "aggdraw", "PIL")
+HEAVY = ("ortools", "hmmlearn", "scipy", "sklearn", "matplotlib", "statsmodels", "selenium", "constraint", "av",
+         "aggdraw", "PIL")
 
 
 def _layer(module: str) -> int | None:

@@ -139,6 +139,7 @@ def test_core_commands_work_without_extras_and_the_others_name_theirs(tmp_path: 
         ],
         "learn": [["learn", "t.json"]],
         "serve": [["serve", "--port", "0"]],
+        "study": [["study", "analyze", str(ROOT / "tests" / "fixtures" / "study" / "results.csv"), "-o", "report"]],
     }
     results = _run_without_extras([*works, *(argv for group in needs.values() for argv in group)], tmp_path)
     for argv, code, out, err in results[: len(works)]:

@@ -1,7 +1,8 @@
 """``mse study``: perception studies of MSE stimuli (docs/study.md).
 
 ``mse study make --emotions anger,relief -o DIR`` builds the stimuli, the counterbalanced
-orders and the page; ``mse study serve DIR`` serves the page and stores the answers.
+orders and the page; ``mse study serve DIR`` serves the page and stores the answers;
+``mse study analyze RESULTS...`` reports their statistics (docs/study-analysis.md).
 """
 
 from __future__ import annotations
@@ -12,6 +13,7 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
+from mse.cli import study_analyze
 from mse.cli.common import add_quiet
 
 
@@ -27,9 +29,10 @@ def register(subparsers: Any) -> None:
 
     p = subparsers.add_parser(
         "study",
-        help="perception studies: make the stimuli and a study page, serve it, collect the answers",
+        help="perception studies: make the stimuli and a study page, serve it, collect and analyse the answers",
         description="Perception studies of MSE stimuli: 'make' builds a study folder, "
-        "'serve' serves its page and stores each participant's answers as CSV.",
+        "'serve' serves its page and stores each participant's answers as CSV, 'analyze' reports their "
+        "statistics.",
     )
     commands = p.add_subparsers(dest="study_command", metavar="SUBCOMMAND")
     make = commands.add_parser(
@@ -68,7 +71,7 @@ def register(subparsers: Any) -> None:
     serve.add_argument("--host", default="127.0.0.1",
                        help="address to listen on (default 127.0.0.1; 0.0.0.0 for other machines)")
     serve.set_defaults(handler=run_serve)
-    # `mse study analyze` (issue 34 §2) is registered on this line: mse.cli.study_analyze.register(commands)
+    study_analyze.register(commands)
     p.set_defaults(handler=lambda _args: _usage(p))
 
 
