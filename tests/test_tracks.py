@@ -117,7 +117,7 @@ def assert_faithful(timeline: Timeline) -> None:
             others = [
                 o
                 for o, t, _, _ in occurrences
-                if o is not signal and channel in t and o.start < signal.stop and signal.start - 1.0 / FPS < o.stop
+                if (o is not signal and channel in t and o.start < signal.stop and signal.start - 1.0 / FPS < o.stop)
                 or _merged(o, signal)
             ]
             if others:

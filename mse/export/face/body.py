@@ -25,6 +25,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from mse.export.face.rig import REST_PLACE, SIDES, FloatArray, Rig, compile_shape, default_rig, hand_channel
+from mse.extras import require
 
 if TYPE_CHECKING:
     from mse.export.figures import FigureClip
@@ -130,7 +131,10 @@ def elbow(shoulder: FloatArray, hand: FloatArray, upper: float, fore: float, pol
     return result
 
 
-def arm_joints(body: HalfBody, model: FloatArray, values: FloatArray) -> list[tuple[FloatArray, FloatArray, FloatArray]]:
+Arm = tuple[FloatArray, FloatArray, FloatArray]  # shoulder, elbow, wrist
+
+
+def arm_joints(body: HalfBody, model: FloatArray, values: FloatArray) -> list[Arm]:
     """``(shoulder, elbow, wrist)`` in posed model coordinates for the L and R arms, from the
     hand-place channels."""
     arm = body.arm
@@ -175,20 +179,19 @@ def arm_motion(clips: Sequence[FigureClip], body: HalfBody) -> ArmMotion | None:
     """The arms of motion clips whose skeletons name both arms; None when none does."""
     from mse.motion.base.bodyparts import split_name
 
+    def wrist_of(split: list[tuple[str, str]], side: str) -> int | None:
+        for core in ("wrist", "hand"):
+            for joint, (joint_side, joint_core) in enumerate(split):
+                if joint_side == side and joint_core == core:
+                    return joint
+        return None
+
     found = []
     for clip in clips:
         split = [split_name(name) for name in clip.joints]
-
-        def wrist_of(side: str) -> int | None:
-            for core in ("wrist", "hand"):
-                for joint, (joint_side, joint_core) in enumerate(split):
-                    if joint_side == side and joint_core == core:
-                        return joint
-            return None
-
         chains = []
         for side in ("left", "right"):
-            wrist = wrist_of(side)
+            wrist = wrist_of(split, side)
             if wrist is None:
                 break
             elbow_joint = clip.parents[wrist]
@@ -215,7 +218,7 @@ def arm_motion(clips: Sequence[FigureClip], body: HalfBody) -> ArmMotion | None:
         flip = np.array([1.0, -1.0, 1.0]) * scale
         frames = np.stack(
             [
-                np.stack([(positions[:, e] - positions[:, s]) * flip, (positions[:, w] - positions[:, s]) * flip], axis=1)
+                np.stack([(positions[:, e] - positions[:, s]) * flip, (positions[:, w] - positions[:, s]) * flip], 1)
                 for s, e, w in chains
             ],
             axis=1,
@@ -233,7 +236,8 @@ def draw_arms(
 ) -> None:
     """Sleeves, forearms and hands on an aggdraw canvas; ``to_screen`` projects model points
     ``[n, 3]`` to pixels ``[n, 2]``; widths shrink with distance like the face does."""
-    import aggdraw
+    with require("video"):
+        import aggdraw
 
     arm = body.arm
     focal = body.rig.focal

@@ -297,8 +297,9 @@ class FramePainter:
         what it shows changes."""
         arms = self.arms.at(time) if self.arms is not None else None
         last = self._last
-        same_arms = last is not None and (
-            (arms is None and last[1] is None) or (arms is not None and last[1] is not None and np.array_equal(arms, last[1]))
+        shown = None if last is None else last[1]
+        same_arms = (arms is None and shown is None) or (
+            arms is not None and shown is not None and np.array_equal(arms, shown)
         )
         if last is None or not same_arms or not np.array_equal(last[0], values):
             image = face_image(self.rig, values, self.face_size, self.half_body, arms)

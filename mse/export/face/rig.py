@@ -298,7 +298,8 @@ def pose_model(rig: Rig, values: FloatArray) -> FloatArray:
     pivot = np.array(rig.torso_pivot)
     p = (p - pivot) @ rotation(0.0, t_pitch, t_roll).T + pivot
     p[:, 2] += t_forward
-    return p
+    posed: FloatArray = p
+    return posed
 
 
 def shape_opacity(shape: Shape, values: FloatArray) -> float:

@@ -256,4 +256,5 @@ def build_track(timeline: Timeline, rig: Rig, resolver: Resolver) -> Track:
             )
         )
     clamped = tuple(i for i, name in enumerate(rig.channels) if name.startswith("AU"))
-    return Track(tuple(merge_back_to_back(keys)), tuple(markers), tuple(notes.values()), clamped, len(rig.channels), tuple(bodies))
+    merged = tuple(merge_back_to_back(keys))
+    return Track(merged, tuple(markers), tuple(notes.values()), clamped, len(rig.channels), tuple(bodies))
