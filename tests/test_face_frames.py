@@ -369,6 +369,7 @@ def test_back_to_back_occurrences_of_one_lexeme_hold(rig: Rig) -> None:
 def test_frames_without_title_carry_no_text(tmp_path: Path) -> None:
     from PIL import Image
 
+    from mse.diagnostics import MseError
     from mse.export.video import VideoOptions, painter, render_stimulus
 
     timeline = Timeline("t", 2.0, (TimelineSignal("s", "face", "faceexp=smile", 0.0, 2.0),), solver="hand-made")
@@ -386,6 +387,11 @@ def test_frames_without_title_carry_no_text(tmp_path: Path) -> None:
     again = tmp_path / "again.png"
     render_stimulus(timeline, again, view="face", size=(200, 220), still_at=1.0)
     assert out.read_bytes() == again.read_bytes()  # deterministic
+    with pytest.raises(MseError, match="a still"):
+        render_stimulus(timeline, tmp_path / "still.mp4", still_at=1.0)
+    clip = tmp_path / "clip.gif"
+    assert render_stimulus(timeline, clip, size=(96, 120), fps=5).frames == 10
+    assert clip.stat().st_size > 0
 
 
 def test_unknown_view_and_place_are_clear_errors() -> None:

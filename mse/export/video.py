@@ -253,6 +253,9 @@ def render_stimulus(
     from mse.fileio import write_atomic
 
     video = VideoOptions(size=size, fps=fps, strip=strip, view=view, title=title)
+    suffix = Path(out_path).suffix.lower()
+    if (still_at is not None) != (suffix == ".png"):
+        raise argument_error(f"{out_path}: a still (still_at) is a .png, a video is .mp4, .webm or .gif")
     if still_at is not None:
         import io
 
