@@ -406,3 +406,16 @@ def test_unknown_view_and_place_are_clear_errors() -> None:
     with pytest.raises(MseError, match=r"hands\.middle"):
         parse_table('[x]\nhands = { middle = "mouth" }\n', "t", "t.toml")
     assert compile_half_body(default_rig()).rig.view_box != default_rig().view_box
+
+
+def test_the_face_view_marks_the_gestures_it_does_not_draw() -> None:
+    from mse.export.face.page import face_page
+
+    signals = (
+        TimelineSignal("g", "gesture", "gesture=hands_on_hips", 0.0, 3.0),
+        TimelineSignal("s", "face", "faceexp=smile", 0.0, 3.0),
+    )
+    page = face_page(Timeline("t", 3.0, signals, solver="hand-made"), ExportOptions())
+    track = page.data["track"]
+    assert isinstance(track, dict)
+    assert [m["label"] for m in track["markers"]] == ["g: gesture=hands_on_hips"]

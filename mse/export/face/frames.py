@@ -24,7 +24,7 @@ from mse.export.bml import provenance
 from mse.export.face.body import VIEWS, ArmMotion, HalfBody, arm_motion, compile_half_body
 from mse.export.face.raster import face_image
 from mse.export.face.rig import Rig, default_rig
-from mse.export.face.track import Track, key_weight
+from mse.export.face.track import Track, arms_only, key_weight
 from mse.export.options import ExportOptions
 from mse.export.svg import BAR_HEIGHT, LANE_COLOURS, OTHER_COLOUR, Layout, layout
 from mse.extras import require
@@ -350,7 +350,9 @@ class FramePainter:
         for key in self.track.keys:
             if key.start <= time < key.stop:
                 level = float(abs(key_weight(key, np.array([time]))[0]))
-                rows.append((key.modality, f"{key.signal}  {key.lexeme}", level))
+                hidden = self.half_body is None and arms_only(key, self.rig)
+                label = f"{key.signal}  {key.lexeme}" + ("  (half-body view)" if hidden else "")
+                rows.append((key.modality, label, level))
         for marker in self.track.active_markers(time):
             rows.append((marker.modality, f"{marker.signal}  {marker.lexeme}  (not drawn)", None))
         for body in self.track.bodies:

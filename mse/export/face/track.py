@@ -117,6 +117,22 @@ class Track:
         return [m for m in self.markers if m.start <= time < m.stop]
 
 
+def arms_only(key: Key, rig: Rig) -> bool:
+    """Whether the key moves only the hands (a gesture): the face view does not draw it."""
+    return bool(key.targets) and all(rig.channels[channel].startswith("hand_") for channel, _ in key.targets)
+
+
+def face_view_track(track: Track, rig: Rig) -> Track:
+    """The track as the face view shows it: gestures it does not draw become markers."""
+    import dataclasses
+
+    gestures = [key for key in track.keys if arms_only(key, rig)]
+    if not gestures:
+        return track
+    extra = tuple(Marker(k.signal, k.lexeme, k.modality, k.start, k.stop) for k in gestures)
+    return dataclasses.replace(track, markers=track.markers + extra)
+
+
 def _smooth(u: FloatArray) -> FloatArray:
     u = np.clip(u, 0.0, 1.0)
     return u * u * (3.0 - 2.0 * u)
