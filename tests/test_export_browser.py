@@ -344,3 +344,26 @@ def _coarse_distance(a: np.ndarray, b: np.ndarray) -> float:
         return image[:height, :width].reshape(height // 4, 4, width // 4, 4, 3).mean(axis=(1, 3))
 
     return float(np.abs(coarse(a) - coarse(b)).max())
+
+
+def test_page_plays_saccades_and_merged_occurrences_as_python_does(
+    driver: Any, tmp_path_factory: pytest.TempPathFactory
+) -> None:
+    """face.js mirrors track.py's saccades (look_around) and the one hold of back-to-back
+    occurrences of a lexeme."""
+    from mse.export.face.page import face_track
+    from mse.timeline import TimelineSignal
+
+    signals = (
+        TimelineSignal("scan", "gaze", "gaze=look_around", 0.5, 4.5),
+        TimelineSignal("a", "face", "faceexp=jaw_clench", 0.0, 2.0),
+        TimelineSignal("b", "face", "faceexp=jaw_clench", 2.05, 4.0),
+    )
+    timeline = Timeline("saccades", 5.0, signals, solver="hand-made")
+    path = tmp_path_factory.mktemp("saccades") / "saccades.html"
+    path.write_text(render_html(timeline, ExportOptions(), []), encoding="utf-8")
+    browser = _loaded(driver, path)
+    track = face_track(timeline, ExportOptions())
+    times = [0.3 + 0.037 * i for i in range(120)]
+    page = np.array(browser.execute_script("return arguments[0].map(t => window.mseFace.channels(t));", times))
+    assert np.allclose(page, track.values(np.array(times)), atol=1e-9)

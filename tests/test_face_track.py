@@ -71,7 +71,7 @@ def test_unmapped_lexemes_are_markers_reported_once() -> None:
     track = _track(
         TimelineSignal("w", "gesture", "gesture=wave_hello", 0.0, 1.0),
         TimelineSignal("w", "gesture", "gesture=wave_hello", 2.0, 3.0),
-        TimelineSignal("h", "gesture", "gesture=hand_on_mouth", 1.0, 2.0, motion={"file": "h.bvh"}),
+        TimelineSignal("h", "gesture", "gesture=point_at_door", 1.0, 2.0, motion={"file": "h.bvh"}),
         TimelineSignal("f", "face", "faceexp=AU33", 0.0, 1.0),
         TimelineSignal("b", "torso", "torso=bend", 4.0, 5.0, motion={"action": "bend"}),  # not animated
     )

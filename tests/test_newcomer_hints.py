@@ -235,7 +235,7 @@ def test_bml_face_falls_back_to_core_lexemes_and_says_what_is_not_core() -> None
     ), "greedy", 1)
     root = etree.fromstring(render_bml(timeline, ExportOptions()).encode())
     faces = {node.get("id"): (node.get("lexeme"), node.get("amount")) for node in root.iter("{*}faceLexeme")}
-    assert faces == {"exhale": ("OPEN_LIPS", "0.8"), "blink": ("CLOSE_EYES", "1")}
+    assert faces == {"exhale": ("OPEN_LIPS", "0.6"), "blink": ("CLOSE_EYES", "1")}  # AU25 0.6 (lexicon.toml)
     assert all(lexeme in CORE_FACE_LEXEMES for lexeme, _ in faces.values())
     notes = export_notes(timeline, "bml", ExportOptions(), "x.json")
     assert [d.code for d in notes] == ["W603", "W603"]

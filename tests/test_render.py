@@ -33,13 +33,15 @@ def timeline_file(tmp_path_factory: pytest.TempPathFactory) -> Path:
 
 @pytest.fixture(scope="module")
 def face_box() -> tuple[int, int, int, int]:
-    frames = painter(TIMELINE, ExportOptions(), VideoOptions(size=SIZE, fps=FPS))
+    frames = painter(TIMELINE, ExportOptions(), VideoOptions(size=SIZE, fps=FPS, view="face"))
     (x, y), (w, h) = frames.face_at, frames.face_size
     return x, y, x + w, y + h
 
 
 def _render(*argv: str) -> int:
-    return main(["render", *argv])
+    """``mse render`` in the face view (these tests read the face's box; the half-body view
+    has its own tests in tests/test_face_frames.py)."""
+    return main(["render", "--view", "face", *argv])
 
 
 def _decode(path: Path) -> list[np.ndarray]:
@@ -178,7 +180,7 @@ def test_the_body_plays_beside_the_face_when_the_timeline_has_motion(tmp_path: P
     signals = (*SIGNALS, TimelineSignal("wave", "gesture", "gesture=wave", 1.0, 2.0, motion={"file": "w.bvh"}))
     timeline = Timeline("test", 4.0, signals)
     clip = FigureClip("wave", "gesture=wave", 1.0, 2.0, 30.0, ("hips", "neck", "hand"), (-1, 0, 1), positions)
-    video = VideoOptions(size=SIZE, fps=FPS)
+    video = VideoOptions(size=SIZE, fps=FPS, view="face")
     report = write_frames(timeline, tmp_path / "f", ExportOptions(), video, clips=[clip])
     assert report.frames == 40 and report.notes == ()  # the body shows the gesture: no W602
     layout = painter(timeline, ExportOptions(), video, clips=[clip]).layout

@@ -21,6 +21,7 @@ from mse.export import ExportOptions, render
 from mse.export.face.lexicon import Resolver
 from mse.export.face.page import face_track
 from mse.export.face.rig import default_rig
+from mse.export.face.track import MERGE_GAP
 from mse.export.lexemes import modality_of, split_lexeme
 from mse.export.tracks.arkit import ROTATIONS, arkit_table, blendshapes
 from mse.export.tracks.model import AU_SCALE, GAZE_DEGREES, Tracks, sample
@@ -90,6 +91,16 @@ def _value(tracks: Tracks, channel: str) -> np.ndarray:
     return tracks.gaze[:, ("gaze_x", "gaze_y").index(channel)] / GAZE_DEGREES
 
 
+def _merged(a: TimelineSignal, b: TimelineSignal) -> bool:
+    """Two occurrences of one lexeme the face player plays as one hold (track.MERGE_GAP)."""
+    return (
+        a is not b
+        and a.lexeme == b.lexeme
+        and a.start <= b.stop + MERGE_GAP
+        and b.start <= a.stop + MERGE_GAP
+    )
+
+
 def assert_faithful(timeline: Timeline) -> None:
     tracks = sample(timeline, OPTIONS, FPS)
     times = tracks.times
@@ -106,10 +117,11 @@ def assert_faithful(timeline: Timeline) -> None:
             others = [
                 o
                 for o, t, _, _ in occurrences
-                if o is not signal and channel in t and o.start < signal.stop and signal.start - 1.0 / FPS < o.stop
+                if (o is not signal and channel in t and o.start < signal.stop and signal.start - 1.0 / FPS < o.stop)
+                or _merged(o, signal)
             ]
             if others:
-                continue  # blended with another occurrence
+                continue  # blended with another occurrence, or one hold with the same lexeme's
             curve = _value(tracks, channel)
             if not shaped:  # at the apex: the occurrence's intensity times the table value
                 apex = (times >= apex_from) & (times <= apex_to) & (times > signal.start) & (times < signal.stop)
@@ -129,6 +141,9 @@ def assert_faithful(timeline: Timeline) -> None:
     active = np.zeros(len(times), dtype=bool)
     for signal in timeline.signals:
         active |= (times > signal.start) & (times < signal.stop)
+        for other in timeline.signals:  # the gap of back-to-back occurrences is held
+            if other is not signal and _merged(other, signal) and signal.stop <= other.start:
+                active |= (times >= signal.stop) & (times <= other.start)
     rest = ~active
     assert not tracks.sides[rest].any() and not tracks.head[rest].any() and not tracks.gaze[rest].any()
 

@@ -3,12 +3,14 @@ asserts nothing.
 
     python -m bench.speed.render                # 10 s of embarrassment, 960x540, 25 fps
     python -m bench.speed.render --formats mp4 webm gif --size 640x360 --repeat 3
+    python -m bench.speed.render --view face    # the face view (default: half-body)
 
 For each format: the wall time of ``mse render TIMELINE -o clip.FMT`` as a user runs it (a
 subprocess: start-up, lexeme tables, painting, encoding, atomic write), and in this process
 the wall and CPU time of :func:`mse.export.video.write_video` (CPU time counts the encoder's
 threads; other processes on this shared machine disturb it less than the wall clock).
-Baselines measured in the same run: painting every frame without encoding, and encoding one
+Baselines measured in the same run: painting every frame without encoding (in the chosen view
+and in the other one), and encoding one
 already painted frame as many times without painting (the encoder's own cost).  The load
 average before and after says how busy the machine was.
 """
@@ -27,7 +29,8 @@ import numpy as np
 from bench.baseline import run_python
 from mse.api import load
 from mse.export import ExportOptions
-from mse.export.video import VideoOptions, _encode, frame_times, iter_frames, painter, write_video
+from mse.export.face.body import VIEWS
+from mse.export.video import DEFAULT_VIEW, VideoOptions, _encode, frame_times, iter_frames, painter, write_video
 from mse.sampling import sample
 from mse.timeline import Timeline
 
@@ -38,8 +41,9 @@ def _timed(action: object) -> tuple[float, float]:
     return time.perf_counter() - wall, time.process_time() - cpu
 
 
-def _cli(timeline_path: Path, out: Path, size: str, fps: float) -> float:
+def _cli(timeline_path: Path, out: Path, size: str, fps: float, view: str) -> float:
     command = ["-m", "mse", "render", str(timeline_path), "-o", str(out), "--size", size, "--fps", str(fps)]
+    command += ["--view", view]
     began = time.perf_counter()
     run_python(None, command, check=True)
     return time.perf_counter() - began
@@ -54,9 +58,11 @@ def main() -> None:
     parser.add_argument("--seed", type=int, default=7)
     parser.add_argument("--repeat", type=int, default=3)
     parser.add_argument("--formats", nargs="+", default=["mp4", "webm"])
+    parser.add_argument("--view", choices=VIEWS, default=DEFAULT_VIEW)
     args = parser.parse_args()
     width, height = (int(v) for v in args.size.split("x"))
-    video = VideoOptions(size=(width, height), fps=args.fps)
+    video = VideoOptions(size=(width, height), fps=args.fps, view=args.view)
+    other = VideoOptions(size=(width, height), fps=args.fps, view=next(v for v in VIEWS if v != args.view))
     result = sample(load(args.expression), args.duration, seed=args.seed)
     assert isinstance(result, Timeline)
     timeline = result
@@ -72,7 +78,7 @@ def main() -> None:
         frames = painter(timeline, ExportOptions(), video)
         times = frame_times(timeline.duration, args.fps)
 
-        def paint_only() -> None:
+        def paint_only(video: VideoOptions = video) -> None:
             for _ in iter_frames(painter(timeline, ExportOptions(), video), times):
                 pass
 
@@ -82,7 +88,12 @@ def main() -> None:
             _encode(iter(still for _ in times), work / "still.mp4", "mp4", video)
 
         rows = []
-        for name, action in (("paint only (baseline)", paint_only), ("encode only, mp4 (baseline)", encode_only)):
+        steps = (
+            (f"paint only, {args.view} (baseline)", paint_only),
+            (f"paint only, {other.view}", lambda: paint_only(other)),
+            ("encode only, mp4 (baseline)", encode_only),
+        )
+        for name, action in steps:
             runs = [_timed(action) for _ in range(args.repeat)]
             rows.append((name, runs))
         paint_wall = statistics.median(w for w, _ in rows[0][1])
@@ -93,7 +104,7 @@ def main() -> None:
                 write_video(timeline, out, fmt, ExportOptions(), video)
 
             rows.append((f"write_video {fmt}", [_timed(render) for _ in range(args.repeat)]))
-            cli = [_cli(timeline_path, out, args.size, args.fps) for _ in range(args.repeat)]
+            cli = [_cli(timeline_path, out, args.size, args.fps, args.view) for _ in range(args.repeat)]
             rows.append((f"mse render -o clip.{fmt}", [(wall, float("nan")) for wall in cli]))
 
         print()

@@ -46,13 +46,25 @@ def add_video_arguments(parser: argparse.ArgumentParser | argparse._ArgumentGrou
     parser.add_argument("--size", type=_size, default=(960, 540), metavar="WxH", help="frame size (default 960x540)")
     parser.add_argument("--fps", type=float, default=25.0, help="frames per second (default 25)")
     parser.add_argument("--no-strip", action="store_true", help="leave out the timeline strip")
+    parser.add_argument(
+        "--view",
+        choices=("half-body", "face"),
+        default="half-body",
+        help="half-body: the face with torso, arms and hands (default); face: the face and bust, motion on a stick "
+        "figure beside it",
+    )
+    parser.add_argument(
+        "--no-title",
+        action="store_true",
+        help="no text on the frame: no title, clock, list of what plays or markers (stimuli for a study)",
+    )
 
 
 def video_options(args: argparse.Namespace) -> Any:
     """The VideoOptions of :func:`add_video_arguments`' values."""
     from mse.export.video import VideoOptions
 
-    return VideoOptions(size=args.size, fps=args.fps, strip=not args.no_strip)
+    return VideoOptions(size=args.size, fps=args.fps, strip=not args.no_strip, view=args.view, title=not args.no_title)
 
 
 def add_bml_block_arguments(parser: argparse.ArgumentParser | argparse._ArgumentGroup) -> None:

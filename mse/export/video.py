@@ -19,6 +19,7 @@ import numpy as np
 
 from mse import progress
 from mse.diagnostics import Diagnostic, MseError, Span, argument_error
+from mse.export.face.body import VIEWS
 from mse.export.options import ExportOptions
 from mse.extras import require
 from mse.fileio import atomic_path, staged_folder
@@ -39,14 +40,22 @@ MAX_FRAMES = 100_000
 MAX_PIXELS = 3840 * 2160
 
 
+#: The view a render draws unless told otherwise (``--view``; :data:`VIEWS`).
+DEFAULT_VIEW = "half-body"
+
+
 @dataclass(frozen=True)
 class VideoOptions:
-    """Frame size in pixels (even numbers for MP4/WebM), frame rate, and whether to draw the strip."""
+    """Frame size in pixels (even numbers for MP4/WebM), frame rate, whether to draw the strip
+    and the title (with the clock and the list of what plays), and the view: ``half-body``
+    (face, torso, arms and hands) or ``face`` (face and bust; motion on a stick figure beside)."""
 
     size: tuple[int, int] = (960, 540)
     fps: float = 25.0
     strip: bool = True
     quality: int = 20  # H.264 CRF (lower is better); VP9 uses quality + 12
+    view: str = DEFAULT_VIEW
+    title: bool = True
 
 
 @dataclass(frozen=True)
@@ -71,6 +80,8 @@ def check_options(video: VideoOptions, fmt: str | None = None) -> None:
         raise argument_error(f"{fmt} needs an even frame size (got {width}x{height})")
     if not 1.0 <= video.fps <= 120.0:
         raise argument_error(f"frame rate {video.fps:g} must be between 1 and 120")
+    if video.view not in VIEWS:
+        raise argument_error(f"unknown view {video.view!r} (known: {', '.join(VIEWS)})")
 
 
 def frame_times(duration: float, fps: float) -> np.ndarray:
@@ -95,7 +106,9 @@ def painter(
     track = face_track(timeline, options)
     if clips is None:
         clips = figures.clips_from_timeline(timeline, options.motion_base_dir)
-    return FramePainter(timeline, track, video.size, clips=clips, options=options, strip=video.strip)
+    return FramePainter(
+        timeline, track, video.size, clips=clips, options=options, strip=video.strip, view=video.view, title=video.title
+    )
 
 
 def iter_frames(frames: FramePainter, times: np.ndarray) -> Iterator[Image.Image]:
@@ -221,3 +234,37 @@ def _write_gif(images: Iterator[Image.Image], path: Path, fps: float, samples: S
                 container.mux(packet)
         for packet in stream.encode(None):
             container.mux(packet)
+
+
+def render_stimulus(
+    timeline: Timeline,
+    out_path: Path,
+    *,
+    view: str = DEFAULT_VIEW,
+    title: bool = False,
+    strip: bool = False,
+    size: tuple[int, int] = (640, 720),
+    fps: float = 25.0,
+    still_at: float | None = None,
+    options: ExportOptions = ExportOptions(),
+) -> RenderReport:
+    """One stimulus of a perception study: ``timeline`` as a video (``.mp4``, ``.webm``,
+    ``.gif``) or, with ``still_at`` (seconds), as one PNG frame at that time; by default
+    without title, clock, lists or strip (nothing on the frame but the agent).  The same
+    timeline and arguments give the same frames (deterministic)."""
+    from mse.fileio import write_atomic
+
+    video = VideoOptions(size=size, fps=fps, strip=strip, view=view, title=title)
+    suffix = Path(out_path).suffix.lower()
+    if (still_at is not None) != (suffix == ".png"):
+        raise argument_error(f"{out_path}: a still (still_at) is a .png, a video is .mp4, .webm or .gif")
+    if still_at is not None:
+        import io
+
+        image, report = render_still(timeline, still_at, options, video)
+        buffer = io.BytesIO()
+        image.save(buffer, format="PNG")
+        write_atomic(Path(out_path), buffer.getvalue())
+        return report
+    fmt = Path(out_path).suffix.lower().lstrip(".")
+    return write_video(timeline, Path(out_path), fmt, options, video)

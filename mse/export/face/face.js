@@ -21,6 +21,23 @@
     return u * u * (3 - 2 * u);
   }
 
+  // Saccades: mirrors track.py (SACCADE_FIXATIONS, SACCADE_JUMP, saccades).
+  var FIXATIONS = [[1.0, 1.0], [0.7, -0.55], [1.3, 0.25], [0.8, -1.0], [1.2, 0.6], [1.0, -0.2]];
+  var JUMP = 0.04;
+
+  function saccades(elapsed, period) {
+    var ends = [], total = 0;
+    FIXATIONS.forEach(function (f) { total += f[0] * period; ends.push(total); });
+    var u = Math.max(elapsed, 0);
+    var cycle = Math.floor(u / total);
+    var rest = u - cycle * total;
+    var index = 0;
+    while (index < ends.length - 1 && ends[index] <= rest) { index++; }
+    var previous = index === 0 && cycle === 0 ? 0 : FIXATIONS[(index + FIXATIONS.length - 1) % FIXATIONS.length][1];
+    var jump = smooth((rest - (ends[index] - FIXATIONS[index][0] * period)) / JUMP);
+    return previous + (FIXATIONS[index][1] - previous) * jump;
+  }
+
   function keyWeight(key, t) {
     if (!(t > key.start && t < key.stop)) { return 0; }
     if (key.repeat) {
@@ -35,6 +52,9 @@
     var rise = key.attack > 0 ? smooth((t - key.start) / key.attack) : 1;
     var fall = key.release > 0 ? smooth((key.stop - t) / key.release) : 1;
     var weight = Math.min(rise, fall);
+    if (key.oscillate && key.oscillate[1] === "saccade") {
+      return weight * saccades(t - key.start, key.oscillate[0]);
+    }
     if (key.oscillate) {
       var phase = 2 * Math.PI * (t - key.start) / key.oscillate[0];
       weight *= key.oscillate[1] === "sine" ? Math.sin(phase) : (1 - Math.cos(phase)) / 2;

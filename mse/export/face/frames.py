@@ -1,5 +1,8 @@
 """Video frames: the face (and the body, when the timeline has motion) above the timeline
-strip with its playhead.
+strip with its playhead; or, in the half-body view (:mod:`mse.export.face.body`), the face
+with its torso, arms and hands (from motion when the timeline has any, else from gesture
+lexemes).  Without a title (``title=False``) a frame carries no text at all: no title, clock,
+list of what plays or markers (a stimulus for a perception study).
 
 The strip is drawn once from the SVG exporter's layout (:func:`mse.export.svg.layout`: the
 same lanes, bars and labels) and cropped per frame; a timeline wider than the frame scrolls
@@ -18,9 +21,10 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from mse.export.bml import provenance
+from mse.export.face.body import VIEWS, ArmMotion, HalfBody, arm_motion, compile_half_body
 from mse.export.face.raster import face_image
 from mse.export.face.rig import Rig, default_rig
-from mse.export.face.track import Track, key_weight
+from mse.export.face.track import Track, arms_only, key_weight
 from mse.export.options import ExportOptions
 from mse.export.svg import BAR_HEIGHT, LANE_COLOURS, OTHER_COLOUR, Layout, layout
 from mse.extras import require
@@ -68,17 +72,24 @@ def _text(font: object, text: str) -> str:
     return text if "DejaVu" in str(getattr(font, "path", "")) else text.replace("—", "-")
 
 
-def frame_layout(size: tuple[int, int], strip_height: int, with_body: bool, face_aspect: float) -> FrameLayout:
+def frame_layout(
+    size: tuple[int, int],
+    strip_height: int,
+    with_body: bool,
+    face_aspect: float,
+    header: int = HEADER_HEIGHT,
+    with_list: bool = True,
+) -> FrameLayout:
     """Columns above the strip: the face, the body (with motion), then the list of what is
-    playing when there is room for it."""
+    playing when there is room for it (and ``with_list``)."""
     width, height = size
     strip_top = height - strip_height
-    top = HEADER_HEIGHT
+    top = header
     panel = strip_top - top
     face_width = min(width if not with_body else width // 2, round(panel * face_aspect) + 24)
     body_width = min(width - face_width, panel) if with_body else 0
     rest = width - face_width - body_width
-    if rest < 220:  # no room for the list: the pictures share the width
+    if rest < 220 or not with_list:  # no room for the list: the pictures share the width
         face_width += rest if not with_body else rest // 2
         body_width = width - face_width if with_body else 0
         rest = 0
@@ -237,33 +248,63 @@ class FramePainter:
         options: ExportOptions = ExportOptions(),
         rig: Rig | None = None,
         strip: bool = True,
+        view: str = "face",
+        title: bool = True,
     ) -> None:
         with require("video"):
             from PIL import Image, ImageDraw
 
+        if view not in VIEWS:
+            raise ValueError(f"unknown view {view!r} (known: {', '.join(VIEWS)})")
         self.timeline = timeline
         self.track = track
         self.rig = rig or default_rig()
+        self.titled = title
         width, height = size
         self.strip = StripPainter(timeline, width, round(height * STRIP_SHARE)) if strip else None
         strip_height = self.strip.height if self.strip else 0
-        self.body = BodyPainter(clips, options.figure_fps) if clips else None
-        aspect = self.rig.view_box[0] / self.rig.view_box[1]
-        self.layout = frame_layout(size, strip_height, self.body is not None, aspect)
-        base = Image.new("RGB", size, BACKGROUND)
+        # The half-body view draws the arms on the body (from motion when there is any); the
+        # face view shows motion on the viewer's stick figure beside the face.
+        self.half_body: HalfBody | None = compile_half_body(self.rig) if view == "half-body" else None
+        self.arms: ArmMotion | None = None
+        self.body: BodyPainter | None = None
+        if self.half_body is not None:
+            self.arms = arm_motion(clips, self.half_body) if clips else None
+        elif clips:
+            self.body = BodyPainter(clips, options.figure_fps)
+        drawn = self.half_body.rig if self.half_body is not None else self.rig
+        aspect = drawn.view_box[0] / drawn.view_box[1]
+        header = HEADER_HEIGHT if title else 0
+        self.layout = frame_layout(size, strip_height, self.body is not None, aspect, header, with_list=title)
+        base = Image.new("RGB", size, BACKGROUND if title or strip else drawn.background)
         draw = ImageDraw.Draw(base)
-        draw.rectangle(self.layout.face_box, fill=self.rig.background)
-        title = options.title or provenance(timeline)
-        font = _font(14)
-        draw.text((10, HEADER_HEIGHT / 2), _text(font, title), fill="#222222", font=font, anchor="lm")
+        draw.rectangle(self.layout.face_box, fill=drawn.background)
+        if title:
+            heading = options.title or provenance(timeline)
+            font = _font(14)
+            draw.text((10, HEADER_HEIGHT / 2), _text(font, heading), fill="#222222", font=font, anchor="lm")
         self.base = base
         self.small = _font(12)
         self.clock_font = _font(14)
         left, top, right, bottom = self.layout.face_box
-        scale = min((right - left) / self.rig.view_box[0], (bottom - top) / self.rig.view_box[1])
-        self.face_size = (max(1, round(scale * self.rig.view_box[0])), max(1, round(scale * self.rig.view_box[1])))
+        scale = min((right - left) / drawn.view_box[0], (bottom - top) / drawn.view_box[1])
+        self.face_size = (max(1, round(scale * drawn.view_box[0])), max(1, round(scale * drawn.view_box[1])))
         self.face_at = (left + (right - left - self.face_size[0]) // 2, top + (bottom - top - self.face_size[1]) // 2)
-        self._last: tuple[np.ndarray, Image.Image] | None = None
+        self._last: tuple[np.ndarray, np.ndarray | None, Image.Image] | None = None
+
+    def picture(self, time: float, values: np.ndarray) -> Image.Image:
+        """The face (or half body) alone for channel ``values`` at ``time``, redrawn only when
+        what it shows changes."""
+        arms = self.arms.at(time) if self.arms is not None else None
+        last = self._last
+        shown = None if last is None else last[1]
+        same_arms = (arms is None and shown is None) or (
+            arms is not None and shown is not None and np.array_equal(arms, shown)
+        )
+        if last is None or not same_arms or not np.array_equal(last[0], values):
+            image = face_image(self.rig, values, self.face_size, self.half_body, arms)
+            self._last = last = (values.copy(), None if arms is None else arms.copy(), image)
+        return last[2]
 
     def paint(self, time: float, values: np.ndarray | None = None) -> Image.Image:
         with require("video"):
@@ -272,10 +313,12 @@ class FramePainter:
         frame = self.base.copy()
         if values is None:
             values = self.track.values(np.array([time]))[0]
-        if self._last is None or not np.array_equal(self._last[0], values):
-            self._last = (values.copy(), face_image(self.rig, values, self.face_size))
-        frame.paste(self._last[1], self.face_at)
+        frame.paste(self.picture(time, values), self.face_at)
         draw = ImageDraw.Draw(frame)
+        if not self.titled:
+            if self.strip is not None:
+                self.strip.paint(frame, self.layout.strip_box[1], time)
+            return frame
         if self.layout.info_box is not None:
             self._playing(draw, self.layout.info_box, time)
         else:
@@ -307,7 +350,9 @@ class FramePainter:
         for key in self.track.keys:
             if key.start <= time < key.stop:
                 level = float(abs(key_weight(key, np.array([time]))[0]))
-                rows.append((key.modality, f"{key.signal}  {key.lexeme}", level))
+                hidden = self.half_body is None and arms_only(key, self.rig)
+                label = f"{key.signal}  {key.lexeme}" + ("  (half-body view)" if hidden else "")
+                rows.append((key.modality, label, level))
         for marker in self.track.active_markers(time):
             rows.append((marker.modality, f"{marker.signal}  {marker.lexeme}  (not drawn)", None))
         for body in self.track.bodies:

@@ -30,7 +30,9 @@ _GROUPS: Mapping[str, Mapping[str, str]] = {
     "torso": {"pitch": "torso_pitch", "roll": "torso_roll", "forward": "torso_forward", "shrug": "shrug"},
 }
 _AU_KEY = re.compile(r"^AU(\d+)([LR]?)$", re.IGNORECASE)
-_KNOWN_KEYS = {"aliases", "au", "head", "gaze", "torso", "attack", "release", "repeat", "oscillate"}
+_KNOWN_KEYS = {"aliases", "au", "head", "gaze", "torso", "hands", "attack", "release", "repeat", "oscillate"}
+_HAND_SIDES: Mapping[str, tuple[str, ...]] = {"left": ("L",), "right": ("R",), "both": ("L", "R")}
+_SHAPES = ("sine", "bump", "saccade")
 BUNDLED = "mse lexicon"
 
 
@@ -83,6 +85,7 @@ def action_from_entry(entry: Mapping[str, Any], source: str, where: str) -> Acti
             if key not in channels:
                 raise _fail(where, f"{group}.{key} is not one of {', '.join(channels)}")
             targets.append((channels[key], _number(value, where, f"{group}.{key}")))
+    targets += _hand_targets(entry.get("hands", {}), where)
     attack = _number(entry["attack"], where, "attack") if "attack" in entry else None
     release = _number(entry["release"], where, "release") if "release" in entry else None
     repeat = None
@@ -98,8 +101,8 @@ def action_from_entry(entry: Mapping[str, Any], source: str, where: str) -> Acti
         spec = dict(entry["oscillate"])
         period = _number(spec.get("period", 0.6), where, "oscillate.period")
         shape = spec.get("shape", "sine")
-        if period <= 0 or shape not in ("sine", "bump"):
-            raise _fail(where, "oscillate needs a positive period and shape 'sine' or 'bump'")
+        if period <= 0 or shape not in _SHAPES:
+            raise _fail(where, f"oscillate needs a positive period and a shape of {', '.join(map(repr, _SHAPES))}")
         oscillate = (period, str(shape))
     for value in (attack, release):
         if value is not None and value < 0:
@@ -107,6 +110,24 @@ def action_from_entry(entry: Mapping[str, Any], source: str, where: str) -> Acti
     return Action(
         tuple(targets), source, attack, release, repeat, oscillate, tuple(sorted(set(missing))), tuple(units)
     )
+
+
+def _hand_targets(hands: Any, where: str) -> list[tuple[str, float]]:
+    """``hands = { left = "mouth", right = "hip" }`` (the agent's sides; ``both``): the
+    weight channels of the rig's hand places (points ``hand.<place>.L`` in ``rig.json``)."""
+    from mse.export.face.rig import default_rig, hand_channel
+
+    if not isinstance(hands, dict):
+        raise _fail(where, 'hands must be a table like { right = "mouth" }')
+    places = default_rig().places
+    targets: list[tuple[str, float]] = []
+    for key, place in hands.items():
+        if key not in _HAND_SIDES:
+            raise _fail(where, f"hands.{key} is not one of {', '.join(_HAND_SIDES)}")
+        if place not in places:
+            raise _fail(where, f"hands.{key} = {place!r} is not a hand place (known: {', '.join(places)})")
+        targets += [(hand_channel(side, place), 1.0) for side in _HAND_SIDES[key]]
+    return targets
 
 
 def parse_table(text: str, source: str, where: str) -> dict[str, Action]:

@@ -15,7 +15,7 @@ import numpy as np
 from mse.export.face import sources_of
 from mse.export.face.lexicon import Resolver
 from mse.export.face.rig import Rig, default_rig, pose_points, shape_paths
-from mse.export.face.track import Track, build_track
+from mse.export.face.track import Track, build_track, face_view_track
 from mse.export.options import ExportOptions
 from mse.export.xmltext import Element, element, render
 from mse.timeline import Timeline
@@ -71,7 +71,8 @@ def face_svg(rig: Rig, track: Track, time: float = 0.0) -> Element:
 
 def face_page(timeline: Timeline, options: ExportOptions) -> FacePage:
     rig = default_rig()
-    track = face_track(timeline, options, rig)
+    # The page shows the face view: gestures (the half-body view's arms) are markers.
+    track = face_view_track(face_track(timeline, options, rig), rig)
     notes = ""
     if track.notes:
         items = "".join(f"<li>{_escape(note)}</li>" for note in track.notes)

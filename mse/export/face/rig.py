@@ -49,6 +49,14 @@ TRANSFORM_CHANNELS: tuple[str, ...] = (
 )
 SIDES = ("L", "R")
 _SIDED = re.compile(r"^AU\d+$")
+#: Points ``hand.<place>.L`` are where a hand goes; ``hand.rest`` is where it hangs.
+_PLACE = re.compile(r"^hand\.([a-z_]+)\.L$")
+REST_PLACE = "rest"
+
+
+def hand_channel(side: str, place: str) -> str:
+    """The channel that moves the hand of ``side`` (``L``/``R``, the agent's) to ``place``."""
+    return f"hand_{side}@{place}"
 _KAPPA = 0.5522847498  # cubic Bézier handle length of a quarter ellipse
 
 
@@ -98,6 +106,11 @@ class Rig:
     head_pivot: tuple[float, float, float]
     torso_pivot: tuple[float, float, float]
     background: str
+    #: Hand places (points ``hand.<place>.L``/``.R``); each has a weight channel per side.
+    places: tuple[str, ...] = ()
+    #: The half-body view's source (``rig.json``'s ``half_body``), compiled by
+    #: :func:`mse.export.face.body.half_body`.
+    half_body_source: Mapping[str, Any] | None = None
 
     @property
     def channel_index(self) -> dict[str, int]:
@@ -170,6 +183,9 @@ def compile_rig(source: Mapping[str, Any]) -> Rig:
         for target, _ in _channel_targets(channel, "L") + _channel_targets(channel, "R"):
             if target not in channel_names:
                 channel_names.append(target)
+    # Hand places: weight channels that displace no point (the half-body view reads them).
+    places = tuple(sorted(m.group(1) for n in names if (m := _PLACE.match(n)) and m.group(1) != REST_PLACE))
+    channel_names.extend(hand_channel(side, place) for place in places for side in SIDES)
     channel_names.extend(TRANSFORM_CHANNELS)
     channel_index = {name: i for i, name in enumerate(channel_names)}
     deltas = np.zeros((len(channel_names), len(names), 3))
@@ -185,7 +201,7 @@ def compile_rig(source: Mapping[str, Any]) -> Rig:
 
     shapes: list[Shape] = []
     for spec in source["shapes"]:
-        shapes.append(_shape(spec, index, channel_index))
+        shapes.append(compile_shape(spec, index, channel_index))
         twin = _mirror_name(spec["id"])
         if twin is not None:
             mirrored = dict(spec, id=twin)
@@ -193,7 +209,7 @@ def compile_rig(source: Mapping[str, Any]) -> Rig:
             mirrored[key] = [_mirror_name(p) or p for p in spec[key]]
             if "corners" in spec:
                 mirrored["corners"] = [_mirror_name(p) or p for p in spec["corners"]]
-            shapes.append(_shape(mirrored, index, channel_index))
+            shapes.append(compile_shape(mirrored, index, channel_index))
     view = source["view"]
     return Rig(
         names=names,
@@ -208,10 +224,12 @@ def compile_rig(source: Mapping[str, Any]) -> Rig:
         head_pivot=tuple(float(v) for v in source["pivots"]["head"]),  # type: ignore[arg-type]
         torso_pivot=tuple(float(v) for v in source["pivots"]["torso"]),  # type: ignore[arg-type]
         background=str(view.get("background", "#ffffff")),
+        places=places,
+        half_body_source=source.get("half_body"),
     )
 
 
-def _shape(spec: Mapping[str, Any], index: Mapping[str, int], channels: Mapping[str, int]) -> Shape:
+def compile_shape(spec: Mapping[str, Any], index: Mapping[str, int], channels: Mapping[str, int]) -> Shape:
     kind = "curve" if "curve" in spec else "ellipse"
     members = [index[name] for name in spec[kind]]
     corner_names = set(spec.get("corners", ()))
@@ -259,6 +277,17 @@ def rotation(yaw: float, pitch: float, roll: float) -> FloatArray:
 
 def pose_points(rig: Rig, values: FloatArray) -> FloatArray:
     """Screen positions ``[n, 2]`` (view-box units) for channel values ``values``."""
+    return project(rig, pose_model(rig, values))
+
+
+def project(rig: Rig, p: FloatArray) -> FloatArray:
+    """Model points ``[n, 3]`` to screen positions ``[n, 2]`` (the rig's perspective)."""
+    scale = rig.focal / (rig.focal - p[:, 2])
+    return np.stack([rig.origin[0] + scale * p[:, 0], rig.origin[1] + scale * p[:, 1]], axis=1)
+
+
+def pose_model(rig: Rig, values: FloatArray) -> FloatArray:
+    """Posed model points ``[n, 3]`` (before the perspective) for channel values ``values``."""
     n_delta = len(rig.channels) - len(TRANSFORM_CHANNELS)
     p = rig.base + np.tensordot(values[:n_delta], rig.deltas[:n_delta], axes=1)
     yaw, pitch, roll, forward, t_pitch, t_roll, t_forward = (float(v) for v in values[n_delta:])
@@ -269,8 +298,8 @@ def pose_points(rig: Rig, values: FloatArray) -> FloatArray:
     pivot = np.array(rig.torso_pivot)
     p = (p - pivot) @ rotation(0.0, t_pitch, t_roll).T + pivot
     p[:, 2] += t_forward
-    scale = rig.focal / (rig.focal - p[:, 2])
-    return np.stack([rig.origin[0] + scale * p[:, 0], rig.origin[1] + scale * p[:, 1]], axis=1)
+    posed: FloatArray = p
+    return posed
 
 
 def shape_opacity(shape: Shape, values: FloatArray) -> float:
