@@ -433,9 +433,20 @@ def _simulate(driver: Any, folder: Path, url: str) -> None:
         assert sum(preferred[emotion]) / len(preferred[emotion]) == prefer_mse[emotion]
 
 
-def test_titles_are_left_out_when_render_can(study: Path) -> None:
-    """A title names the emotion: every render command carries --no-title once mse render has it."""
-    from mse.cli.cmd_study import _render_flags
-
+def test_titles_are_left_out(study: Path) -> None:
+    """A title names the emotion: every render command carries --no-title and --no-strip."""
     renders = [argv for s in _manifest(study)["stimuli"] for argv in s["commands"] if argv[1] == "render"]
-    assert all(("--no-title" in argv) == ("--no-title" in _render_flags()) for argv in renders)
+    assert renders and all("--no-title" in argv and "--no-strip" in argv for argv in renders)
+
+
+def test_every_stimulus_shows_a_face_signal(study: Path) -> None:
+    """A draw may be empty; the seed each stimulus settles on shows the face, and the image is taken
+    where a face signal plays."""
+    manifest = _manifest(study)
+    for stimulus in manifest["stimuli"]:
+        timeline = json.loads((study / stimulus["timeline"]).read_text(encoding="utf-8"))
+        if stimulus["condition"] in ("mse", "image"):
+            faces = [s for s in timeline["signals"] if s["modality"] == "face"]
+            assert faces, stimulus["id"]
+        if stimulus["condition"] == "image":
+            assert any(s["start"] <= stimulus["apex"] < s["stop"] for s in faces), stimulus["id"]

@@ -55,7 +55,8 @@ def register(subparsers: Any) -> None:
                       "gaze and head signals alone")
     make.add_argument("--stimuli-per-condition", type=int, default=1, metavar="K",
                       help="stimuli per emotion and condition (default 1)")
-    make.add_argument("--size", type=_size, default=(640, 480), metavar="WxH", help="frame size (default 640x480)")
+    make.add_argument("--size", type=_size, default=(640, 720), metavar="WxH",
+                      help="frame size (default 640x720: the half body down to the hips)")
     make.add_argument("--fps", type=float, default=25.0, help="frames per second (default 25)")
     make.add_argument("--force", action="store_true", help="replace DIR when it holds a study made before")
     add_quiet(make)
@@ -93,16 +94,6 @@ def run_mse(argv: Sequence[str]) -> tuple[int, str]:
     return code, errors.getvalue()
 
 
-def _render_flags() -> tuple[str, ...]:
-    """``--no-title`` when this mse's render has it: a title would name the emotion."""
-    from mse.cli import cmd_render
-
-    parser = argparse.ArgumentParser()
-    cmd_render.register(parser.add_subparsers())
-    render = next(a for a in parser._actions if isinstance(a, argparse._SubParsersAction)).choices["render"]
-    return ("--no-title",) if "--no-title" in render._option_string_actions else ()
-
-
 def run_make(args: argparse.Namespace) -> int:
     import math
     import random
@@ -136,13 +127,9 @@ def run_make(args: argparse.Namespace) -> int:
             import av  # noqa: F401
             import PIL  # noqa: F401
         seed = args.seed if args.seed is not None else random.SystemRandom().randrange(2**31)
-        render_flags = _render_flags()
-        if "--no-title" not in render_flags:
-            print("mse study: warning: this mse's render has no --no-title: the title of every video frame and "
-                  "image names the emotion", file=sys.stderr)
         settings = Settings(duration=args.duration, seed=seed, participants=args.participants,
                             per_condition=args.stimuli_per_condition, face_only=args.face_only,
-                            size=args.size, fps=args.fps, render_flags=render_flags)
+                            size=args.size, fps=args.fps)
         command = ["mse", "study", "make", "--emotions", ",".join(args.emotions), "-o", str(args.output),
                    "--participants", str(args.participants), "--seed", str(seed), "-d", f"{args.duration:g}",
                    "--stimuli-per-condition", str(args.stimuli_per_condition),

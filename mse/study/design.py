@@ -17,7 +17,7 @@ from __future__ import annotations
 
 import itertools
 import random
-from collections.abc import Sequence
+from collections.abc import Iterator, Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -27,6 +27,8 @@ from mse.study.latin import balanced_latin_square
 CONDITIONS: tuple[str, ...] = ("mse", "control", "image", "face")
 #: The label a participant chooses when none of the study's emotions fits.
 OTHER = "other"
+#: Seeds a stimulus tries before it settles for a draw that shows no face signal.
+SEED_TRIES = 50
 #: Signals a face-only stimulus keeps: what the face picture itself shows.
 FACE_MODALITIES: tuple[str, ...] = ("face", "gaze", "head")
 #: The results CSV (one row per answer), shared with ``mse study analyze``.
@@ -53,10 +55,8 @@ class Settings:
     participants: int = 8
     per_condition: int = 1
     face_only: bool = False
-    size: tuple[int, int] = (640, 480)
+    size: tuple[int, int] = (640, 720)
     fps: float = 25.0
-    #: extra arguments of every ``mse render`` (``--no-title`` when this mse has it)
-    render_flags: tuple[str, ...] = ()
 
 
 @dataclass(frozen=True)
@@ -120,21 +120,31 @@ def sample_command(emotion: Emotion, stimulus_seed: int, timeline: str, settings
 def render_command(timeline: str, output: str, settings: Settings, at: float | None = None) -> tuple[str, ...]:
     width, height = settings.size
     command = ["mse", "render", timeline, "-o", output, "--size", f"{width}x{height}", "--fps", f"{settings.fps:g}",
-               "--no-strip", *settings.render_flags]
+               "--no-strip", "--no-title"]
     if at is not None:
         command += ["--at", f"{at:g}"]
     return (*command, "-q")
 
 
-def plan_stimuli(emotions: Sequence[Emotion], settings: Settings) -> list[Stimulus]:
-    """Every stimulus (apex times and face-only timelines are filled in when they are made)."""
+def candidate_seeds(emotions: Sequence[Emotion], settings: Settings, e: int, k: int) -> Iterator[int]:
+    """The seeds stimulus ``k`` of emotion ``e`` tries in turn: the study's seed plus its rank,
+    then steps of the number of stimuli per condition, so that no two stimuli share a seed."""
+    step = len(emotions) * settings.per_condition
+    base = settings.seed + e * settings.per_condition + k
+    return (base + j * step for j in range(SEED_TRIES))
+
+
+def plan_stimuli(emotions: Sequence[Emotion], settings: Settings,
+                 seeds: Mapping[tuple[int, int], int] | None = None) -> list[Stimulus]:
+    """Every stimulus (apex times and face-only timelines are filled in when they are made);
+    ``seeds`` gives the seed of stimulus ``k`` of emotion ``e`` (default: the first candidate)."""
     chosen = conditions(settings)
     count = len(emotions) * settings.per_condition * len(chosen)
     ids = iter(stimulus_ids(count, settings.seed))
     stimuli = []
     for e, emotion in enumerate(emotions):
         for k in range(settings.per_condition):
-            seed = settings.seed + e * settings.per_condition + k
+            seed = seeds[e, k] if seeds is not None else next(candidate_seeds(emotions, settings, e, k))
             mse_id = ""
             for condition in chosen:
                 sid = next(ids)
@@ -179,19 +189,21 @@ def plan_participants(stimuli: Sequence[Stimulus], count: int) -> list[Participa
 
 
 def apex(timeline: dict[str, Any]) -> float:
-    """The apex of a timeline: the middle of the longest stretch in which the most signals
-    are shown at once (the start when it has no signal)."""
+    """The apex of a timeline: the middle of the longest stretch in which the most face
+    signals (then the most signals) are shown at once (the start when it has no signal).  The
+    face first: a still picture carries the expression by the face, not by a pose alone."""
     signals = timeline.get("signals") or []
     edges = sorted({0.0, float(timeline["duration"])} | {float(s[k]) for s in signals for k in ("start", "stop")})
-    best: tuple[int, float, float] = (-1, 0.0, 0.0)
+    best: tuple[int, int, float, float] = (-1, -1, 0.0, 0.0)
     for start, stop in itertools.pairwise(edges):
         if stop <= start:
             continue
         middle = (start + stop) / 2
-        active = sum(1 for s in signals if float(s["start"]) <= middle < float(s["stop"]))
-        if (active, stop - start) > best[:2]:
-            best = (active, stop - start, middle)
-    return round(best[2], 3)
+        active = [s for s in signals if float(s["start"]) <= middle < float(s["stop"])]
+        faces = sum(1 for s in active if s.get("modality") == "face")
+        if (faces, len(active), stop - start) > best[:3]:
+            best = (faces, len(active), stop - start, middle)
+    return round(best[3], 3)
 
 
 def face_only(timeline: dict[str, Any]) -> dict[str, Any]:

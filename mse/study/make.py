@@ -38,6 +38,7 @@ from mse.study.design import (
     Settings,
     Stimulus,
     apex,
+    candidate_seeds,
     conditions,
     face_only,
     plan_participants,
@@ -189,6 +190,26 @@ def _check_target(out: Path, force: bool, emotions: Sequence[Emotion]) -> None:
             raise _error(where, f"--force would delete {held}: choose another folder")
 
 
+def stimulus_seeds(emotions: Sequence[Emotion], settings: Settings) -> dict[tuple[int, int], int]:
+    """The seed of each emotion's stimulus ``k``: the first candidate whose MSE draw shows a face
+    signal.  A draw of a set may be empty or show no face at all (every signal is optional), and
+    such a stimulus carries no expression to judge; the seed the manifest records regenerates it."""
+    from mse.api import load
+    from mse.sampling import sample
+
+    seeds: dict[tuple[int, int], int] = {}
+    for e, emotion in enumerate(emotions):
+        model = load(emotion.source, cache=True)
+        for k in range(settings.per_condition):
+            candidates = list(candidate_seeds(emotions, settings, e, k))
+            seeds[e, k] = next(
+                (seed for seed in candidates
+                 if any(s.modality == "face" for s in sample(model, settings.duration, seed=seed).signals)),
+                candidates[0],
+            )  # fmt: skip
+    return seeds
+
+
 def make_study(names: Sequence[str], out: Path, settings: Settings, run: Runner, *, force: bool = False,
                command: Sequence[str] = ()) -> dict[str, Any]:
     """Build the study folder ``out``; returns its manifest.  Errors raise MseError and
@@ -207,7 +228,7 @@ def make_study(names: Sequence[str], out: Path, settings: Settings, run: Runner,
         for folder in ("timelines", "stimuli", "results"):
             (staging / folder).mkdir()
         made: dict[str, Stimulus] = {}
-        for stimulus in plan_stimuli(emotions, settings):
+        for stimulus in plan_stimuli(emotions, settings, stimulus_seeds(emotions, settings)):
             made[stimulus.id] = build_stimulus(stimulus, staging, run, settings, made)
         result = manifest(emotions, settings, list(made.values()), staging, command)
         (staging / MANIFEST).write_text(json.dumps(result, indent=2, ensure_ascii=False) + "\n", encoding="utf-8")
