@@ -36,6 +36,9 @@ from mse.learn.signals import profile_from, profile_mean
 #: A round whose every signal is this close to the corpus (or within twice its sampling
 #: error, if larger) ends the calibration.
 STOP_ERROR = 0.02
+#: Rounds without a new closest one that end the calibration (the rates no longer follow
+#: the probabilities: a rule forces or blocks a signal, see :func:`release_rules`).
+PATIENCE = 3
 #: Steps of the level, as powers of the ratio of rates: full, then halved at each change of
 #: direction, never below this.
 SMALLEST_STEP = 0.25
@@ -49,28 +52,48 @@ class Profile:
     mean_start: Mapping[str, float]
 
 
-def corpus_profile(corpus: Corpus) -> Profile:
+#: A repetitive signal present in at least this fraction of the corpus' sequences is
+#: calibrated on its starts per sequence: its presence says nothing about its level there.
+COUNTED_PRESENCE = 0.9
+
+
+def counted_signals(model: ir.Model, corpus: Corpus) -> frozenset[str]:
+    """The signals whose rate is their starts per sequence (the others': the fraction of
+    sequences where they occur)."""
+    n = max(1, len(corpus.sequences))
+    present = {s: sum(1 for q in corpus.sequences if q.occurrences.get(s)) / n for s in corpus.signals}
+    return frozenset(s.id for s in model.signals if s.repetitivity and present.get(s.id, 0.0) >= COUNTED_PRESENCE)
+
+
+def corpus_profile(corpus: Corpus, counted: Collection[str] = ()) -> Profile:
     return _profile(
         [(s.duration, [(sid, o[0]) for sid, occ in s.occurrences.items() for o in occ]) for s in corpus.sequences],
-        list(corpus.signals),
+        list(corpus.signals), counted,
     )
 
 
-def schedules_profile(schedules: Sequence[Schedule], signals: list[str]) -> Profile:
-    return _profile([(s.duration, [(o.signal, o.start) for o in s.occurrences]) for s in schedules], signals)
+def schedules_profile(schedules: Sequence[Schedule], signals: list[str], counted: Collection[str] = ()) -> Profile:
+    return _profile([(s.duration, [(o.signal, o.start) for o in s.occurrences]) for s in schedules], signals,
+                    counted)
 
 
-def _profile(sequences: list[tuple[int, list[tuple[str, int]]]], signals: list[str]) -> Profile:
+def _profile(sequences: list[tuple[int, list[tuple[str, int]]]], signals: list[str],
+             counted: Collection[str]) -> Profile:
+    """Per signal: starts per sequence (``counted`` signals) or the fraction of sequences
+    where it occurs (the others), and the mean relative start."""
     counts = dict.fromkeys(signals, 0)
+    present = dict.fromkeys(signals, 0)
     sums = dict.fromkeys(signals, 0.0)
     for duration, starts in sequences:
+        for signal in {signal for signal, _ in starts if signal in present}:
+            present[signal] += 1
         for signal, start in starts:
             if signal in counts:
                 counts[signal] += 1
                 sums[signal] += start / duration
     n = max(1, len(sequences))
     return Profile(
-        {s: counts[s] / n for s in signals},
+        {s: (counts[s] if s in counted else present[s]) / n for s in signals},
         {s: (sums[s] / counts[s] if counts[s] else 0.5) for s in signals},
     )
 
@@ -91,47 +114,69 @@ def distance(target: Profile, sampled: Profile) -> float:
     return total
 
 
+@dataclass(frozen=True)
+class Calibration:
+    """The calibrated model, notes on the rounds, and each signal's rate difference (corpus
+    minus sampled) in the kept round (empty when no round could be sampled)."""
+
+    model: ir.Model
+    notes: list[str]
+    errors: Mapping[str, float]
+    score: float
+
+
+def sample_profile(model: ir.Model, duration: float, samples: int, seed: int,
+                   counted: Collection[str] = ()) -> Profile:
+    """Rates and mean starts of ``samples`` timelines of the default sampler (MseError when
+    the set cannot be sampled)."""
+    from mse.solve.protocol import SolveRequest, get_solver
+
+    schedules = get_solver("greedy").solve(model, SolveRequest(duration=duration, seed=seed, count=samples)).schedules
+    return schedules_profile(schedules, [s.id for s in model.signals], counted)
+
+
 def calibrate(
     model: ir.Model, corpus: Corpus, *, rounds: int = 8, samples: int = 300, seed: int = 0,
     late: Collection[str] = (),
-) -> tuple[ir.Model, list[str]]:
+) -> Calibration:
     """The model with calibrated probabilities, and notes on what happened.  Signals in
     ``late`` keep ``probability_start`` 0 (the constraints never let them start early)."""
     from mse.diagnostics import MseError
-    from mse.solve.protocol import SolveRequest, get_solver
 
-    target = corpus_profile(corpus)
+    counted = counted_signals(model, corpus)
+    target = corpus_profile(corpus, counted)
     signals = [s.id for s in model.signals]
     duration = to_seconds(corpus.typical_duration)
-    solver = get_solver("greedy")
-    best: tuple[float, ir.Model] | None = None
+    best: tuple[float, ir.Model, dict[str, float]] | None = None
     notes: list[str] = []
     current = with_late(model, late)
     steps = dict.fromkeys(signals, 1.0)
     previous: dict[str, float] = {}
+    best_round = 0
     for round_number in progress.each(range(rounds + 1), "calibrate", unit="round"):
         try:
-            schedules = solver.solve(current, SolveRequest(duration=duration, seed=seed,
-                                                           count=samples)).schedules
+            sampled = sample_profile(current, duration, samples, seed, counted)
         except MseError as error:
             notes.append(f"calibration stopped: the learned set could not be sampled ({error})")
             break
-        sampled = schedules_profile(schedules, signals)
         score = distance(target, sampled)
-        if best is None or score < best[0]:
-            best = (score, current)
         errors = {s: target.rate[s] - sampled.rate[s] for s in signals}
+        if best is None or score < best[0]:
+            best, best_round = (score, current, errors), round_number
         worst = max(signals, key=lambda s: abs(errors[s]), default=None)
         notes.append(f"round {round_number}: distance {score:.3f}"
                      + (f", largest rate difference {abs(errors[worst]):.3f} ({worst})" if worst else ""))
-        if all(abs(errors[s]) <= tolerance(target.rate[s], samples) for s in signals) or round_number == rounds:
+        if (all(abs(errors[s]) <= tolerance(target.rate[s], samples) for s in signals) or round_number == rounds
+                or round_number - best_round >= PATIENCE):
             break
         for signal in signals:
             if signal in previous and previous[signal] * errors[signal] < 0:
                 steps[signal] = max(SMALLEST_STEP, steps[signal] / 2)
         previous = errors
         current = _adjusted(current, target, sampled, steps, late)
-    return (best[1] if best is not None else model), notes
+    if best is None:
+        return Calibration(model, notes, {}, math.inf)
+    return Calibration(best[1], notes, best[2], best[0])
 
 
 def with_late(model: ir.Model, late: Collection[str]) -> ir.Model:
@@ -164,3 +209,65 @@ def _adjusted(model: ir.Model, target: Profile, sampled: Profile, steps: Mapping
             p_start = p_end = 0.001
         signals.append(replace(signal, probability_start=p_start, probability_end=p_end))
     return replace(model, signals=tuple(signals))
+
+
+#: A signal still this far from the corpus' rate after calibration is *stuck*: its
+#: probabilities cannot move it (a learned rule forces or blocks it in the sampler).
+STUCK_ERROR = 0.05
+#: Sampling runs spent looking for rules to release, per stuck signal and in all.
+RELEASE_TRIALS = 8
+RELEASE_BUDGET = 16
+
+
+def release_rules(
+    calibration: Calibration, corpus: Corpus, *, samples: int = 300, seed: int = 0,
+    trials: int = RELEASE_TRIALS, budget: int = RELEASE_BUDGET,
+) -> tuple[ir.Model, list[tuple[str, str]]]:
+    """Learned rules whose removal lets a stuck signal reach the corpus' rate, removed.
+
+    For each stuck signal (largest difference first), each learned constraint naming it is
+    left out in turn and the set sampled (same seed and size as calibration): the one whose
+    absence brings the signal closest to the corpus (by at least :data:`STUCK_ERROR`) without
+    taking the whole profile further from it is released.  Every rule held in every corpus
+    sequence where it was tested, so leaving one out never rejects a sequence; it only stops
+    the sampler from forcing or blocking a signal the corpus shows at another rate.  Returns
+    the model without them and (constraint id, reason) pairs."""
+    from mse.diagnostics import MseError
+
+    counted = counted_signals(calibration.model, corpus)
+    target = corpus_profile(corpus, counted)
+    duration = to_seconds(corpus.typical_duration)
+    current, errors, score = calibration.model, dict(calibration.errors), calibration.score
+    released: list[tuple[str, str]] = []
+
+    def off(signal: str, found: Mapping[str, float]) -> float:  # relative above one start per sequence
+        return abs(found[signal]) / max(1.0, target.rate[signal])
+
+    stuck = sorted((s for s in errors if off(s, errors) > STUCK_ERROR), key=lambda s: (-off(s, errors), s))
+    for signal in stuck:
+        if off(signal, errors) <= STUCK_ERROR or budget <= 0:
+            continue
+        naming = [c for c in current.constraints if signal in ir.mentioned_signals(c.expr)][:min(trials, budget)]
+        best: tuple[float, str, ir.Model, dict[str, float]] | None = None
+        for constraint in naming:
+            budget -= 1
+            trial = replace(current, constraints=tuple(c for c in current.constraints if c.id != constraint.id))
+            try:
+                sampled = sample_profile(trial, duration, samples, seed, counted)
+            except MseError:
+                continue
+            trial_errors = {s: target.rate[s] - sampled.rate[s] for s in errors}
+            trial_score = distance(target, sampled)
+            gain = off(signal, errors) - off(signal, trial_errors)
+            if gain >= STUCK_ERROR and trial_score < score and (best is None or trial_score < best[0]):
+                best = (trial_score, constraint.id, trial, trial_errors)
+        if best is None:
+            continue
+        score, rule, current, new_errors = best
+        want = target.rate[signal]
+        what = "starts per timeline" if signal in counted else "of the timelines"
+        released.append((rule, f"released: with it the default sampler shows {signal!r} in "
+                               f"{want - errors[signal]:.2f} {what} whatever its probabilities, against "
+                               f"{want:.2f} in the corpus; {want - new_errors[signal]:.2f} without it"))
+        errors = new_errors
+    return current, released

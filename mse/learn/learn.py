@@ -18,6 +18,7 @@ from mse.extras import require
 from mse.ir import model as ir
 from mse.ir.evaluate import check_schedule
 from mse.ir.schedule import Occurrence, Schedule, to_seconds
+from mse.learn.calibrate import Calibration
 from mse.learn.corpus import Corpus
 from mse.learn.mine import MiningOptions, Rule, mine
 from mse.learn.signals import LearnedSignal, learn_signals
@@ -105,7 +106,11 @@ def learn_corpus(corpus: Corpus, options: LearnOptions = DEFAULT_OPTIONS) -> Lea
     model = replace(base, constraints=tuple(ir.Constraint(r.id, r.expr) for r in kept))
     calibration: list[str] = []
     if options.calibrate and options.calibration_rounds > 0:
-        model, calibration = _calibrated(model, corpus, options, late=())
+        model, calibration, released = _calibrated(model, corpus, options, late=(), release=True)
+        if released:
+            reasons = dict(released)
+            redundant += [(r, reasons[r.id]) for r in kept if r.id in reasons]
+            kept = [r for r in kept if r.id not in reasons]
     late: set[str] = set()
     for attempt in range(2):
         xml = _xml(model, corpus, learned, kept, exclusive, options)
@@ -126,7 +131,7 @@ def learn_corpus(corpus: Corpus, options: LearnOptions = DEFAULT_OPTIONS) -> Lea
         late |= fixable
         calibration.append(f"probability_start set to 0 (W406): {', '.join(sorted(fixable))}")
         if options.calibrate and options.calibration_rounds > 0:
-            model, notes = _calibrated(model, corpus, options, late=late)
+            model, notes, _ = _calibrated(model, corpus, options, late=late)
             calibration.extend(notes)
         else:
             from mse.learn.calibrate import with_late
@@ -136,12 +141,24 @@ def learn_corpus(corpus: Corpus, options: LearnOptions = DEFAULT_OPTIONS) -> Lea
     return LearnResult(final, xml, corpus, learned, kept, redundant, breaks, diagnostics, calibration)
 
 
-def _calibrated(model: ir.Model, corpus: Corpus, options: LearnOptions,
-                late: Collection[str]) -> tuple[ir.Model, list[str]]:
-    from mse.learn.calibrate import calibrate
+def _calibrated(model: ir.Model, corpus: Corpus, options: LearnOptions, late: Collection[str],
+                release: bool = False) -> tuple[ir.Model, list[str], list[tuple[str, str]]]:
+    """Calibrated probabilities; with ``release``, then the rules that keep a signal from the
+    corpus' rate whatever its probabilities are released and the rest calibrated again."""
+    from mse.learn.calibrate import calibrate, release_rules
 
-    return calibrate(model, corpus, rounds=options.calibration_rounds, samples=options.calibration_samples,
-                     seed=options.seed, late=late)
+    def run(start: ir.Model) -> Calibration:
+        return calibrate(start, corpus, rounds=options.calibration_rounds, samples=options.calibration_samples,
+                         seed=options.seed, late=late)
+
+    first = run(model)
+    if not release:
+        return first.model, first.notes, []
+    loosened, released = release_rules(first, corpus, samples=options.calibration_samples, seed=options.seed)
+    if not released:
+        return first.model, first.notes, []
+    again = run(loosened)
+    return again.model, [*first.notes, *(f"rule {rule} {why}" for rule, why in released), *again.notes], released
 
 
 def select_rules(base: ir.Model, candidates: list[Rule], duration: int,
