@@ -215,8 +215,8 @@ def _adjusted(model: ir.Model, target: Profile, sampled: Profile, steps: Mapping
 #: probabilities cannot move it (a learned rule forces or blocks it in the sampler).
 STUCK_ERROR = 0.05
 #: Sampling runs spent looking for rules to release, per stuck signal and in all.
-RELEASE_TRIALS = 8
-RELEASE_BUDGET = 16
+RELEASE_TRIALS = 6
+RELEASE_BUDGET = 12
 
 
 def release_rules(
@@ -227,8 +227,8 @@ def release_rules(
 
     For each stuck signal (largest difference first), each learned constraint naming it is
     left out in turn and the set sampled (same seed and size as calibration): the one whose
-    absence brings the signal closest to the corpus (by at least :data:`STUCK_ERROR`) without
-    taking the whole profile further from it is released.  Every rule held in every corpus
+    absence moves the signal furthest towards the corpus' rate (by at least
+    :data:`STUCK_ERROR`; past it is fine: calibration then brings it back) is released.  Every rule held in every corpus
     sequence where it was tested, so leaving one out never rejects a sequence; it only stops
     the sampler from forcing or blocking a signal the corpus shows at another rate.  Returns
     the model without them and (constraint id, reason) pairs."""
@@ -237,7 +237,7 @@ def release_rules(
     counted = counted_signals(calibration.model, corpus)
     target = corpus_profile(corpus, counted)
     duration = to_seconds(corpus.typical_duration)
-    current, errors, score = calibration.model, dict(calibration.errors), calibration.score
+    current, errors = calibration.model, dict(calibration.errors)
     released: list[tuple[str, str]] = []
 
     def off(signal: str, found: Mapping[str, float]) -> float:  # relative above one start per sequence
@@ -257,13 +257,15 @@ def release_rules(
             except MseError:
                 continue
             trial_errors = {s: target.rate[s] - sampled.rate[s] for s in errors}
-            trial_score = distance(target, sampled)
-            gain = off(signal, errors) - off(signal, trial_errors)
-            if gain >= STUCK_ERROR and trial_score < score and (best is None or trial_score < best[0]):
-                best = (trial_score, constraint.id, trial, trial_errors)
+            # How far the signal moved towards the corpus' rate (or past it: its
+            # probabilities can then bring it back), relative above one start per sequence.
+            moved = (errors[signal] - trial_errors[signal]) * (1 if errors[signal] > 0 else -1)
+            moved /= max(1.0, target.rate[signal])
+            if moved >= STUCK_ERROR and (best is None or moved > best[0]):
+                best = (moved, constraint.id, trial, trial_errors)
         if best is None:
             continue
-        score, rule, current, new_errors = best
+        _, rule, current, new_errors = best
         want = target.rate[signal]
         what = "starts per timeline" if signal in counted else "of the timelines"
         released.append((rule, f"released: with it the default sampler shows {signal!r} in "
