@@ -5,9 +5,9 @@ less often than its prior says), and the learned set's sampler applies the same 
 again, with its own approximations (the walk loses a once-only signal whose constraints fail
 at its candidacy).  So the raw estimates of :mod:`mse.learn.signals` are corrected by
 simulation: sample the learned set at the corpus' typical duration with the default sampler,
-compare each signal's occurrence rate (starts per sequence: for a once-only signal the
-fraction of sequences where it occurs) and mean relative start with the corpus, and adjust
-every signal's profile at once:
+compare each signal's rate (the fraction of sequences where it occurs; starts per sequence
+for a repetitive signal present in nearly all of them, :func:`counted_signals`) and mean
+relative start with the corpus, and adjust every signal's profile at once:
 
 * its level by the ratio of rates (``want / got``), a full step at first and half as large
   after each change of direction (the signals interact through the constraints, and a
@@ -16,9 +16,13 @@ every signal's profile at once:
 * its mean start by half the difference.
 
 Rounds stop when every signal is within its tolerance (:func:`tolerance`: twice the sampling
-error of the round, at least :data:`STOP_ERROR`) or after ``rounds`` adjustments; the round
-closest to the corpus is kept.  Each round uses its own seeds (``seed + round * samples``),
-so the result is reproduced by the seed and does not fit one sample's noise.
+error of the round, at least :data:`STOP_ERROR`), after :data:`PATIENCE` rounds without
+progress or after ``rounds`` adjustments; the round closest to the corpus is kept.  Every
+round samples the same seeds (common random numbers: a difference between two rounds is the
+probabilities', not the draws'), so the result is reproduced by the seed.
+
+A signal whose rate its probabilities cannot move (a learned rule forces or blocks it in the
+sampler) is found afterwards by :func:`release_rules`, which releases the rule responsible.
 """
 
 from __future__ import annotations
