@@ -102,6 +102,7 @@ CODES: dict[str, str] = {
     "W311": "max_occurrences without repetitivity=\"1\"",
     "W312": "exclusive modality that no signal uses",
     "N313": "constraint anchored to the agent's speech (sampling and checking need speech)",
+    "W314": "relation that lets one occurrence of a repetitive signal block all its later ones",
     # E4xx / W4xx: solver-backed lint
     "W400": "solver-backed questions left undecided (lint time budget spent)",
     "E401": "no consistent timeline (proven, with a minimal explanation)",

@@ -147,7 +147,7 @@ def _summary(result: Any) -> None:
     corpus = result.corpus
     broken = sorted({b.sequence for b in result.breaks})
     print(f"mse learn: {len(result.model.signals)} signals, {len(result.model.constraints)} constraints "
-          f"({len(result.redundant)} candidate rules dropped as redundant or explained) from "
+          f"({len(result.redundant)} candidate rules dropped as redundant, explained or released) from "
           f"{len(corpus.sequences)} sequences; {len(broken)} sequences break a learned rule", file=sys.stderr)
     for found in result.breaks[:20]:
         print(f"{found.span.render()}: sequence {found.sequence!r} breaks {found.rule}: {found.message}",

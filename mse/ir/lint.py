@@ -6,12 +6,13 @@ Callers may pass their own tuple; solver-backed rules (W4xx) live in ``mse.solve
 from __future__ import annotations
 
 import difflib
-from collections.abc import Callable, Collection, Iterable, Iterator
+from collections.abc import Callable, Collection, Iterable, Iterator, Mapping
 
 from mse.diagnostics import Diagnostic
 from mse.ir import model as ir
 from mse.ir.printer import expr_text, term_text
-from mse.ir.relations import RELATIONS, is_symmetric
+from mse.ir.relations import COMPARISONS, RELATIONS, is_conjunction, is_symmetric
+from mse.ir.schedule import to_seconds, to_ticks
 
 #: Lexeme classes (the part before '=') and the modality each one belongs to.
 LEXEME_CLASS_MODALITY: dict[str, str] = {
@@ -206,6 +207,147 @@ def speech_anchored(model: ir.Model) -> Iterator[Diagnostic]:
                     break
 
 
+# -- W314: a relation that lets one occurrence of a repetitive signal block its later ones --
+#: Nodes of the difference system of :func:`_two_fit`: one occurrence of the partner, two of
+#: the repetitive signal.
+_PARTNER, _FIRST, _SECOND = 0, 2, 4
+#: A difference bound ``x - y <= k`` between (signal side, edge) pairs: side 0 the partner,
+#: side 1 the repetitive signal; k in ms.
+_PairBound = tuple[tuple[int, str], tuple[int, str], int]
+
+
+def _required_atoms(expr: ir.Expr) -> Iterator[tuple[ir.Relation | ir.Compare, frozenset[str]]]:
+    """Relational atoms that must hold whenever their signals and the given ones occur: the
+    operands of a top-level conjunction, and the consequent of ``exists(...) implies ...``
+    (with the signals the antecedent needs)."""
+    if isinstance(expr, ir.And):
+        for operand in expr.operands:
+            yield from _required_atoms(operand)
+    elif isinstance(expr, ir.Relation | ir.Compare):
+        yield expr, frozenset()
+    elif isinstance(expr, ir.Implies):
+        needed = _exists_conjunction(expr.left)
+        if needed is not None:
+            for atom, more in _required_atoms(expr.right):
+                yield atom, more | needed
+
+
+def _exists_conjunction(expr: ir.Expr) -> frozenset[str] | None:
+    if isinstance(expr, ir.Exists):
+        return frozenset((expr.signal,))
+    if isinstance(expr, ir.And):
+        parts = [_exists_conjunction(o) for o in expr.operands]
+        if all(p is not None for p in parts):
+            return frozenset().union(*(p for p in parts if p is not None))
+    return None
+
+
+def _atom_bounds(atom: ir.Relation | ir.Compare, repetitive: str, partner: str) -> list[_PairBound] | None:
+    """The atom as bounds between the two signals' edges, or None when it is not a
+    conjunction of such bounds (a disjunction, a constant, the duration, a length)."""
+    side = {partner: 0, repetitive: 1}
+    if isinstance(atom, ir.Relation):
+        meaning = RELATIONS[atom.kind]
+        if not is_conjunction(meaning) or {atom.left, atom.right} != {repetitive, partner}:
+            return None
+        names = {"left": atom.left, "right": atom.right}
+        return [((side[names[b.lower.side]], b.lower.edge), (side[names[b.upper.side]], b.upper.edge),
+                 b.limit(0)) for b in meaning.bounds]
+    terms = {"left": atom.left, "right": atom.right}
+    if not all(isinstance(t, ir.SignalTime) for t in terms.values()):
+        return None
+    times = {k: t for k, t in terms.items() if isinstance(t, ir.SignalTime)}
+    if {t.signal for t in times.values()} != {repetitive, partner}:
+        return None
+    found: list[_PairBound] = []
+    for bound in COMPARISONS[atom.op].bounds:
+        x, y = times[bound.lower], times[bound.upper]
+        # x.edge + x.offset - (y.edge + y.offset) <= k
+        found.append(((side[x.signal], x.edge), (side[y.signal], y.edge),
+                      bound.limit(atom.tolerance) - x.offset + y.offset))
+    return found
+
+
+def _consistent(size: int, edges: list[tuple[int, int, int]]) -> bool:
+    """Does the system of ``x - y <= k`` (edges ``(y, x, k)``) have a solution (no negative cycle)?"""
+    infinity = float("inf")
+    dist = [[0.0 if i == j else infinity for j in range(size)] for i in range(size)]
+    for y, x, k in edges:
+        dist[y][x] = min(dist[y][x], k)
+    for middle in range(size):
+        for i in range(size):
+            for j in range(size):
+                if dist[i][middle] + dist[middle][j] < dist[i][j]:
+                    dist[i][j] = dist[i][middle] + dist[middle][j]
+    return all(dist[i][i] >= 0 for i in range(size))
+
+
+def _two_fit(bounds: list[_PairBound], partner: ir.Signal, repetitive: ir.Signal, count: int) -> bool:
+    """Can ``count`` (1 or 2) occurrences of ``repetitive`` satisfy ``bounds`` with one
+    occurrence of ``partner`` (durations respected, the two one after the other)?"""
+    edges: list[tuple[int, int, int]] = []
+
+    def length(node: int, signal: ir.Signal) -> None:  # stop - start in [min, max]
+        edges.append((node + 1, node, -to_ticks(signal.min_duration)))  # start - stop <= -min
+        if signal.max_duration is not None:
+            edges.append((node, node + 1, to_ticks(signal.max_duration)))  # stop - start <= max
+
+    length(_PARTNER, partner)
+    occurrences = [_FIRST, _SECOND][:count]
+    for node in occurrences:
+        length(node, repetitive)
+        for (x_side, x_edge), (y_side, y_edge), k in bounds:
+            x = (node if x_side else _PARTNER) + (x_edge == "stop")
+            y = (node if y_side else _PARTNER) + (y_edge == "stop")
+            edges.append((y, x, k))
+    if count == 2:
+        edges.append((_SECOND, _FIRST + 1, 0))  # stop of the first <= start of the second
+    return _consistent(2 + 2 * count, edges)
+
+
+def blocking_relations(model: ir.Model) -> Iterator[Diagnostic]:
+    """W314: under "every pair of occurrences", a relation that keeps every occurrence of a
+    repetitive signal in a window around each occurrence of another signal too narrow for two
+    of them lets the first block all later ones once the other signal occurs."""
+    signals = model.signal_by_id
+    for constraint in model.constraints:
+        pairs: dict[tuple[str, str], list[ir.Relation | ir.Compare]] = {}
+        for atom, needed in _required_atoms(constraint.expr):
+            named = ir.mentioned_signals(atom)
+            if len(named) == 2 and needed <= named and named <= signals.keys():
+                pairs.setdefault(tuple(sorted(named)), []).append(atom)  # type: ignore[arg-type]
+        for pair, atoms in pairs.items():
+            blocked = []
+            for repetitive in pair:
+                signal = signals[repetitive]
+                (partner,) = set(pair) - {repetitive}
+                bounds = [b for atom in atoms for b in _atom_bounds(atom, repetitive, partner) or []]
+                if (signal.repetitivity == 1 and signal.max_occurrences != 1 and bounds
+                        and _two_fit(bounds, signals[partner], signal, 1)
+                        and not _two_fit(bounds, signals[partner], signal, 2)):
+                    blocked.append((repetitive, partner))
+            if blocked:
+                yield _blocking(constraint, atoms, blocked, signals)
+
+
+def _blocking(constraint: ir.Constraint, atoms: list[ir.Relation | ir.Compare], blocked: list[tuple[str, str]],
+              signals: Mapping[str, ir.Signal]) -> Diagnostic:
+    text = " and ".join(expr_text(a) for a in atoms)
+    facts = "; ".join(
+        f"once {partner!r} occurs, at most one {repetitive!r} can (two of at least "
+        f"{to_seconds(to_ticks(signals[repetitive].min_duration)):g} s never both satisfy it with one {partner!r})"
+        for repetitive, partner in blocked)
+    meant = " and ".join(f"each {repetitive!r} with its nearest {partner!r}" for repetitive, partner in blocked)
+    once = ", ".join(repr(r) for r, _ in blocked)
+    return Diagnostic(
+        "W314",
+        f"constraint {constraint.id!r}: {text} holds for every pair of occurrences, so {facts}: the first blocks "
+        f"all later ones, although repetitive. Probably meant: {meant}, which a relation cannot say; "
+        f'make {once} once-only (repetitivity="0") or widen the relation',
+        atoms[0].span if atoms[0].span.line > 0 else constraint.span,
+    )
+
+
 STATIC_RULES: tuple[Rule, ...] = (
     inactive_signals,
     self_relations,
@@ -216,6 +358,7 @@ STATIC_RULES: tuple[Rule, ...] = (
     max_occurrences_without_repetition,
     unused_exclusive_modalities,
     speech_anchored,
+    blocking_relations,
 )
 
 

@@ -10,6 +10,7 @@ breaks which rule) → static and deep lint at the typical duration.
 from __future__ import annotations
 
 import math
+from collections.abc import Collection
 from dataclasses import dataclass, field, replace
 
 from mse.diagnostics import Diagnostic, Span, argument_error
@@ -17,6 +18,7 @@ from mse.extras import require
 from mse.ir import model as ir
 from mse.ir.evaluate import check_schedule
 from mse.ir.schedule import Occurrence, Schedule, to_seconds
+from mse.learn.calibrate import Calibration
 from mse.learn.corpus import Corpus
 from mse.learn.mine import MiningOptions, Rule, mine
 from mse.learn.signals import LearnedSignal, learn_signals
@@ -34,7 +36,7 @@ class LearnOptions:
     min_support: int = 10
     significance: float = 0.001
     calibrate: bool = True
-    calibration_rounds: int = 4
+    calibration_rounds: int = 8
     calibration_samples: int = 300
     query_time: float = 1.0
     deep_lint: bool = True
@@ -104,26 +106,59 @@ def learn_corpus(corpus: Corpus, options: LearnOptions = DEFAULT_OPTIONS) -> Lea
     model = replace(base, constraints=tuple(ir.Constraint(r.id, r.expr) for r in kept))
     calibration: list[str] = []
     if options.calibrate and options.calibration_rounds > 0:
-        from mse.learn.calibrate import calibrate
-
-        model, calibration = calibrate(model, corpus, rounds=options.calibration_rounds,
-                                       samples=options.calibration_samples, seed=options.seed)
+        model, calibration, released = _calibrated(model, corpus, options, late=(), release=True)
+        if released:
+            reasons = dict(released)
+            redundant += [(r, reasons[r.id]) for r in kept if r.id in reasons]
+            kept = [r for r in kept if r.id not in reasons]
+    late: set[str] = set()
     for attempt in range(2):
         xml = _xml(model, corpus, learned, kept, exclusive, options)
         final = _read_back(xml, options.name)
         diagnostics = _lint(final, corpus, options)
         # W406: the constraints never let the signal start in the first second, so a
-        # probability_start above 0 is a promise the sampler cannot keep: start at 0.
-        late = {s.id for s in model.signals for d in diagnostics
-                if d.code == "W406" and f"signal {s.id!r} has probability_start" in d.message}
-        if not late or attempt:
+        # probability_start above 0 is a promise the sampler cannot keep: start at 0, and
+        # calibrate again with that profile.  A once-only signal above level 0.5 keeps its
+        # profile (a line from 0 cannot reach its rate), and the warning.
+        early = {s.id: (s.probability_start + s.probability_end) / 2 for s in model.signals for d in diagnostics
+                 if d.code == "W406" and f"signal {s.id!r} has probability_start" in d.message}
+        fixable = {name for name, level in early.items() if level <= 0.5 or model.signal(name).repetitivity}
+        if early.keys() - fixable:
+            calibration.append("probability_start kept above 0 despite W406 (a profile from 0 cannot reach "
+                               f"their rate): {', '.join(sorted(early.keys() - fixable))}")
+        if not fixable or attempt:
             break
-        model = replace(model, signals=tuple(
-            replace(s, probability_start=0.0, probability_end=min(1.0, s.probability_start + s.probability_end))
-            if s.id in late else s for s in model.signals))
-        calibration.append(f"probability_start set to 0 (W406): {', '.join(sorted(late))}")
+        late |= fixable
+        calibration.append(f"probability_start set to 0 (W406): {', '.join(sorted(fixable))}")
+        if options.calibrate and options.calibration_rounds > 0:
+            model, notes, _ = _calibrated(model, corpus, options, late=late)
+            calibration.extend(notes)
+        else:
+            from mse.learn.calibrate import with_late
+
+            model = with_late(model, late)
     breaks = corpus_breaks(final, corpus)
     return LearnResult(final, xml, corpus, learned, kept, redundant, breaks, diagnostics, calibration)
+
+
+def _calibrated(model: ir.Model, corpus: Corpus, options: LearnOptions, late: Collection[str],
+                release: bool = False) -> tuple[ir.Model, list[str], list[tuple[str, str]]]:
+    """Calibrated probabilities; with ``release``, then the rules that keep a signal from the
+    corpus' rate whatever its probabilities are released and the rest calibrated again."""
+    from mse.learn.calibrate import calibrate, release_rules
+
+    def run(start: ir.Model) -> Calibration:
+        return calibrate(start, corpus, rounds=options.calibration_rounds, samples=options.calibration_samples,
+                         seed=options.seed, late=late)
+
+    first = run(model)
+    if not release:
+        return first.model, first.notes, []
+    loosened, released = release_rules(first, corpus, samples=options.calibration_samples, seed=options.seed)
+    if not released:
+        return first.model, first.notes, []
+    again = run(loosened)
+    return again.model, [*first.notes, *(f"rule {rule} {why}" for rule, why in released), *again.notes], released
 
 
 def select_rules(base: ir.Model, candidates: list[Rule], duration: int,

@@ -1,0 +1,130 @@
+"""Learn → sample round trip of ``mse learn`` (docs/learn.md, "Measured"; issue 32).
+
+For each of ``--sets`` random sets (``bench/generators/corpus.py``: ``random_model`` with
+``--signals`` signals and a seeded number of constraints between n/2 and 2n; sets the default
+sampler cannot sample at ``--duration`` are skipped and counted), sample ``--count`` timelines
+(the corpus), learn a set from them at ``--confidence`` (default 1), sample ``--count``
+timelines of the learned set with the default sampler (another seed) and compare each
+signal's **occurrence rate** (the fraction of timelines where it occurs) between the two.
+
+Printed per set: learning time, learned constraints, calibration rounds run, the largest
+rate difference (signal, corpus → learned), the signals off by more than ``--tolerance``
+(0.1); then totals.  ``--no-calibrate`` measures the raw estimates (the "before").
+
+    python -m bench.evaluation.learn_roundtrip --sets 24
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import random
+import statistics
+import time
+from collections import Counter
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any
+
+import mse.sampling as sampling
+from bench.generators.corpus import random_model
+from mse.diagnostics import MseError
+from mse.ir import model as ir
+from mse.learn import LearnOptions, learn_corpus
+from mse.learn.corpus import Corpus
+from mse.learn.read import read_timeline_sequences
+from mse.timeline import Timeline, dumps_jsonl
+
+
+def occurrence_rates(timelines: Sequence[Timeline]) -> dict[str, float]:
+    present: Counter[str] = Counter()
+    for timeline in timelines:
+        present.update({signal.id for signal in timeline.signals})
+    return {signal: count / len(timelines) for signal, count in present.items()}
+
+
+def corpus_of(timelines: Sequence[Timeline]) -> Corpus:
+    """The timelines as ``mse learn`` reads them from a ``.jsonl`` file."""
+    from mse.learn.corpus import DEFAULT_MAPPING, build_corpus
+
+    raw, _ = read_timeline_sequences(Path("corpus.jsonl"), dumps_jsonl(timelines).encode("utf-8"))
+    corpus, _ = build_corpus(raw, DEFAULT_MAPPING)
+    return corpus
+
+
+def round_trip(truth: ir.Model, count: int, duration: float, seed: int, options: LearnOptions) -> dict[str, Any]:
+    corpus = list(sampling.iter_timelines(truth, duration, seed=seed, count=count))
+    began = time.perf_counter()
+    result = learn_corpus(corpus_of(corpus), options)
+    learn_s = time.perf_counter() - began
+    back = list(sampling.iter_timelines(result.model, duration, seed=seed + 10**6, count=count))
+    before, after = occurrence_rates(corpus), occurrence_rates(back)
+    signals = sorted(set(before) | set(after))
+    diffs = {s: (before.get(s, 0.0), after.get(s, 0.0)) for s in signals}
+    worst = max(signals, key=lambda s: abs(diffs[s][0] - diffs[s][1]))
+    return {
+        "set": truth.name,
+        "constraints": len(truth.constraints),
+        "learned_constraints": len(result.model.constraints),
+        "learn_s": learn_s,
+        "rounds": sum(1 for note in result.calibration if note.startswith("round ")),
+        "worst": worst,
+        "worst_rates": diffs[worst],
+        "max_diff": abs(diffs[worst][0] - diffs[worst][1]),
+        "mean_diff": statistics.fmean(abs(a - b) for a, b in diffs.values()),
+        "off": {s: ab for s, ab in diffs.items()},
+    }
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("--sets", type=int, default=24, help="random sets to measure (sampleable ones)")
+    parser.add_argument("--signals", type=int, default=18)
+    parser.add_argument("--count", type=int, default=300, help="timelines in the corpus and sampled back")
+    parser.add_argument("--duration", type=float, default=10.0)
+    parser.add_argument("--confidence", type=float, default=1.0)
+    parser.add_argument("--tolerance", type=float, default=0.1)
+    parser.add_argument("--seed", type=int, default=0, help="first set seed")
+    parser.add_argument("--no-calibrate", action="store_true")
+    parser.add_argument("--json", help="write every row to this file")
+    args = parser.parse_args()
+    rows: list[dict[str, Any]] = []
+    skipped = 0
+    seed = args.seed
+    print(f"{'set':10s} {'cons':>4s} {'learned':>7s} {'learn s':>7s} {'rounds':>6s} {'max diff':>8s}  worst; off by > "
+          f"{args.tolerance:g}", flush=True)
+    while len(rows) < args.sets:
+        seed += 1
+        constraints = random.Random(seed).randint(args.signals // 2, 2 * args.signals)
+        truth = random_model(seed, args.signals, constraints, name=f"random{seed}")
+        options = LearnOptions(name=truth.name, confidence=args.confidence, seed=seed,
+                               calibrate=not args.no_calibrate)
+        try:
+            row = round_trip(truth, args.count, args.duration, seed, options)
+        except MseError as error:  # no timeline of the set (or of the learned set: counted too)
+            skipped += 1
+            print(f"{truth.name:10s} skipped: {str(error).splitlines()[0][:100]}", flush=True)
+            continue
+        rows.append(row)
+        off = {s: ab for s, ab in row["off"].items() if abs(ab[0] - ab[1]) > args.tolerance}
+        a, b = row["worst_rates"]
+        print(f"{row['set']:10s} {row['constraints']:4d} {row['learned_constraints']:7d} {row['learn_s']:7.1f} "
+              f"{row['rounds']:6d} {row['max_diff']:8.2f}  {row['worst']} {a:.2f} -> {b:.2f}; "
+              + (", ".join(f"{s} {x:.2f}->{y:.2f}" for s, (x, y) in sorted(off.items())) or "-"), flush=True)
+    within = sum(1 for r in rows if r["max_diff"] <= args.tolerance)
+    signals = sum(len(r["off"]) for r in rows)
+    off_signals = sum(1 for r in rows for x, y in r["off"].values() if abs(x - y) > args.tolerance)
+    times = sorted(r["learn_s"] for r in rows)
+    print(f"\n{len(rows)} sets ({skipped} skipped: not sampleable), {args.count} timelines of "
+          f"{args.duration:g} s each, "
+          f"--confidence {args.confidence:g}{', no calibration' if args.no_calibrate else ''}")
+    print(f"sets with every signal within {args.tolerance:g}: {within} / {len(rows)}; "
+          f"signals off: {off_signals} / {signals}; largest difference {max(r['max_diff'] for r in rows):.2f}; "
+          f"mean difference {statistics.fmean(r['mean_diff'] for r in rows):.3f}")
+    print(f"learn time: median {statistics.median(times):.1f} s, max {times[-1]:.1f} s")
+    if args.json:
+        Path(args.json).write_text(json.dumps(rows, indent=2) + "\n", encoding="utf-8")
+
+
+if __name__ == "__main__":
+    main()
