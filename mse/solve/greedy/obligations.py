@@ -11,6 +11,40 @@ from mse.solve.greedy.plan import InitialDebts, SignalPlan
 from mse.solve.greedy.state import State
 from mse.solve.greedy.windows import latest_feasible
 
+#: Up to this many signals that must still occur in one exclusive modality, check_room also
+#: searches for an order in which they fit one after the other (non-preemptive: exact up to
+#: ROOM_SEARCH_NODES nodes, then it assumes one exists).
+ROOM_SEARCH_JOBS = 8
+ROOM_SEARCH_NODES = 400
+
+
+def _sequence_exists(jobs: list[tuple[int, int, int, str]]) -> bool:
+    """Whether the jobs (release, deadline, length, _) fit one after the other on one
+    machine, each inside [release, deadline]: depth-first over the orders, earliest deadline
+    first, a branch cut as soon as some job left can no longer meet its deadline.  True also
+    when the search runs out of nodes (sound for a doom)."""
+    ordered = sorted(jobs, key=lambda job: (job[1], job[0]))
+    nodes = [0]
+
+    def visit(time: int, left: tuple[int, ...]) -> bool:
+        if not left:
+            return True
+        nodes[0] += 1
+        if nodes[0] > ROOM_SEARCH_NODES:
+            return True
+        for index in left:
+            release, deadline, length, _ = ordered[index]
+            if max(time, release) + length > deadline:
+                return False  # it cannot wait for any other: no order from here
+        for index in left:
+            release, deadline, length, _ = ordered[index]
+            end = max(time, release) + length
+            if visit(end, tuple(i for i in left if i != index)):
+                return True
+        return False
+
+    return visit(0, tuple(range(len(ordered))))
+
 
 class Obligations(State):
     """:class:`State` with the deadlines of its owed signals."""
@@ -121,12 +155,14 @@ class Obligations(State):
             if needed:
                 self.needs[name] = needed
                 for other in needed:
-                    if caps.get(other, high + 1) > latest:
-                        caps[other] = latest
+                    cap = self.prerequisite_cap(name, other, latest)
+                    if caps.get(other, high + 1) > cap:
+                        caps[other] = cap
                         pending.append(other)
             self.latest[name] = latest
             boxes[name] = (low, latest, low + signal.shortest, plan.duration)
         self.stuck = frozenset(stuck)
+        self.check_room()
         owing = self.owing
         if owing:
             if full:
@@ -150,6 +186,81 @@ class Obligations(State):
         for name in self.require:
             if not self.env.get(name) and name not in self.latest:
                 raise Doomed(f"require {name}")
+
+    def prerequisite_cap(self, waiter: str, prerequisite: str, latest: int) -> int:
+        """The latest start of ``prerequisite`` that still lets ``waiter`` start at ``latest``:
+        it starts no later than the waiter (starts never decrease) and, by the necessary
+        start bounds of the waiter with it (``start(waiter) >= stop(p) + delta``: a precedes
+        ladder, an equality with tolerance), earlier still by its shortest length and delta."""
+        cap = latest
+        shortest = self.plan.by_id[prerequisite].shortest
+        for other, rules in self.plan.partner_bounds[waiter]:
+            if other != prerequisite:
+                continue
+            for index, delta, upper in rules:
+                if not upper:
+                    cap = min(cap, latest - delta - (shortest if index == 2 else 0))
+        return cap
+
+    def must_occur(self) -> dict[str, str]:
+        """The signals that must still occur, each with the debt that demands it: a required
+        signal, an ``exists`` conjunct of an owing constraint (owing means instantiated, so
+        the conjunct must hold), and what those must be placed after (order.py)."""
+        env, plan = self.env, self.plan
+        found: dict[str, str] = {name: f"require {name}" for name in sorted(self.require) if not env.get(name)}
+        for cid in sorted(self.owing):
+            for name in plan.must_exist[cid]:
+                if name not in found and not env.get(name):
+                    found[name] = cid
+        pending = list(found)
+        while pending:
+            name = pending.pop()
+            for before in plan.needs_before[name]:
+                if before not in found and not env.get(before):
+                    found[before] = found[name]
+                    pending.append(before)
+        return found
+
+    def check_room(self) -> None:
+        """Raise :class:`Doomed` when the signals that must still occur in one exclusive
+        modality cannot all fit there: each needs its shortest length between its earliest
+        start and its latest start plus that length, one at a time.  Checked on the
+        preemptive relaxation (for every window, the lengths of the signals that must lie
+        inside it add up to no more than the window), a necessary condition: it never
+        dooms a state that has a completion.  The latest starts of the owed signals, each
+        searched alone, miss this (late mandatory signals whose room optional ones took)."""
+        owing = self.owing
+        if not owing and not self.require:
+            return
+        must = self.must_occur()
+        if len(must) < 2:
+            return
+        plan = self.plan
+        groups: dict[str, list[tuple[int, int, int, str]]] = {}
+        for name, reason in must.items():
+            signal = plan.by_id[name]
+            if signal.exclusive is None or not self.can_add(signal):
+                continue
+            low, high = self.start_window(signal)
+            low = max(low, self.stamp_low)
+            high = min(high, self.latest.get(name, high))
+            if low > high:
+                raise Doomed(reason)
+            groups.setdefault(signal.exclusive, []).append((low, high + signal.shortest, signal.shortest, reason))
+        for jobs in groups.values():
+            if len(jobs) < 2:
+                continue
+            releases = sorted({job[0] for job in jobs})
+            deadlines = sorted({job[1] for job in jobs})
+            for first in releases:
+                for last in deadlines:
+                    if last <= first:
+                        continue
+                    inside = [job for job in jobs if job[0] >= first and job[1] <= last]
+                    if len(inside) > 1 and sum(job[2] for job in inside) > last - first:
+                        raise Doomed(inside[0][3])
+            if len(jobs) <= ROOM_SEARCH_JOBS and not _sequence_exists(jobs):
+                raise Doomed(min(jobs, key=lambda job: job[1])[3])
 
     def prerequisites(self, signal: SignalPlan, low: int, high: int) -> tuple[int, tuple[str, ...]] | None:
         """The latest start in [low, high] at which ``signal`` could be placed if some other

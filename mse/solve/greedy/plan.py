@@ -76,7 +76,7 @@ class Plan:
     __slots__ = (
         "bounds", "by_constraint_id", "by_id", "by_signal", "constraint_ids", "constraints", "critical", "cumulative",
         "duration", "edges", "fixed", "gated", "in_modality", "influence", "initial_debts", "initial_owing", "masses",
-        "needs_before", "partner_bounds", "related", "signals", "stamps", "table",
+        "must_exist", "needs_before", "partner_bounds", "related", "signals", "stamps", "table",
     )
 
     def __init__(
@@ -118,6 +118,10 @@ class Plan:
         self.in_modality = {name: tuple(members) for name, members in in_modality.items()}
         self.constraints = constraints
         self.by_constraint_id = {c.id: c for c in constraints}
+        # Per constraint, the signals of its top-level ``exists`` conjuncts: while the
+        # constraint is owing (instantiated and violated if nothing more occurs) each of them
+        # that has not occurred must still occur (Obligations.check_room).
+        self.must_exist = {c.id: _top_level_exists(c.constraint.expr) for c in constraints}
         # Constraints violated while nothing is placed (every attempt starts owing them).
         self.initial_owing = frozenset(c.id for c in constraints if c.violated({}))
         # (forbid, require) -> the obligations of the empty timeline at stamp 0 (deterministic:
@@ -166,6 +170,14 @@ class Plan:
         while j < n - 1 and self.stamps[j + 1] <= tick:
             j += 1
         return j
+
+
+def _top_level_exists(expr: ir.Expr) -> tuple[str, ...]:
+    if isinstance(expr, ir.Exists):
+        return (expr.signal,)
+    if isinstance(expr, ir.And):
+        return tuple(sorted({name for operand in expr.operands for name in _top_level_exists(operand)}))
+    return ()
 
 
 def _cumulative(hazards: Sequence[float]) -> tuple[float, ...]:
