@@ -340,12 +340,15 @@ SIZES = (12, 25, 50, 100, 200, 400)
 
 def corpus(count: int, seed: int = 32) -> list[tuple[int, int, str, float]]:
     """``count`` (model seed, signals, shape, duration) drawn from ``seed``: every shape and
-    ``mixed`` in turn, sizes in turn (more small sets than large ones), 10 s or 20 s."""
+    ``mixed`` in turn, sizes drawn (more small sets than large ones), ``max(10, size / 10)``
+    seconds or twice that."""
     rng = random.Random(seed)
     shapes = (*SHAPES, "mixed")
     weights = (6, 5, 4, 3, 2, 1)
     found = []
     for index in range(count):
         size = rng.choices(SIZES, weights)[0]
-        found.append((seed * 100_000 + index, size, shapes[index % len(shapes)], rng.choice((10.0, 10.0, 20.0))))
+        # about one gadget signal per 150 ms at most: larger sets are longer displays
+        duration = rng.choice((1.0, 1.0, 2.0)) * max(10, size // 10)
+        found.append((seed * 100_000 + index, size, shapes[index % len(shapes)], duration))
     return found

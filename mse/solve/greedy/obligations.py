@@ -16,6 +16,9 @@ from mse.solve.greedy.windows import latest_feasible
 #: ROOM_SEARCH_NODES nodes, then it assumes one exists).
 ROOM_SEARCH_JOBS = 8
 ROOM_SEARCH_NODES = 400
+#: Rounds of propagation of the start bounds between signals that must occur (a chain of k
+#: links needs k rounds at most to carry a bound from one end to the other).
+PROPAGATION_ROUNDS = 8
 
 
 def _sequence_exists(jobs: list[tuple[int, int, int, str]]) -> bool:
@@ -222,13 +225,22 @@ class Obligations(State):
         return found
 
     def check_room(self) -> None:
-        """Raise :class:`Doomed` when the signals that must still occur in one exclusive
-        modality cannot all fit there: each needs its shortest length between its earliest
-        start and its latest start plus that length, one at a time.  Checked on the
-        preemptive relaxation (for every window, the lengths of the signals that must lie
-        inside it add up to no more than the window), a necessary condition: it never
-        dooms a state that has a completion.  The latest starts of the owed signals, each
-        searched alone, miss this (late mandatory signals whose room optional ones took)."""
+        """Plan the signals that must still occur (:meth:`must_occur`) together; raise
+        :class:`Doomed` when they cannot all be placed.
+
+        1. *Windows*: each gets its start window (occurrence rules, placed partners, latest
+           start), then the necessary start bounds between two of them are propagated until
+           nothing moves: ``start(b) = stop(a) ± 0.3`` with both bound to occur bounds b by
+           a's window and a by b's (a precedes ladder, a chain of equalities with tolerance,
+           an implies chain: placing its first link pins the others).  Their latest starts
+           become the narrowed ones, so the walk keeps their room.
+        2. *Room*: in one exclusive modality they need their shortest lengths one at a time
+           inside their windows: the preemptive relaxation (for every window, the lengths
+           that must lie inside it add up to no more than its length), then, for a few, a
+           search for an order that fits (late mandatory signals whose room optional ones
+           took).
+
+        Every step is a necessary condition: it never dooms a state that has a completion."""
         owing = self.owing
         if not owing and not self.require:
             return
@@ -236,17 +248,48 @@ class Obligations(State):
         if len(must) < 2:
             return
         plan = self.plan
-        groups: dict[str, list[tuple[int, int, int, str]]] = {}
-        for name, reason in must.items():
-            signal = plan.by_id[name]
-            if signal.exclusive is None or not self.can_add(signal):
+        by_id, env = plan.by_id, self.env
+        windows: dict[str, list[int]] = {}
+        for name in must:
+            signal = by_id[name]
+            if not self.can_add(signal):
                 continue
             low, high = self.start_window(signal)
             low = max(low, self.stamp_low)
             high = min(high, self.latest.get(name, high))
             if low > high:
-                raise Doomed(reason)
-            groups.setdefault(signal.exclusive, []).append((low, high + signal.shortest, signal.shortest, reason))
+                raise Doomed(must[name])
+            windows[name] = [low, high]
+        for _ in range(PROPAGATION_ROUNDS):
+            moved = False
+            for name, window in windows.items():
+                for other, rules in plan.order_free_bounds[name]:
+                    theirs = windows.get(other)
+                    if theirs is None or env.get(other):
+                        continue  # placed partners are in start_window already
+                    partner = by_id[other]
+                    for index, delta, upper in rules:
+                        if upper:
+                            value = theirs[1] + delta + (partner.longest if index == 2 else 0)
+                            if value < window[1]:
+                                window[1], moved = value, True
+                        else:
+                            value = theirs[0] + delta + (partner.shortest if index == 2 else 0)
+                            if value > window[0]:
+                                window[0], moved = value, True
+                if window[0] > window[1]:
+                    raise Doomed(must[name])
+            if not moved:
+                break
+        latest = self.latest
+        for name, (_, high) in windows.items():
+            if name in latest and high < latest[name]:
+                latest[name] = high
+        groups: dict[str, list[tuple[int, int, int, str]]] = {}
+        for name, (low, high) in windows.items():
+            signal = by_id[name]
+            if signal.exclusive is not None:
+                groups.setdefault(signal.exclusive, []).append((low, high + signal.shortest, signal.shortest, must[name]))
         for jobs in groups.values():
             if len(jobs) < 2:
                 continue

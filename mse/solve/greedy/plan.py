@@ -76,7 +76,7 @@ class Plan:
     __slots__ = (
         "bounds", "by_constraint_id", "by_id", "by_signal", "constraint_ids", "constraints", "critical", "cumulative",
         "duration", "edges", "fixed", "gated", "in_modality", "influence", "initial_debts", "initial_owing", "masses",
-        "must_exist", "needs_before", "partner_bounds", "related", "signals", "stamps", "table",
+        "must_exist", "needs_before", "order_free_bounds", "partner_bounds", "related", "signals", "stamps", "table",
     )
 
     def __init__(
@@ -160,6 +160,11 @@ class Plan:
         # the bounds that name another signal, grouped by it, as (other, ((box index, delta,
         # upper), ...)) for speed: one lookup of the other's occurrences per partner
         self.partner_bounds = {s.id: _by_partner(bounds[s.id]) for s in signals}
+        # the same, holding whichever of the two starts first (Obligations.check_room
+        # propagates them between signals not placed yet)
+        self.order_free_bounds = {
+            s.id: _by_partner(start_bounds_of(s, by_signal[s.id], duration, placed_first=False)) for s in signals
+        }
 
     def stamp_of(self, tick: int) -> int:
         """Index j of the stamp [t_j, t_{j+1}) holding ``tick``."""
