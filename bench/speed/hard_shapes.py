@@ -32,12 +32,15 @@ from bench.speed.sample import item, load_line, percentile
 from mse.ir import model as ir
 from mse.solve.protocol import NoSolution, SolveRequest, get_solver
 
+Feasible = tuple[str, int, ir.Model, float, float]
 
-def feasible_sets(count: int, seed: int, time_limit: float) -> tuple[list[tuple[str, int, ir.Model, float, float]], int]:
+
+def feasible_sets(count: int, seed: int, time_limit: float) -> tuple[list[Feasible], int]:
     """The sets CP-SAT proves feasible, each with (shape, size, model, duration, CP-SAT time
     of one timeline); and how many it did not."""
     cpsat = get_solver("cpsat")
-    found, other = [], 0
+    found: list[Feasible] = []
+    other = 0
     for model_seed, size, shape, duration in corpus(count, seed):
         model = hard_model(model_seed, size, shape, duration)
         began = time.perf_counter()
