@@ -289,7 +289,8 @@ class Obligations(State):
         for name, (low, high) in windows.items():
             signal = by_id[name]
             if signal.exclusive is not None:
-                groups.setdefault(signal.exclusive, []).append((low, high + signal.shortest, signal.shortest, must[name]))
+                job = (low, high + signal.shortest, signal.shortest, must[name])
+                groups.setdefault(signal.exclusive, []).append(job)
         for jobs in groups.values():
             if len(jobs) < 2:
                 continue
