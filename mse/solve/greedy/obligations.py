@@ -260,33 +260,34 @@ class Obligations(State):
             if low > high:
                 raise Doomed(must[name])
             windows[name] = [low, high]
-        for _ in range(PROPAGATION_ROUNDS):
-            moved = False
-            for name, window in windows.items():
-                for other, rules in plan.order_free_bounds[name]:
-                    theirs = windows.get(other)
-                    if theirs is None or env.get(other):
-                        continue  # placed partners are in start_window already
+        links = []  # (my window, partner's window, partner's shortest and longest, rules)
+        for name, window in windows.items():
+            for other, rules in plan.order_free_bounds[name]:
+                theirs = windows.get(other)
+                if theirs is not None and not env.get(other):  # placed ones: in start_window
                     partner = by_id[other]
-                    for index, delta, upper in rules:
-                        if upper:
-                            value = theirs[1] + delta + (partner.longest if index == 2 else 0)
-                            if value < window[1]:
-                                window[1], moved = value, True
-                        else:
-                            value = theirs[0] + delta + (partner.shortest if index == 2 else 0)
-                            if value > window[0]:
-                                window[0], moved = value, True
+                    links.append((name, window, theirs, partner.shortest, partner.longest, rules))
+        for _ in range(PROPAGATION_ROUNDS if links else 0):
+            moved = False
+            for name, window, theirs, shortest, longest, rules in links:
+                for index, delta, upper in rules:
+                    if upper:
+                        value = theirs[1] + delta + (longest if index == 2 else 0)
+                        if value < window[1]:
+                            window[1], moved = value, True
+                    else:
+                        value = theirs[0] + delta + (shortest if index == 2 else 0)
+                        if value > window[0]:
+                            window[0], moved = value, True
                 if window[0] > window[1]:
                     raise Doomed(must[name])
             if not moved:
                 break
         latest = self.latest
-        for name, (_, high) in windows.items():
-            if name in latest and high < latest[name]:
-                latest[name] = high
         groups: dict[str, list[tuple[int, int, int, str]]] = {}
         for name, (low, high) in windows.items():
+            if name in latest and high < latest[name]:
+                latest[name] = high
             signal = by_id[name]
             if signal.exclusive is not None:
                 job = (low, high + signal.shortest, signal.shortest, must[name])
@@ -294,15 +295,18 @@ class Obligations(State):
         for jobs in groups.values():
             if len(jobs) < 2:
                 continue
-            releases = sorted({job[0] for job in jobs})
-            deadlines = sorted({job[1] for job in jobs})
-            for first in releases:
-                for last in deadlines:
-                    if last <= first:
-                        continue
-                    inside = [job for job in jobs if job[0] >= first and job[1] <= last]
-                    if len(inside) > 1 and sum(job[2] for job in inside) > last - first:
-                        raise Doomed(inside[0][3])
+            jobs.sort()
+            for index, job in enumerate(jobs):
+                first = job[0]
+                if index and jobs[index - 1][0] == first:
+                    continue  # the same window start: checked with the first of them
+                # every job released from ``first`` on, by deadline: the lengths due by each
+                # deadline must fit between ``first`` and it
+                total = 0
+                for deadline, length, reason in sorted((j[1], j[2], j[3]) for j in jobs[index:]):
+                    total += length
+                    if total > deadline - first:
+                        raise Doomed(reason)
             if len(jobs) <= ROOM_SEARCH_JOBS and not _sequence_exists(jobs):
                 raise Doomed(min(jobs, key=lambda job: job[1])[3])
 
