@@ -208,7 +208,8 @@ class Obligations(State):
     def must_occur(self) -> dict[str, str]:
         """The signals that must still occur, each with the debt that demands it: a required
         signal, an ``exists`` conjunct of an owing constraint (owing means instantiated, so
-        the conjunct must hold), and what those must be placed after (order.py)."""
+        the conjunct must hold), what those must be placed after (order.py) and what their
+        occurrence implies (``exists(x) implies exists(y)``: an implies chain)."""
         env, plan = self.env, self.plan
         found: dict[str, str] = {name: f"require {name}" for name in sorted(self.require) if not env.get(name)}
         for cid in sorted(self.owing):
@@ -218,7 +219,7 @@ class Obligations(State):
         pending = list(found)
         while pending:
             name = pending.pop()
-            for before in plan.needs_before[name]:
+            for before in (*plan.needs_before[name], *plan.implied.get(name, ())):
                 if before not in found and not env.get(before):
                     found[before] = found[name]
                     pending.append(before)

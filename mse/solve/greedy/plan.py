@@ -74,9 +74,32 @@ class Plan:
     """Everything about one model, duration and slot that does not depend on the draws."""
 
     __slots__ = (
-        "bounds", "by_constraint_id", "by_id", "by_signal", "constraint_ids", "constraints", "critical", "cumulative",
-        "duration", "edges", "fixed", "gated", "in_modality", "influence", "initial_debts", "initial_owing", "masses",
-        "must_exist", "needs_before", "order_free_bounds", "partner_bounds", "related", "signals", "stamps", "table",
+        "bounds",
+        "by_constraint_id",
+        "by_id",
+        "by_signal",
+        "constraint_ids",
+        "constraints",
+        "critical",
+        "cumulative",
+        "duration",
+        "edges",
+        "fixed",
+        "gated",
+        "implied",
+        "in_modality",
+        "influence",
+        "initial_debts",
+        "initial_owing",
+        "masses",
+        "must_exist",
+        "needs_before",
+        "order_free_bounds",
+        "partner_bounds",
+        "related",
+        "signals",
+        "stamps",
+        "table",
     )
 
     def __init__(
@@ -120,8 +143,18 @@ class Plan:
         self.by_constraint_id = {c.id: c for c in constraints}
         # Per constraint, the signals of its top-level ``exists`` conjuncts: while the
         # constraint is owing (instantiated and violated if nothing more occurs) each of them
-        # that has not occurred must still occur (Obligations.check_room).
-        self.must_exist = {c.id: _top_level_exists(c.constraint.expr) for c in constraints}
+        # that has not occurred must still occur (Obligations.check_room)
+        # (``exists(x) implies exists(y)``, x placed: the consequent's, as long as x's
+        # occurrence instantiates the constraint.)
+        self.must_exist = {c.id: _must_exist(c.constraint) for c in constraints}
+        # Per signal x, the signals that must occur once x does: ``exists(x) implies
+        # exists(y) and ...`` (an implies chain; the closure of Obligations.must_occur).
+        implied: dict[str, set[str]] = {}
+        for compiled in constraints:
+            antecedent = _antecedent(compiled.constraint)
+            if antecedent is not None:
+                implied.setdefault(antecedent, set()).update(_must_exist(compiled.constraint))
+        self.implied = {name: tuple(sorted(found)) for name, found in implied.items()}
         # Constraints violated while nothing is placed (every attempt starts owing them).
         self.initial_owing = frozenset(c.id for c in constraints if c.violated({}))
         # (forbid, require) -> the obligations of the empty timeline at stamp 0 (deterministic:
@@ -175,6 +208,27 @@ class Plan:
         while j < n - 1 and self.stamps[j + 1] <= tick:
             j += 1
         return j
+
+
+def _antecedent(constraint: ir.Constraint) -> str | None:
+    """x of ``exists(x) implies ...`` when x's occurrence instantiates the constraint (x is a
+    trigger, or there is none), else None."""
+    expr = constraint.expr
+    if isinstance(expr, ir.Implies) and isinstance(expr.left, ir.Exists):
+        name = expr.left.signal
+        if not constraint.triggers or name in constraint.triggers:
+            return name
+    return None
+
+
+def _must_exist(constraint: ir.Constraint) -> tuple[str, ...]:
+    """The signals that must occur while ``constraint`` is owing (instantiated, violated if
+    nothing more occurs): its top-level ``exists`` conjuncts; for ``exists(x) implies R``,
+    owing means x occurred, so R's."""
+    if _antecedent(constraint) is not None:
+        assert isinstance(constraint.expr, ir.Implies)
+        return _top_level_exists(constraint.expr.right)
+    return _top_level_exists(constraint.expr)
 
 
 def _top_level_exists(expr: ir.Expr) -> tuple[str, ...]:
