@@ -126,10 +126,10 @@ class Attempt(Obligations):
             self.commit(signal, start, y) for y in others
         ):
             return True
-        if sid in self.latest:
-            # An owed signal whose drawn start leaves the others no room (a late mandatory
-            # signal's room, a chain's next link): its earliest allowed start is the one
-            # that leaves them the most (docs/sampler.md, "Signals that must occur").
+        if sid in self.latest and sid in self.must_occur():
+            # A signal that must occur whose drawn start leaves the others no room (a late
+            # mandatory signal's room, a chain's next link): its earliest allowed start is
+            # the one that leaves them the most (docs/sampler.md, "Signals that must occur").
             starts = self.feasible_starts(signal, low, high)
             if starts and starts[0][0] < start:
                 return self.place_at(signal, starts[0][0])

@@ -158,9 +158,8 @@ class Obligations(State):
             if needed:
                 self.needs[name] = needed
                 for other in needed:
-                    cap = self.prerequisite_cap(name, other, latest)
-                    if caps.get(other, high + 1) > cap:
-                        caps[other] = cap
+                    if caps.get(other, high + 1) > latest:
+                        caps[other] = latest
                         pending.append(other)
             self.latest[name] = latest
             boxes[name] = (low, latest, low + signal.shortest, plan.duration)
@@ -189,21 +188,6 @@ class Obligations(State):
         for name in self.require:
             if not self.env.get(name) and name not in self.latest:
                 raise Doomed(f"require {name}")
-
-    def prerequisite_cap(self, waiter: str, prerequisite: str, latest: int) -> int:
-        """The latest start of ``prerequisite`` that still lets ``waiter`` start at ``latest``:
-        it starts no later than the waiter (starts never decrease) and, by the necessary
-        start bounds of the waiter with it (``start(waiter) >= stop(p) + delta``: a precedes
-        ladder, an equality with tolerance), earlier still by its shortest length and delta."""
-        cap = latest
-        shortest = self.plan.by_id[prerequisite].shortest
-        for other, rules in self.plan.partner_bounds[waiter]:
-            if other != prerequisite:
-                continue
-            for index, delta, upper in rules:
-                if not upper:
-                    cap = min(cap, latest - delta - (shortest if index == 2 else 0))
-        return cap
 
     def must_occur(self) -> dict[str, str]:
         """The signals that must still occur, each with the debt that demands it: a required
