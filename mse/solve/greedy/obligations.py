@@ -1,6 +1,8 @@
 """The obligations of a walk (docs/sampler.md, "Obligations that only the end settles"): the
 owed signals, their latest useful starts (deadlines) and the prerequisites an owed signal waits
-for, searched with the partial checks of state.py; engine.py calls them after each placement."""
+for, searched with the partial checks of state.py, and the signals that must still occur planned
+together (their windows propagated, their room in an exclusive modality: "Signals that must
+occur, planned together"); engine.py calls them after each placement."""
 
 from __future__ import annotations
 
