@@ -162,12 +162,18 @@ def _compare_bounds(atom: ir.Compare, me: SignalLengths, duration: int) -> list[
 
 
 def start_bounds_of(
-    signal: SignalLengths, constraints: Sequence[CompiledConstraint], duration: int
+    signal: SignalLengths, constraints: Sequence[CompiledConstraint], duration: int, *, placed_first: bool = True
 ) -> tuple[StartBound, ...]:
+    """The necessary start bounds of ``signal``.  ``placed_first``: the partner is placed
+    before it (as in the walk's state); without it, only the bounds that hold in any order
+    (a relation that is a disjunction, ``excludes``, gives none)."""
     found: dict[StartBound, None] = {}
     for compiled in constraints:
         for atom in _conjuncts(compiled.constraint.expr):
             if isinstance(atom, ir.Relation) and signal.id in (atom.left, atom.right):
+                meaning = RELATIONS[atom.kind]
+                if not placed_first and meaning.joined == "or" and len(meaning.bounds) > 1:
+                    continue
                 found.update(dict.fromkeys(_relation_bounds(atom, signal)))
             elif isinstance(atom, ir.Compare):
                 found.update(dict.fromkeys(_compare_bounds(atom, signal, duration)))

@@ -122,9 +122,30 @@ class Attempt(Obligations):
         # One trial with the stop open over all of them first: the lookahead is monotone in
         # the candidate's box, so when even that leaves an unpayable debt, every stop does
         # (the usual case: a debt the stop does not settle), and the placements are skipped.
-        if len(others) > 1 and not self.open_stop_may_pay(signal, start, min(others), max(others)):
-            return False
-        return any(self.commit(signal, start, y) for y in others)
+        if (len(others) <= 1 or self.open_stop_may_pay(signal, start, min(others), max(others))) and any(
+            self.commit(signal, start, y) for y in others
+        ):
+            return True
+        if sid in self.latest and sid in self.must_occur():
+            # A signal that must occur whose drawn start leaves the others no room (a late
+            # mandatory signal's room, a chain's next link): its earliest allowed start is
+            # the one that leaves them the most (docs/sampler.md, "Signals that must occur").
+            starts = self.feasible_starts(signal, low, high)
+            if starts and starts[0][0] < start:
+                return self.place_at(signal, starts[0][0])
+        return False
+
+    def place_at(self, signal: SignalPlan, start: int) -> bool:
+        """Place ``signal`` at ``start`` with a drawn stop or, when that fails, the earliest
+        allowed stop (the one that leaves the others the most room); False when neither
+        can be committed."""
+        stop = self.draw_stop(signal, start)
+        if self.allows(signal, (start, start, stop, stop)) and self.commit(signal, start, stop):
+            return True
+        first, last = start + signal.shortest, min(start + signal.longest, self.plan.duration)
+        window = feasible(lambda y: self.allows(signal, (start, start, y, y)), first, last,
+                          self.critical(signal, "stop", start))
+        return bool(window) and window[0][0] != stop and self.commit(signal, start, window[0][0])
 
     # -- placing and taking back -----------------------------------------------------------------
     def commit(self, signal: SignalPlan, start: int, stop: int) -> bool:

@@ -1,6 +1,8 @@
 """The obligations of a walk (docs/sampler.md, "Obligations that only the end settles"): the
 owed signals, their latest useful starts (deadlines) and the prerequisites an owed signal waits
-for, searched with the partial checks of state.py; engine.py calls them after each placement."""
+for, searched with the partial checks of state.py, and the signals that must still occur planned
+together (their windows propagated, their room in an exclusive modality: "Signals that must
+occur, planned together"); engine.py calls them after each placement."""
 
 from __future__ import annotations
 
@@ -10,6 +12,43 @@ from mse.solve.greedy.partial import CompiledConstraint
 from mse.solve.greedy.plan import InitialDebts, SignalPlan
 from mse.solve.greedy.state import State
 from mse.solve.greedy.windows import latest_feasible
+
+#: Up to this many signals that must still occur in one exclusive modality, check_room also
+#: searches for an order in which they fit one after the other (non-preemptive: exact up to
+#: ROOM_SEARCH_NODES nodes, then it assumes one exists).
+ROOM_SEARCH_JOBS = 8
+ROOM_SEARCH_NODES = 400
+#: Rounds of propagation of the start bounds between signals that must occur (a chain of k
+#: links needs k rounds at most to carry a bound from one end to the other).
+PROPAGATION_ROUNDS = 8
+
+
+def _sequence_exists(jobs: list[tuple[int, int, int, str]]) -> bool:
+    """Whether the jobs (release, deadline, length, _) fit one after the other on one
+    machine, each inside [release, deadline]: depth-first over the orders, earliest deadline
+    first, a branch cut as soon as some job left can no longer meet its deadline.  True also
+    when the search runs out of nodes (sound for a doom)."""
+    ordered = sorted(jobs, key=lambda job: (job[1], job[0]))
+    nodes = [0]
+
+    def visit(time: int, left: tuple[int, ...]) -> bool:
+        if not left:
+            return True
+        nodes[0] += 1
+        if nodes[0] > ROOM_SEARCH_NODES:
+            return True
+        for index in left:
+            release, deadline, length, _ = ordered[index]
+            if max(time, release) + length > deadline:
+                return False  # it cannot wait for any other: no order from here
+        for index in left:
+            release, deadline, length, _ = ordered[index]
+            end = max(time, release) + length
+            if visit(end, tuple(i for i in left if i != index)):
+                return True
+        return False
+
+    return visit(0, tuple(range(len(ordered))))
 
 
 class Obligations(State):
@@ -127,6 +166,7 @@ class Obligations(State):
             self.latest[name] = latest
             boxes[name] = (low, latest, low + signal.shortest, plan.duration)
         self.stuck = frozenset(stuck)
+        self.check_room()
         owing = self.owing
         if owing:
             if full:
@@ -150,6 +190,112 @@ class Obligations(State):
         for name in self.require:
             if not self.env.get(name) and name not in self.latest:
                 raise Doomed(f"require {name}")
+
+    def must_occur(self) -> dict[str, str]:
+        """The signals that must still occur, each with the debt that demands it: a required
+        signal, an ``exists`` conjunct of an owing constraint (owing means instantiated, so
+        the conjunct must hold), what those must be placed after (order.py) and what their
+        occurrence implies (``exists(x) implies exists(y)``: an implies chain)."""
+        env, plan = self.env, self.plan
+        found: dict[str, str] = {name: f"require {name}" for name in sorted(self.require) if not env.get(name)}
+        for cid in sorted(self.owing):
+            for name in plan.must_exist[cid]:
+                if name not in found and not env.get(name):
+                    found[name] = cid
+        pending = list(found)
+        while pending:
+            name = pending.pop()
+            for before in (*plan.needs_before[name], *plan.implied.get(name, ())):
+                if before not in found and not env.get(before):
+                    found[before] = found[name]
+                    pending.append(before)
+        return found
+
+    def check_room(self) -> None:
+        """Plan the signals that must still occur (:meth:`must_occur`) together; raise
+        :class:`Doomed` when they cannot all be placed.
+
+        1. *Windows*: each gets its start window (occurrence rules, placed partners, latest
+           start), then the necessary start bounds between two of them are propagated until
+           nothing moves: ``start(b) = stop(a) ± 0.3`` with both bound to occur bounds b by
+           a's window and a by b's (a precedes ladder, a chain of equalities with tolerance,
+           an implies chain: placing its first link pins the others).  Their latest starts
+           become the narrowed ones, so the walk keeps their room.
+        2. *Room*: in one exclusive modality they need their shortest lengths one at a time
+           inside their windows: the preemptive relaxation (for every window, the lengths
+           that must lie inside it add up to no more than its length), then, for a few, a
+           search for an order that fits (late mandatory signals whose room optional ones
+           took).
+
+        Every step is a necessary condition: it never dooms a state that has a completion."""
+        owing = self.owing
+        if not owing and not self.require:
+            return
+        must = self.must_occur()
+        if len(must) < 2:
+            return
+        plan = self.plan
+        by_id, env = plan.by_id, self.env
+        windows: dict[str, list[int]] = {}
+        for name in must:
+            signal = by_id[name]
+            if not self.can_add(signal):
+                continue
+            low, high = self.start_window(signal)
+            low = max(low, self.stamp_low)
+            high = min(high, self.latest.get(name, high))
+            if low > high:
+                raise Doomed(must[name])
+            windows[name] = [low, high]
+        links = []  # (my window, partner's window, partner's shortest and longest, rules)
+        for name, window in windows.items():
+            for other, rules in plan.order_free_bounds[name]:
+                theirs = windows.get(other)
+                if theirs is not None and not env.get(other):  # placed ones: in start_window
+                    partner = by_id[other]
+                    links.append((name, window, theirs, partner.shortest, partner.longest, rules))
+        for _ in range(PROPAGATION_ROUNDS if links else 0):
+            moved = False
+            for name, window, theirs, shortest, longest, rules in links:
+                for index, delta, upper in rules:
+                    if upper:
+                        value = theirs[1] + delta + (longest if index == 2 else 0)
+                        if value < window[1]:
+                            window[1], moved = value, True
+                    else:
+                        value = theirs[0] + delta + (shortest if index == 2 else 0)
+                        if value > window[0]:
+                            window[0], moved = value, True
+                if window[0] > window[1]:
+                    raise Doomed(must[name])
+            if not moved:
+                break
+        latest = self.latest
+        groups: dict[str, list[tuple[int, int, int, str]]] = {}
+        for name, (low, high) in windows.items():
+            if name in latest and high < latest[name]:
+                latest[name] = high
+            signal = by_id[name]
+            if signal.exclusive is not None:
+                job = (low, high + signal.shortest, signal.shortest, must[name])
+                groups.setdefault(signal.exclusive, []).append(job)
+        for jobs in groups.values():
+            if len(jobs) < 2:
+                continue
+            jobs.sort()
+            for index, job in enumerate(jobs):
+                first = job[0]
+                if index and jobs[index - 1][0] == first:
+                    continue  # the same window start: checked with the first of them
+                # every job released from ``first`` on, by deadline: the lengths due by each
+                # deadline must fit between ``first`` and it
+                total = 0
+                for deadline, length, reason in sorted((j[1], j[2], j[3]) for j in jobs[index:]):
+                    total += length
+                    if total > deadline - first:
+                        raise Doomed(reason)
+            if len(jobs) <= ROOM_SEARCH_JOBS and not _sequence_exists(jobs):
+                raise Doomed(min(jobs, key=lambda job: job[1])[3])
 
     def prerequisites(self, signal: SignalPlan, low: int, high: int) -> tuple[int, tuple[str, ...]] | None:
         """The latest start in [low, high] at which ``signal`` could be placed if some other

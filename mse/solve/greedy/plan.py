@@ -74,9 +74,32 @@ class Plan:
     """Everything about one model, duration and slot that does not depend on the draws."""
 
     __slots__ = (
-        "bounds", "by_constraint_id", "by_id", "by_signal", "constraint_ids", "constraints", "critical", "cumulative",
-        "duration", "edges", "fixed", "gated", "in_modality", "influence", "initial_debts", "initial_owing", "masses",
-        "needs_before", "partner_bounds", "related", "signals", "stamps", "table",
+        "bounds",
+        "by_constraint_id",
+        "by_id",
+        "by_signal",
+        "constraint_ids",
+        "constraints",
+        "critical",
+        "cumulative",
+        "duration",
+        "edges",
+        "fixed",
+        "gated",
+        "implied",
+        "in_modality",
+        "influence",
+        "initial_debts",
+        "initial_owing",
+        "masses",
+        "must_exist",
+        "needs_before",
+        "order_free_bounds",
+        "partner_bounds",
+        "related",
+        "signals",
+        "stamps",
+        "table",
     )
 
     def __init__(
@@ -118,6 +141,20 @@ class Plan:
         self.in_modality = {name: tuple(members) for name, members in in_modality.items()}
         self.constraints = constraints
         self.by_constraint_id = {c.id: c for c in constraints}
+        # Per constraint, the signals of its top-level ``exists`` conjuncts: while the
+        # constraint is owing (instantiated and violated if nothing more occurs) each of them
+        # that has not occurred must still occur (Obligations.check_room)
+        # (``exists(x) implies exists(y)``, x placed: the consequent's, as long as x's
+        # occurrence instantiates the constraint.)
+        self.must_exist = {c.id: _must_exist(c.constraint) for c in constraints}
+        # Per signal x, the signals that must occur once x does: ``exists(x) implies
+        # exists(y) and ...`` (an implies chain; the closure of Obligations.must_occur).
+        implied: dict[str, set[str]] = {}
+        for compiled in constraints:
+            antecedent = _antecedent(compiled.constraint)
+            if antecedent is not None:
+                implied.setdefault(antecedent, set()).update(_must_exist(compiled.constraint))
+        self.implied = {name: tuple(sorted(found)) for name, found in implied.items()}
         # Constraints violated while nothing is placed (every attempt starts owing them).
         self.initial_owing = frozenset(c.id for c in constraints if c.violated({}))
         # (forbid, require) -> the obligations of the empty timeline at stamp 0 (deterministic:
@@ -156,6 +193,11 @@ class Plan:
         # the bounds that name another signal, grouped by it, as (other, ((box index, delta,
         # upper), ...)) for speed: one lookup of the other's occurrences per partner
         self.partner_bounds = {s.id: _by_partner(bounds[s.id]) for s in signals}
+        # the same, holding whichever of the two starts first (Obligations.check_room
+        # propagates them between signals not placed yet)
+        self.order_free_bounds = {
+            s.id: _by_partner(start_bounds_of(s, by_signal[s.id], duration, placed_first=False)) for s in signals
+        }
 
     def stamp_of(self, tick: int) -> int:
         """Index j of the stamp [t_j, t_{j+1}) holding ``tick``."""
@@ -166,6 +208,35 @@ class Plan:
         while j < n - 1 and self.stamps[j + 1] <= tick:
             j += 1
         return j
+
+
+def _antecedent(constraint: ir.Constraint) -> str | None:
+    """x of ``exists(x) implies ...`` when x's occurrence instantiates the constraint (x is a
+    trigger, or there is none), else None."""
+    expr = constraint.expr
+    if isinstance(expr, ir.Implies) and isinstance(expr.left, ir.Exists):
+        name = expr.left.signal
+        if not constraint.triggers or name in constraint.triggers:
+            return name
+    return None
+
+
+def _must_exist(constraint: ir.Constraint) -> tuple[str, ...]:
+    """The signals that must occur while ``constraint`` is owing (instantiated, violated if
+    nothing more occurs): its top-level ``exists`` conjuncts; for ``exists(x) implies R``,
+    owing means x occurred, so R's."""
+    if _antecedent(constraint) is not None:
+        assert isinstance(constraint.expr, ir.Implies)
+        return _top_level_exists(constraint.expr.right)
+    return _top_level_exists(constraint.expr)
+
+
+def _top_level_exists(expr: ir.Expr) -> tuple[str, ...]:
+    if isinstance(expr, ir.Exists):
+        return (expr.signal,)
+    if isinstance(expr, ir.And):
+        return tuple(sorted({name for operand in expr.operands for name in _top_level_exists(operand)}))
+    return ()
 
 
 def _cumulative(hazards: Sequence[float]) -> tuple[float, ...]:
