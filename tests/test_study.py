@@ -394,6 +394,29 @@ def test_simulated_study_recovers_the_confusion_matrix(driver: Any, tmp_path: Pa
                  "4", "-q", "-d", "1", "--size", "64x48", "--fps", "4"]) == 0
     with _serve(made, tmp_path) as (folder, url):
         _simulate(driver, folder, url)
+        _analyze_recovers(folder, tmp_path)
+
+
+def _analyze_recovers(folder: Path, tmp_path: Path) -> None:
+    """make -> page -> CSV -> ``mse study analyze``: the report gives the simulated matrix back."""
+    report = tmp_path / "report"
+    assert main(["study", "analyze", str(folder / "results"), "-o", str(report),
+                 "--labels", "anger,relief,other"]) == 0  # fmt: skip
+    result = json.loads((report / "report.json").read_text(encoding="utf-8"))
+    # per condition (mse, control, image) each emotion is shown once to each of 4 participants
+    hit_rates = {"anger": 0.75, "relief": 0.5}
+    for emotion, by_condition in result["labels"].items():
+        answers = sum(cell["n"] for cell in by_condition.values())
+        hits = sum(cell["hit_rate"] * cell["n"] for cell in by_condition.values())
+        assert answers == 12 and round(hits) == round(hit_rates[emotion] * answers)
+    summed: dict[str, Counter[str]] = {e: Counter() for e in hit_rates}
+    for matrix in result["confusion"].values():
+        for emotion, counts in zip(matrix["emotions"], matrix["counts"], strict=True):
+            summed[emotion].update(dict(zip(matrix["labels"], counts, strict=True)))
+    assert summed == {"anger": Counter(anger=9, other=3, relief=0), "relief": Counter(anger=3, relief=6, other=3)}
+    preferences = {e: (p["n"], p["share"]) for e, p in result["preference"].items()}
+    assert preferences == {"anger": (4, 0.75), "relief": (4, 0.5)}
+    assert (report / "report.md").is_file() and list(report.glob("*.png"))
 
 
 def _simulate(driver: Any, folder: Path, url: str) -> None:
