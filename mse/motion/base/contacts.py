@@ -295,7 +295,9 @@ def sharpened_support(weight: FloatArray) -> FloatArray:
     return np.clip(0.5 + (MIN_SUPPORT_SPREAD / spread) * (weight - 0.5), 0.0, 1.0)
 
 
-def _still_swinging(velocity: FloatArray, landing: int, held: int, direction: FloatArray, below: float, leg: float) -> bool:
+def _still_swinging(
+    velocity: FloatArray, landing: int, held: int, direction: FloatArray, below: float, leg: float
+) -> bool:
     """Whether the point ``landing`` still swings forward (along ``direction``, against the
     root) faster than the stance point ``held``, which is at most :data:`STANCE_DEFER_LIFT`
     leg lengths above it: the stance waits (see there). ``velocity`` (K, 2) relative to the root."""
