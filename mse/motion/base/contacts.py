@@ -256,9 +256,12 @@ def travel_directions(steps: FloatArray, frame_time: float, leg: float) -> Float
     if frames < 3:
         return directions
     window = max(1, round(TRAVEL_DIRECTION_S / frame_time))
-    kernel = np.ones(window) / window
-    padded = np.pad(steps, ((window // 2, window - 1 - window // 2), (0, 0)), mode="edge")
-    mean = np.stack([np.convolve(padded[:, k], kernel, mode="valid") for k in (0, 1)], axis=1)
+    # the mean over the frames of the window that the clip has (near its ends, fewer)
+    pad = ((window // 2, window - 1 - window // 2), (0, 0))
+    kernel = np.ones(window)
+    padded = np.pad(steps, pad)
+    counts = np.convolve(np.pad(np.ones(frames), pad[0]), kernel, mode="valid")
+    mean = np.stack([np.convolve(padded[:, k], kernel, mode="valid") for k in (0, 1)], axis=1) / counts[:, None]
     speed = np.linalg.norm(mean, axis=1)
     moving = speed / frame_time >= TRAVEL_LEG_LENGTHS_PER_S * leg
     if not moving.any():

@@ -358,7 +358,9 @@ def generate_motion(
             # own-style copy, or neighbours the HMM did not judge cyclic): its cycles repeat at
             # their tempo (base.loop) rather than slow down (Bandai dataset 1 normal run at 2x
             # its length: 1.25 steps/s and 121 cm/s, the take 2.73 and 261)
-            path = looped(path, wanted, frame_time, 0.0 if shape.travels else EDGE_SHARE, shape.period_s)
+            path = looped(
+                path, wanted, frame_time, 0.0 if shape.travels else EDGE_SHARE, shape.period_s, not shape.travels
+            )
         elif wanted >= LOOP_RATIO * len(path):
             path = held(path, wanted)  # at its own tempo, then at rest (base.loop)
         played = len(path) * frame_time
