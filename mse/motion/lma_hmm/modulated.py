@@ -63,7 +63,7 @@ def _cycling_end(labels: npt.NDArray[np.int_]) -> int:
     entered: dict[int, int] = {}
     for i in starts:
         entered[int(labels[i])] = entered.get(int(labels[i]), 0) + 1
-    stops = starts[1:] + [len(labels)]
+    stops = [*starts[1:], len(labels)]
     recurring = [stop for start, stop in zip(starts, stops, strict=True) if entered[int(labels[start])] > 1]
     return recurring[-1] if recurring else len(labels)
 
