@@ -208,5 +208,3 @@ def _constraints(document: ast.Document, signal_ids: set[str], checker: BuildChe
             )
         )
     return result
-
-

@@ -126,9 +126,15 @@ STANCE_DEFER_LIFT = 0.05
 #: see :data:`STANCE_DEFER_LIFT`: the provisional track's travel per second over this window
 #: (s, centred) gives the direction of travel, frame by frame (a turning walk's turns)
 TRAVEL_DIRECTION_S = 2.0
-#: leg lengths per second from which a provisional track travels (Bandai dataset 1's slowest
-#: walks, sad sidesteps, 0.28 over their takes; a standing body pins without hysteresis and
-#: has no direction of travel)
+#: a track travels when it covers at least this many leg lengths per second over
+#: :data:`CLIP_TRAVEL_WINDOW_S` (as :data:`mse.motion.base.cycles.TRAVEL_LEG_LENGTHS_PER_S`
+#: classifies actions; generated Bandai dataset 1 clips, LMA + HMM: sad sidesteps 0.40, sad
+#: walks backwards 0.54; a kick 0.04, the dance 0.16, a bow 0.003: the stance rules there let
+#: a standing foot slide, kick normal 7.1 cm/s against 2.7)
+CLIP_TRAVEL_LEG_LENGTHS_PER_S = 0.3
+CLIP_TRAVEL_WINDOW_S = 4.0
+#: within a travelling track, a frame whose :data:`TRAVEL_DIRECTION_S` window covers less than
+#: this (leg lengths per second) takes the direction of the nearest frame that covers more
 TRAVEL_LEG_LENGTHS_PER_S = 0.1
 
 
@@ -250,11 +256,16 @@ def travel_directions(steps: FloatArray, frame_time: float, leg: float) -> Float
     """(T, 2) unit horizontal directions of travel of a root track's ``steps`` (T, 2, per
     frame): their mean over :data:`TRAVEL_DIRECTION_S` about each frame; a frame where it
     covers less than :data:`TRAVEL_LEG_LENGTHS_PER_S` takes the nearest frame's that covers
-    more; zero everywhere when none does (a standing body)."""
+    more; zero everywhere when the track does not travel (:data:`CLIP_TRAVEL_LEG_LENGTHS_PER_S`)."""
     frames = len(steps)
     directions = np.zeros((frames, 2))
     if frames < 3:
         return directions
+    track = np.cumsum(steps, axis=0)
+    lag = max(1, min(frames - 1, round(CLIP_TRAVEL_WINDOW_S / frame_time)))
+    covered = float(np.mean(np.linalg.norm(track[lag:] - track[:-lag], axis=1)))
+    if covered / (lag * frame_time) < CLIP_TRAVEL_LEG_LENGTHS_PER_S * leg:
+        return directions  # a body that stays where it is (its sway, a kick's step)
     window = max(1, round(TRAVEL_DIRECTION_S / frame_time))
     # the mean over the frames of the window that the clip has (near its ends, fewer)
     pad = ((window // 2, window - 1 - window // 2), (0, 0))

@@ -21,7 +21,7 @@ import numpy as np
 
 from mse.motion.base.kinematics import FloatArray
 
-__all__ = ["BLEND_S", "EDGE_SHARE", "MIN_LOOP_SHARE", "held", "loop_span", "looped"]
+__all__ = ["BLEND_S", "EDGE_SHARE", "MIN_LOOP_SHARE", "REST_EASE_S", "held", "loop_span", "looped", "rested"]
 
 #: the repeated stretch spans at least this share of the clip
 MIN_LOOP_SHARE = 0.3
@@ -30,6 +30,8 @@ MIN_LOOP_SHARE = 0.3
 EDGE_SHARE = 0.1
 #: a loop spans a whole number of the action's periods within this share of one
 PERIOD_TOLERANCE = 0.15
+#: a request shorter than one cycle eases into the clip's rest pose over at most this long (s)
+REST_EASE_S = 0.3
 #: each repetition eases from where the clip would have gone on into its own frames over this
 #: long (s)
 BLEND_S = 0.2
@@ -131,3 +133,19 @@ def held(values: FloatArray, frames: int) -> FloatArray:
     if frames <= len(values):
         return values
     return np.vstack([values, np.repeat(values[-1:], frames - len(values), axis=0)])
+
+
+def rested(values: FloatArray, frames: int, frame_time: float) -> FloatArray:
+    """The first ``frames`` frames of ``values`` (T, D) ending on its rest pose (its last
+    frame, where the take ends): a request shorter than one cycle of the action starts it at
+    its own tempo and, over the last :data:`REST_EASE_S` (at most half the request), eases
+    into the rest pose along a minimum-jerk curve, rather than stopping mid-swing.
+    Unchanged when ``frames`` is not shorter than the clip."""
+    if frames >= len(values):
+        return values
+    out = values[: max(frames, 2)].copy()
+    ease = max(1, min(len(out) // 2, round(REST_EASE_S / frame_time)))
+    share = np.arange(1, ease + 1) / ease
+    weight = (share**3 * (10.0 - 15.0 * share + 6.0 * share**2))[:, None]
+    out[-ease:] = (1.0 - weight) * out[-ease:] + weight * values[-1]
+    return out
