@@ -151,8 +151,9 @@ def test_one_shot_generation_keeps_the_neighbours_tempo() -> None:
     library = starter_library()
     jerks = {}
     for timing in ("neighbours", "desired"):
-        motion = generate_motion(library, "arms_raised", "tired", duration=3.0,
-                                 params=GenerationParams(timing=timing)).motion
+        motion = generate_motion(
+            library, "arms_raised", "tired", duration=3.0, params=GenerationParams(timing=timing)
+        ).motion
         _check_clip(motion, 3.0)
         hands = motion.positions()[:, [motion.skeleton.index("Hand_L"), motion.skeleton.index("Hand_R")]]
         jerks[timing] = float(np.sqrt(np.mean(np.diff(hands, n=3, axis=0) ** 2)))
@@ -210,3 +211,15 @@ def test_changes_the_neighbours_never_make_are_bridged() -> None:
     out = retimed(np.array([0, 0, 3, 3, 2, 2]), neighbours, refill_stuck=True)
     assert out.tolist() == [0] * 4 + [1] * 2 + [2] * 2 + [3] * 2 + [2] * 2
     assert retimed(np.array([0, 0, 3, 3, 2, 2]), neighbours).tolist() == [0] * 4 + [3] * 2 + [2] * 2
+
+
+def test_a_continued_cycle_never_runs_into_the_neighbours_stop() -> None:
+    from mse.motion.lma_hmm.modulated import continue_cycle
+
+    # the neighbour cycles 1 -> 2 -> 3 -> 1 ... and ends its take in 4 then 5 (its stop,
+    # entered once): continued into them, a Bandai dash at 2x stood in state 5 for a second
+    neighbour = np.array([0, 0] + [1, 1, 2, 2, 3, 3] * 6 + [4, 4, 5, 5, 5], dtype=np.int_)
+    states = np.array([1, 1, 2, 2, 3, 3], dtype=np.int_)
+    continued = continue_cycle(states, [neighbour], 200)
+    assert len(continued) == 200
+    assert set(continued.tolist()) == {1, 2, 3}
