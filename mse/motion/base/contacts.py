@@ -309,41 +309,29 @@ def sharpened_support(weight: FloatArray) -> FloatArray:
     return np.clip(0.5 + (MIN_SUPPORT_SPREAD / spread) * (weight - 0.5), 0.0, 1.0)
 
 
-def _still_swinging(
-    velocity: FloatArray, landing: int, held: int, direction: FloatArray, below: float, leg: float
-) -> bool:
-    """Whether the point ``landing`` still swings forward (along ``direction``, against the
-    root) faster than the stance point ``held``, which is at most :data:`STANCE_DEFER_LIFT`
-    leg lengths above it: the stance waits (see there). ``velocity`` (K, 2) relative to the root."""
-    ahead = float(velocity[landing] @ direction)
-    return ahead > 0.0 and ahead > float(velocity[held] @ direction) and below <= STANCE_DEFER_LIFT * leg
+def _still_swinging(landing_ahead: float, held_ahead: float, below: float, leg: float) -> bool:
+    """Whether a landing foot point that still swings forward at ``landing_ahead`` (its
+    velocity against the root along the travel) faster than the stance point (``held_ahead``),
+    which is ``below`` above it, at most :data:`STANCE_DEFER_LIFT` leg lengths, is to wait."""
+    return landing_ahead > 0.0 and landing_ahead > held_ahead and below <= STANCE_DEFER_LIFT * leg
 
 
 def _carrying_forward(
-    velocity: FloatArray,
-    heights: FloatArray,
-    feet: Sequence[Sequence[int]],
-    foot_heights: FloatArray,
-    current: int,
-    direction: FloatArray,
-    leg: float,
+    ahead: Sequence[float], points: Sequence[int], foot_heights: Sequence[float], current: int, leg: float
 ) -> int:
     """The stance foot of one frame: ``current``, unless its pinned point swings forward
-    (along ``direction``, against the root: the root would move back) while another foot,
-    at most :data:`STANCE_DEFER_LIFT` leg lengths above it, carries the body forward (both
-    feet down and scissoring apart, as generated legs do; see there). ``velocity`` (K, 2)
-    relative to the root, ``heights`` (K,), ``foot_heights`` (feet,)."""
-    held = feet[current][int(np.argmin(heights[list(feet[current])]))]
-    best, best_ahead = current, float(velocity[held] @ direction)
+    (against the root along the travel: the root would move back) while another foot, at most
+    :data:`STANCE_DEFER_LIFT` leg lengths above it, carries the body forward (both feet down
+    and scissoring apart, as generated legs do; see there). ``ahead`` (per point): velocity
+    against the root along the travel; ``points`` (per foot): its lowest point."""
+    best, best_ahead = current, ahead[points[current]]
     if best_ahead <= 0.0:
         return current
-    for foot, points in enumerate(feet):
+    for foot, point in enumerate(points):
         if foot == current or foot_heights[foot] - foot_heights[current] > STANCE_DEFER_LIFT * leg:
             continue
-        point = points[int(np.argmin(heights[list(points)]))]
-        ahead = float(velocity[point] @ direction)
-        if ahead < 0.0 and ahead < best_ahead:
-            best, best_ahead = foot, ahead
+        if ahead[point] < 0.0 and ahead[point] < best_ahead:
+            best, best_ahead = foot, ahead[point]
     return best
 
 
@@ -387,28 +375,34 @@ def root_track(
     foot_heights = np.stack([heights[:, g].min(axis=1) for g in feet], axis=1)  # (T, feet)
     velocity = np.gradient(points[:, :, [0, 2]], axis=0) / frame_time if frames > 1 else np.zeros((frames, count, 2))
 
+    # per frame: each foot's lowest point, the lowest foot (lists: the loop below is per frame)
+    lowest_points = (
+        np.stack([np.asarray(g)[np.argmin(heights[:, g], axis=1)] for g in feet], axis=1).tolist() if frames else []
+    )
+    lowest_foot = np.argmin(foot_heights, axis=1).tolist() if frames else []
+    heights_of_feet = foot_heights.tolist()
+
     def stepped(travel: FloatArray | None) -> FloatArray:
         """The root's horizontal step in each frame (T, 2); ``travel`` (T, 2): the directions
         of travel, for the stance rules of :data:`STANCE_DEFER_LIFT`."""
         pinned = np.empty(frames, dtype=np.int_)
         on = np.empty(frames, dtype=np.int_)  # the stance foot
-        current = int(np.argmin(foot_heights[0])) if frames else 0
+        current = lowest_foot[0] if frames else 0
+        ahead = np.einsum("tkd,td->tk", velocity, travel).tolist() if travel is not None else []
         for t in range(frames):
-            lowest = int(np.argmin(foot_heights[t]))
-            below = foot_heights[t, current] - foot_heights[t, lowest]
+            lowest = lowest_foot[t]
+            below = heights_of_feet[t][current] - heights_of_feet[t][lowest]
             if below > margin and lowest != current:
-                held = feet[current][int(np.argmin(heights[t, feet[current]]))]
-                landing = feet[lowest][int(np.argmin(heights[t, feet[lowest]]))]
+                held, landing = lowest_points[t][current], lowest_points[t][lowest]
                 through = float(np.linalg.norm(velocity[t, landing] - velocity[t, held])) >= scuff * leg
-                if (not through or below > SCUFF_LIFT * leg) and not (
-                    travel is not None and _still_swinging(velocity[t], landing, held, travel[t], below, leg)
-                ):
+                waits = bool(ahead) and _still_swinging(ahead[t][landing], ahead[t][held], below, leg)
+                if (not through or below > SCUFF_LIFT * leg) and not waits:
                     current = lowest
-            if travel is not None:
-                current = _carrying_forward(velocity[t], heights[t], feet, foot_heights[t], current, travel[t], leg)
+            if ahead:
+                current = _carrying_forward(ahead[t], lowest_points[t], heights_of_feet[t], current, leg)
             on[t] = current
             # within the stance foot, its lowest point (heel, then toes as the foot rolls)
-            pinned[t] = feet[current][int(np.argmin(heights[t, feet[current]]))]
+            pinned[t] = lowest_points[t][current]
         stance = _blend(np.eye(count)[pinned], blend_s / frame_time)
         moves = np.zeros((frames, count, 2))
         moves[1:] = -np.diff(points[:, :, [0, 2]], axis=0)
