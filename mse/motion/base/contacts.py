@@ -282,8 +282,8 @@ def travel_directions(steps: FloatArray, frame_time: float, leg: float) -> Float
     after = known[np.clip(np.searchsorted(known, frame), 0, len(known) - 1)]
     before = known[np.clip(np.searchsorted(known, frame) - 1, 0, len(known) - 1)]
     nearest = np.where(np.abs(before - frame) < np.abs(after - frame), before, after)
-    directions = mean[nearest] / speed[nearest, None]
-    return directions
+    result: FloatArray = mean[nearest] / speed[nearest, None]
+    return result
 
 
 def support(motion: Motion) -> FloatArray:
@@ -406,7 +406,7 @@ def root_track(
         stance = _blend(np.eye(count)[pinned], blend_s / frame_time)
         moves = np.zeros((frames, count, 2))
         moves[1:] = -np.diff(points[:, :, [0, 2]], axis=0)
-        steps = np.sum(stance[:, :, None] * moves, axis=1)
+        steps: FloatArray = np.sum(stance[:, :, None] * moves, axis=1)
         if hysteresis > 0 and double_support_s > 0:
             reach = max(1, round(double_support_s / frame_time))
             steps = _double_support(steps, foot_heights, on, DOUBLE_SUPPORT_BAND * leg, reach)
