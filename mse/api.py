@@ -28,16 +28,7 @@ from mse.resources import SEARCH_PATH_VARIABLE, named_set, named_sets
 from mse.timeline import Timeline
 
 __all__ = [
-    "check",
-    "compile_source",
-    "expand_paths",
-    "learn",
-    "lint",
-    "load",
-    "loads",
-    "loads_ir",
-    "repair",
-    "resolve_path",
+    "check", "compile_source", "expand_paths", "learn", "lint", "load", "loads", "loads_ir", "repair", "resolve_path",
 ]
 
 # The XML reader, the grammar and the IR builder (lxml, lark) are imported inside the

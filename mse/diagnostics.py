@@ -96,7 +96,7 @@ CODES: dict[str, str] = {
     "W308": "lexeme the realizer cannot resolve",
     "W309": "time finer than the 1 ms grid (rounded)",
     "W310": "motion action unknown to the starter library",
-    "W311": 'max_occurrences without repetitivity="1"',
+    "W311": "max_occurrences without repetitivity=\"1\"",
     "W312": "exclusive modality that no signal uses",
     "N313": "constraint anchored to the agent's speech (sampling and checking need speech)",
     # E4xx / W4xx: solver-backed lint

@@ -29,9 +29,8 @@ class MissingExtra(ImportError):
 
     def __init__(self, extra: str, module: str) -> None:
         self.extra = extra
-        super().__init__(
-            f"this needs the {extra!r} extra (no module {module!r}): pip install 'mse[{extra}]'", name=module
-        )
+        super().__init__(f"this needs the {extra!r} extra (no module {module!r}): pip install 'mse[{extra}]'",
+                         name=module)
 
 
 @contextlib.contextmanager

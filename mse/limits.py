@@ -65,7 +65,6 @@ def solve_duration_problem(value: float) -> str | None:
         return f"must be in [{MIN_DURATION_SECONDS:g}, {MAX_SOLVE_SECONDS:g}] seconds (the 1 ms grid)"
     return None
 
-
 # -- motion -------------------------------------------------------------------------------
 #: Longest motion generated for one occurrence or one ``style synth`` clip (seconds).
 MAX_MOTION_SECONDS = 600.0

@@ -225,9 +225,8 @@ def iter_timelines(
     return _solved(backend, model, request, solver)
 
 
-def _checked(
-    duration: float, seed: int | None, count: int, solver: str, mode: str, options: SampleOptions
-) -> tuple[Solver, SolveRequest]:
+def _checked(duration: float, seed: int | None, count: int, solver: str, mode: str,
+             options: SampleOptions) -> tuple[Solver, SolveRequest]:
     """The backend and the request, both checked (a bad option raises here, at the call)."""
     backend = get_solver(solver)
     request = _request(duration, seed, count, mode, options)
@@ -244,9 +243,8 @@ def _solved(backend: Solver, model: Model, request: SolveRequest, solver: str) -
             steps.update()
 
 
-def _timeline(
-    model: Model, request: SolveRequest, solver: str, source: Mapping[str, str] | None, index: int, solution: Solution
-) -> Timeline:
+def _timeline(model: Model, request: SolveRequest, solver: str, source: Mapping[str, str] | None, index: int,
+              solution: Solution) -> Timeline:
     """The timeline of ``solution``, recording how it was made and where its model came from."""
     extra: dict[str, Any] = {"mode": request.mode}
     if solution.method is not None:  # how the default solver made it: "walk" or its fallback
@@ -255,14 +253,8 @@ def _timeline(
         extra["source"] = dict(source)
     if request.diverse:
         extra["diverse"] = {"seed": request.seed, "index": index}
-    timeline = from_schedule(
-        solution.schedule,
-        expression=model.name,
-        signal_info=model.signal_info,
-        solver=solver,
-        seed=solution.seed,
-        motions=model.motion_annotations,
-    )
+    timeline = from_schedule(solution.schedule, expression=model.name, signal_info=model.signal_info,
+                             solver=solver, seed=solution.seed, motions=model.motion_annotations)
     return replace(timeline, extra=extra)
 
 
@@ -326,11 +318,5 @@ def explain(
     """
     from mse.solve.cpsat.explain import explain as explain_model
 
-    return explain_model(
-        model,
-        float(duration),
-        pinned=_pins_option(pinned),
-        require=_names_option(require),
-        forbid=_names_option(forbid),
-        time_limit=time_limit,
-    )
+    return explain_model(model, float(duration), pinned=_pins_option(pinned), require=_names_option(require),
+                         forbid=_names_option(forbid), time_limit=time_limit)

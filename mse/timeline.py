@@ -137,13 +137,8 @@ class Timeline:
         if self.episodes:
             return self
         episode: dict[str, Any] = {
-            "index": 0,
-            "emotion": self.expression,
-            "start": 0.0,
-            "stop": round(self.duration, 3),
-            "announced": True,
-            "interrupted": False,
-            "intensity": 1.0,
+            "index": 0, "emotion": self.expression, "start": 0.0, "stop": round(self.duration, 3),
+            "announced": True, "interrupted": False, "intensity": 1.0,
         }
         if self.source is not None:
             episode["source"] = dict(self.source)
@@ -190,11 +185,8 @@ class Timeline:
             duration=second.duration,
             signals=tuple(signals),
             seed=first.seed,
-            extra={
-                **first.extra,
-                "episodes": [*first.episodes, *renumbered],
-                "utterances": [*first.utterances, *second.utterances],
-            },
+            extra={**first.extra, "episodes": [*first.episodes, *renumbered],
+                   "utterances": [*first.utterances, *second.utterances]},
         )
 
     def to_json(self) -> dict[str, Any]:
@@ -304,9 +296,8 @@ def _dialogue_fields(entry: Mapping[str, Any], position: int, fail: Any) -> dict
     phases = [entry.get(key) for key in ("intensity", "attack", "sustain", "release")]
     if any(value is not None for value in phases):
         if not all(_is_number(value) and value >= 0 for value in phases):
-            raise fail(
-                f"signals[{position}] needs 'intensity', 'attack', 'sustain' and 'release' (numbers >= 0) together"
-            )
+            raise fail(f"signals[{position}] needs 'intensity', 'attack', 'sustain' and 'release' (numbers >= 0) "
+                       "together")
         fields["envelope"] = Envelope(*(float(value) for value in phases if _is_number(value)))
     planned = entry.get("planned_stop")
     if planned is not None:

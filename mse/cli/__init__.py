@@ -70,10 +70,8 @@ def main(argv: Sequence[str] | None = None) -> int:
         with recording_reads():  # no output may replace a file the command read (mse/fileio.py)
             return int(handler(args))
     except MissingExtra as missing:  # an optional part that is not installed (mse/extras.py)
-        print(
-            f"error: mse {args.command} needs the {missing.extra!r} extra: pip install 'mse[{missing.extra}]'",
-            file=sys.stderr,
-        )
+        print(f"error: mse {args.command} needs the {missing.extra!r} extra: pip install 'mse[{missing.extra}]'",
+              file=sys.stderr)
         return 1
     except KeyboardInterrupt:
         print(INTERRUPTED, file=sys.stderr)
@@ -149,10 +147,8 @@ def _stdout_error(error: OSError) -> int:
 
     from mse.diagnostics import Diagnostic, Span
 
-    print(
-        Diagnostic("E105", f"cannot write output: {error.strerror or error}", Span("<stdout>")).render(),
-        file=sys.stderr,
-    )
+    print(Diagnostic("E105", f"cannot write output: {error.strerror or error}", Span("<stdout>")).render(),
+          file=sys.stderr)
     with contextlib.suppress(OSError, ValueError, AttributeError):
         devnull = os.open(os.devnull, os.O_WRONLY)
         os.dup2(devnull, sys.stdout.fileno())

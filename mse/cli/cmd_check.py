@@ -23,14 +23,12 @@ def register(subparsers: Any) -> None:
         "on stdout (--format json: one report object); exit 1 if any. A dialogue's timeline "
         "(mse live) is checked episode by episode, each against its own set: 'mse check dialogue.json'.",
     )
-    parser.add_argument(
-        "source", help="a behaviour-set file or a bundled expression name (or, alone, a dialogue's timeline)"
-    )
+    parser.add_argument("source", help="a behaviour-set file or a bundled expression name (or, alone, a "
+                        "dialogue's timeline)")
     parser.add_argument("timeline", nargs="?", help="timeline JSON file ('-' for stdin)")
     parser.add_argument("-q", "--quiet", action="store_true", help="print nothing when consistent")
-    parser.add_argument(
-        "--speech", metavar="FILE", help="the agent's speech for speech anchors (default: each timeline's 'utterances')"
-    )
+    parser.add_argument("--speech", metavar="FILE",
+                        help="the agent's speech for speech anchors (default: each timeline's 'utterances')")
     parser.add_argument(
         "--format",
         choices=("text", "json"),
@@ -51,10 +49,8 @@ def run(args: argparse.Namespace) -> int:
         timelines = read_timelines(args.timeline)
         if any(t.episodes for t in timelines):
             where = "<stdin>" if args.timeline == "-" else args.timeline
-            message = (
-                f"this is a dialogue's timeline (episodes, each with its own set): check it alone, "
-                f"'mse check {args.timeline}'"
-            )
+            message = (f"this is a dialogue's timeline (episodes, each with its own set): check it alone, "
+                       f"'mse check {args.timeline}'")
             raise MseError([Diagnostic("E100", message, Span(where))])
         speech = read_speech(args.speech) if args.speech else None
         models = [timeline_speech(model, timeline, speech, args.timeline) for timeline in timelines]
@@ -90,10 +86,8 @@ def _run_dialogue(args: argparse.Namespace) -> int:
         timelines = read_timelines(path)
         if not all(t.episodes for t in timelines):
             where = "<stdin>" if path == "-" else path
-            message = (
-                "this timeline has no episodes: give the behaviour set first "
-                f"('mse check SET {path}'); a dialogue's timeline (mse live) is checked alone"
-            )
+            message = ("this timeline has no episodes: give the behaviour set first "
+                       f"('mse check SET {path}'); a dialogue's timeline (mse live) is checked alone")
             raise MseError([Diagnostic("E100", message, Span(where))])
         loader = model_loader()
         found = [check_dialogue(t, loader) for t in timelines]
@@ -102,21 +96,13 @@ def _run_dialogue(args: argparse.Namespace) -> int:
     failing = sum(1 for violations in found if violations)
     if args.format == "json":
         results = [
-            {
-                "index": n + 1,
-                "episodes": len(t.episodes),
-                "consistent": not violations,
-                "violations": [
-                    {**_json([v.violation])[0], "episode": v.episode, "emotion": v.emotion} for v in violations
-                ],
-            }
+            {"index": n + 1, "episodes": len(t.episodes), "consistent": not violations,
+             "violations": [{**_json([v.violation])[0], "episode": v.episode, "emotion": v.emotion}
+                            for v in violations]}
             for n, (t, violations) in enumerate(zip(timelines, found, strict=True))
         ]
-        print(
-            json.dumps(
-                {"timelines": len(timelines), "consistent": len(timelines) - failing, "results": results}, indent=2
-            )
-        )
+        print(json.dumps({"timelines": len(timelines), "consistent": len(timelines) - failing, "results": results},
+                         indent=2))
     else:
         for n, violations in enumerate(found):
             label = f" [timeline {n + 1}]" if len(timelines) > 1 else ""
@@ -125,10 +111,8 @@ def _run_dialogue(args: argparse.Namespace) -> int:
         if not args.quiet:
             episodes = sum(len(t.episodes) for t in timelines)
             bad = sum(len({v.episode for v in violations}) for violations in found)
-            print(
-                f"{len(timelines) - failing} of {len(timelines)} dialogue(s) consistent "
-                f"({episodes - bad} of {episodes} episodes)"
-            )
+            print(f"{len(timelines) - failing} of {len(timelines)} dialogue(s) consistent "
+                  f"({episodes - bad} of {episodes} episodes)")
     return 1 if failing else 0
 
 
@@ -151,18 +135,12 @@ def _say_rounded(timeline: Any, label: str, path: str) -> None:
     """Times are checked on the 1 ms grid of the semantics: say so when that rounds any."""
     from mse.ir.schedule import to_ticks
 
-    off = [
-        (signal, edge, value)
-        for signal in timeline.signals
-        for edge, value in (("start", signal.start), ("stop", signal.stop))
-        if abs(value * 1000 - to_ticks(value)) > 1e-6
-    ]
+    off = [(signal, edge, value) for signal in timeline.signals
+           for edge, value in (("start", signal.start), ("stop", signal.stop))
+           if abs(value * 1000 - to_ticks(value)) > 1e-6]
     if off:
         signal, edge, value = off[0]
         more = f" (and {len(off) - 1} more)" if len(off) > 1 else ""
         where = "<stdin>" if path == "-" else path
-        print(
-            f"{where}: W309 [{label}] {signal.id} {edge} {value:g} s is finer than the 1 ms grid of the "
-            f"semantics; checked as {to_ticks(value) / 1000:g} s{more}",
-            file=sys.stderr,
-        )
+        print(f"{where}: W309 [{label}] {signal.id} {edge} {value:g} s is finer than the 1 ms grid of the "
+              f"semantics; checked as {to_ticks(value) / 1000:g} s{more}", file=sys.stderr)

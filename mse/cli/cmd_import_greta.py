@@ -21,22 +21,17 @@ def register(subparsers: Any) -> None:
         "import-greta",
         help="convert Greta's MSE behaviour sets (lexicon.xml + constraint.xml) to native files",
         description="Convert Greta's MSE behaviour sets to native MSE files, one per emotion "
-        '(OUTDIR/<emotion>.xml). Every <behaviorset type="mse"> of lexicon.xml is paired with '
+        "(OUTDIR/<emotion>.xml). Every <behaviorset type=\"mse\"> of lexicon.xml is paired with "
         "the <multimodal emotion> of constraint.xml of the same name (a near match is paired with "
         "a W501 warning); a construct approximated in the conversion is a W502 warning at its "
         "file:line. Greta's data is GPL/LGPL: do not commit the converted files.",
     )
-    parser.add_argument(
-        "files", nargs="*", metavar="FILE", help="Greta's lexicon.xml and constraint.xml, in that order"
-    )
-    parser.add_argument("--legacy", metavar="EXAMPLE", help="read the legacy all-in-one example.xml instead")
-    parser.add_argument(
-        "-o",
-        "--output",
-        required=True,
-        metavar="OUTDIR",
-        help="folder for the <emotion>.xml files (created if missing)",
-    )
+    parser.add_argument("files", nargs="*", metavar="FILE",
+                        help="Greta's lexicon.xml and constraint.xml, in that order")
+    parser.add_argument("--legacy", metavar="EXAMPLE",
+                        help="read the legacy all-in-one example.xml instead")
+    parser.add_argument("-o", "--output", required=True, metavar="OUTDIR",
+                        help="folder for the <emotion>.xml files (created if missing)")
     parser.set_defaults(handler=run)
 
 
@@ -56,11 +51,8 @@ def run(args: argparse.Namespace) -> int:
         print_diagnostics(argument_error(usage).diagnostics)
         return 2
     try:
-        report = (
-            import_greta_legacy_report(args.legacy)
-            if args.legacy is not None
-            else import_greta_report(files[0], files[1])
-        )
+        report = (import_greta_legacy_report(args.legacy) if args.legacy is not None
+                  else import_greta_report(files[0], files[1]))
     except MseError as error:
         for diagnostic in error.diagnostics:
             print(diagnostic.render(), file=sys.stderr)
@@ -74,11 +66,9 @@ def run(args: argparse.Namespace) -> int:
             for expression in report.expressions:
                 write_atomic(staging / f"{expression.name}.xml", expression.xml)
         for expression in report.expressions:
-            print(
-                f"{output / f'{expression.name}.xml'}: {expression.signal_count} signals, "
-                f"{expression.constraint_count} constraints, "
-                f"{len(expression.diagnostics)} warnings"
-            )
+            print(f"{output / f'{expression.name}.xml'}: {expression.signal_count} signals, "
+                  f"{expression.constraint_count} constraints, "
+                  f"{len(expression.diagnostics)} warnings")
     except MseError as error:
         for diagnostic in error.diagnostics:
             print(diagnostic.render(), file=sys.stderr)

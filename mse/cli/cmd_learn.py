@@ -24,38 +24,22 @@ def register(subparsers: Any) -> None:
     )
     parser.add_argument("inputs", nargs="+", help=".eaf, .csv/.tsv, .json/.jsonl files or folders")
     add_quiet(parser)
-    parser.add_argument(
-        "--tiers",
-        help="tiers to read, each TIER or TIER=MODALITY (e.g. face,'Gaze R=gaze'); "
-        "default: every tier, its name as modality",
-    )
-    parser.add_argument(
-        "--mapping",
-        metavar="FILE",
-        help="TOML file with [tiers] (tier = modality) and [labels] (annotation value = signal id)",
-    )
+    parser.add_argument("--tiers", help="tiers to read, each TIER or TIER=MODALITY (e.g. face,'Gaze R=gaze'); "
+                        "default: every tier, its name as modality")
+    parser.add_argument("--mapping", metavar="FILE", help="TOML file with [tiers] (tier = modality) and "
+                        "[labels] (annotation value = signal id)")
     parser.add_argument("--name", help="expression name (default: the first input's name)")
     parser.add_argument("-o", "--output", help="write the behaviour set here (atomically) instead of stdout")
-    parser.add_argument(
-        "--confidence",
-        type=float,
-        default=0.95,
-        help="least fraction of the sequences where a rule is tested in which it holds (default 0.95)",
-    )
-    parser.add_argument(
-        "--min-support", type=int, default=10, help="least number of sequences where a rule is tested (default 10)"
-    )
-    parser.add_argument(
-        "--significance",
-        type=float,
-        default=0.001,
-        help="largest chance of seeing the evidence if the signals were independent (default 0.001)",
-    )
+    parser.add_argument("--confidence", type=float, default=0.95,
+                        help="least fraction of the sequences where a rule is tested in which it holds (default 0.95)")
+    parser.add_argument("--min-support", type=int, default=10,
+                        help="least number of sequences where a rule is tested (default 10)")
+    parser.add_argument("--significance", type=float, default=0.001,
+                        help="largest chance of seeing the evidence if the signals were independent (default 0.001)")
     parser.add_argument("--no-calibrate", action="store_true", help="keep the raw probability estimates")
     parser.add_argument("--seed", type=int, default=0, help="seed of the calibration samples (default 0)")
-    parser.add_argument(
-        "--report", metavar="FILE", help="write the evidence, dropped rules and breaking sequences as JSON"
-    )
+    parser.add_argument("--report", metavar="FILE", help="write the evidence, dropped rules and breaking "
+                        "sequences as JSON")
     parser.set_defaults(handler=run)
 
 
@@ -79,15 +63,8 @@ def _mapping(args: argparse.Namespace) -> Any:
                 problem = _name_problem(value)
                 if problem:
                     what = "modality" if table == "tiers" else "signal id"
-                    raise MseError(
-                        [
-                            Diagnostic(
-                                "E100",
-                                f"[{table}] {key[:60]!r} = {value[:60]!r}: the {what} {problem}",
-                                Span(args.mapping, _line_of(text, key), 1),
-                            )
-                        ]
-                    )
+                    raise MseError([Diagnostic("E100", f"[{table}] {key[:60]!r} = {value[:60]!r}: the {what} {problem}",
+                                               Span(args.mapping, _line_of(text, key), 1))])
             target.update(entries)
     listed = bool(args.tiers) or bool(tiers)
     for item in (args.tiers or "").split(","):
@@ -169,16 +146,12 @@ def run(args: argparse.Namespace) -> int:
 def _summary(result: Any) -> None:
     corpus = result.corpus
     broken = sorted({b.sequence for b in result.breaks})
-    print(
-        f"mse learn: {len(result.model.signals)} signals, {len(result.model.constraints)} constraints "
-        f"({len(result.redundant)} candidate rules dropped as redundant or explained) from "
-        f"{len(corpus.sequences)} sequences; {len(broken)} sequences break a learned rule",
-        file=sys.stderr,
-    )
+    print(f"mse learn: {len(result.model.signals)} signals, {len(result.model.constraints)} constraints "
+          f"({len(result.redundant)} candidate rules dropped as redundant or explained) from "
+          f"{len(corpus.sequences)} sequences; {len(broken)} sequences break a learned rule", file=sys.stderr)
     for found in result.breaks[:20]:
-        print(
-            f"{found.span.render()}: sequence {found.sequence!r} breaks {found.rule}: {found.message}", file=sys.stderr
-        )
+        print(f"{found.span.render()}: sequence {found.sequence!r} breaks {found.rule}: {found.message}",
+              file=sys.stderr)
     if len(result.breaks) > 20:
         print(f"... and {len(result.breaks) - 20} more (see --report)", file=sys.stderr)
 
@@ -187,16 +160,8 @@ def _report(result: Any) -> dict[str, Any]:
     from mse.ir.printer import expr_text
 
     def rule(r: Any) -> dict[str, Any]:
-        return {
-            "id": r.id,
-            "kind": r.kind,
-            "constraint": expr_text(r.expr),
-            "support": r.support,
-            "holds": r.holds,
-            "confidence": r.confidence,
-            "baseline": r.baseline,
-            "p_value": r.p_value,
-        }
+        return {"id": r.id, "kind": r.kind, "constraint": expr_text(r.expr), "support": r.support,
+                "holds": r.holds, "confidence": r.confidence, "baseline": r.baseline, "p_value": r.p_value}
 
     return {
         "sequences": len(result.corpus.sequences),
@@ -204,9 +169,7 @@ def _report(result: Any) -> dict[str, Any]:
         "signals": {s.signal.id: s.evidence for s in result.signals},
         "rules": [rule(r) for r in result.rules],
         "dropped": [{**rule(r), "reason": reason} for r, reason in result.redundant],
-        "breaks": [
-            {"sequence": b.sequence, "where": b.span.render(), "rule": b.rule, "message": b.message}
-            for b in result.breaks
-        ],
+        "breaks": [{"sequence": b.sequence, "where": b.span.render(), "rule": b.rule, "message": b.message}
+                   for b in result.breaks],
         "calibration": result.calibration,
     }

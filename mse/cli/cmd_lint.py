@@ -40,10 +40,7 @@ def register(subparsers: Any) -> None:
         "--duration", type=float, default=10.0, help="timeline duration for the solver-backed rules (default 10 s)"
     )
     parser.add_argument(
-        "--deep-budget",
-        type=float,
-        default=4.0,
-        metavar="SECONDS",
+        "--deep-budget", type=float, default=4.0, metavar="SECONDS",
         help="CPU seconds per file for the solver-backed questions (default 4; whether a timeline exists is "
         "always answered; questions left are listed in a W400 note); 0: no limit",
     )

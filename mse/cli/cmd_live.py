@@ -11,22 +11,8 @@ from typing import Any
 from mse.cli.common import add_quiet, emit, print_error
 from mse.diagnostics import MseError, argument_error
 
-FORMATS = (
-    "json",
-    "table",
-    "bml",
-    "greta-bml",
-    "svg",
-    "html",
-    "eaf",
-    "openface",
-    "arkit",
-    "arkit-json",
-    "vrma",
-    "mp4",
-    "webm",
-    "gif",
-)
+FORMATS = ("json", "table", "bml", "greta-bml", "svg", "html", "eaf", "openface", "arkit", "arkit-json", "vrma",
+           "mp4", "webm", "gif")
 REALIZERS = ("generic", "greta", "asap")
 
 
@@ -34,30 +20,24 @@ def register(subparsers: Any) -> None:
     parser = subparsers.add_parser(
         "live",
         help="plan a dialogue script (emotion changes, utterances) into one multi-episode timeline",
-        description='Read a dialogue script (JSON Lines: {"t": 0, "emotion": "anger", "until": 3.7}, '
-        '{"t": 0.4, "say": "..."}, {"t": 8.7, "end": true}) and plan each episode as it comes into '
+        description="Read a dialogue script (JSON Lines: {\"t\": 0, \"emotion\": \"anger\", \"until\": 3.7}, "
+        "{\"t\": 0.4, \"say\": \"...\"}, {\"t\": 8.7, \"end\": true}) and plan each episode as it comes into "
         "one timeline; --format gives every export of the whole dialogue. Exit 1 on bad input (nothing written).",
     )
     parser.add_argument("script", help="dialogue script: JSON Lines ('-' for stdin), FML-APML or EmotionML")
     parser.add_argument("-o", "--output", help="write to this file (atomically) instead of stdout")
-    parser.add_argument(
-        "--format", choices=FORMATS, help="output format (default: from the -o file's extension, else json)"
-    )
+    parser.add_argument("--format", choices=FORMATS,
+                        help="output format (default: from the -o file's extension, else json)")
     parser.add_argument("--seed", type=int, help="random seed (default: fresh; recorded in the output)")
-    parser.add_argument(
-        "--horizon",
-        type=float,
-        default=10.0,
-        help="seconds planned at once for an episode whose end is not announced (default 10)",
-    )
+    parser.add_argument("--horizon", type=float, default=10.0,
+                        help="seconds planned at once for an episode whose end is not announced (default 10)")
     add_quiet(parser)
     out = parser.add_argument_group("export")
     out.add_argument("--face-library", metavar="FILE", help="Greta face library for FACS export")
     out.add_argument("--bml-extensions", action="store_true", help="BML: faces as FACS action units")
     out.add_argument("--character-id", default="Agent", help="BML characterId (default Agent)")
-    out.add_argument(
-        "--realizer", choices=REALIZERS, help="BML for this realizer (default: generic for bml, greta for greta-bml)"
-    )
+    out.add_argument("--realizer", choices=REALIZERS, help="BML for this realizer (default: generic for bml, "
+                     "greta for greta-bml)")
     out.add_argument("--library-dir", metavar="DIR", help="the realizer's libraries (Greta's BehaviorLexicon folder)")
     from mse.cli.cmd_render import add_bml_block_arguments, add_face_arguments, add_video_arguments
 
@@ -102,3 +82,6 @@ def run(args: argparse.Namespace) -> int:
     except MseError as error:
         return print_error(error)
     return 0
+
+
+

@@ -42,7 +42,8 @@ def run(args: argparse.Namespace) -> int:
             emit(json.dumps(payload, indent=2, allow_nan=False) + "\n", args.output, inputs=args.clip)
         else:
             blocks = [
-                (f"{path}\n" if len(results) > 1 else "") + format_text(features) for path, features in results.items()
+                (f"{path}\n" if len(results) > 1 else "") + format_text(features)
+                for path, features in results.items()
             ]
             emit("\n".join(blocks), args.output, inputs=args.clip)
     except MseError as error:

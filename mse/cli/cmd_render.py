@@ -64,11 +64,8 @@ def add_bml_block_arguments(parser: argparse.ArgumentParser | argparse._Argument
         default="MERGE",
         help="BML block composition: how the realizer combines it with the blocks it is playing (default MERGE)",
     )
-    parser.add_argument(
-        "--bml-id",
-        metavar="ID",
-        help="the BML block id (default: bml_<expression>; a dialogue's carries its seed and length)",
-    )
+    parser.add_argument("--bml-id", metavar="ID", help="the BML block id (default: bml_<expression>; a dialogue's "
+                        "carries its seed and length)")
 
 
 def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:

@@ -26,27 +26,14 @@ def register(subparsers: Any) -> None:
     parser.add_argument("source", help="a behaviour-set file or a bundled expression name")
     parser.add_argument("proposal", help="the proposal file ('-' for stdin)")
     parser.add_argument("-o", "--output", help="the repaired timeline (default: stdout)")
-    parser.add_argument(
-        "--keep",
-        action="extend",
-        nargs="+",
-        default=[],
-        metavar="ID",
-        help="signal ids or occurrence ids whose proposed occurrences must not be dropped",
-    )
-    parser.add_argument(
-        "--duration",
-        type=float,
-        default=None,
-        help="timeline length in seconds when the proposal gives none "
-        "(default: where its last occurrence or word ends)",
-    )
+    parser.add_argument("--keep", action="extend", nargs="+", default=[], metavar="ID",
+                        help="signal ids or occurrence ids whose proposed occurrences must not be dropped")
+    parser.add_argument("--duration", type=float, default=None,
+                        help="timeline length in seconds when the proposal gives none "
+                        "(default: where its last occurrence or word ends)")
     parser.add_argument("--report", metavar="PATH", help="also write the report as JSON ('-': stdout)")
-    parser.add_argument(
-        "--strict",
-        action="store_true",
-        help="an occurrence naming no signal of the set is an error (exit 1), not a warning",
-    )
+    parser.add_argument("--strict", action="store_true",
+                        help="an occurrence naming no signal of the set is an error (exit 1), not a warning")
     parser.add_argument("--time-limit", type=float, default=10.0, help="CP-SAT time limit in seconds (default 10)")
     parser.add_argument("--workers", type=int, default=1, help="CP-SAT search workers (default 1: reproducible)")
     add_quiet(parser)
@@ -86,12 +73,8 @@ def run(args: argparse.Namespace) -> int:
         text = decode_utf8(read_input(args.proposal, what="proposal"), where, code=CODE, what="proposal")
         proposal = as_proposal(model, text, duration=args.duration, path=where)
         if args.strict and proposal.foreign:
-            raise MseError(
-                [
-                    Diagnostic(CODE, f"{o.describe()} names no signal of {model.name!r}", o.span)
-                    for o in proposal.foreign
-                ]
-            )
+            raise MseError([Diagnostic(CODE, f"{o.describe()} names no signal of {model.name!r}", o.span)
+                            for o in proposal.foreign])
         result = repair(model, proposal, keep=args.keep, time_limit=args.time_limit, workers=args.workers)
     except NoRepair as failure:
         print_diagnostics(failure.diagnostics)

@@ -43,17 +43,12 @@ def register(subparsers: Any) -> None:
     parser.add_argument("--seed", type=int, help="random seed (default: fresh; recorded in the output)")
     parser.add_argument("-n", "--count", type=int, help="number of timelines (seeds seed, seed+1, ...)")
     parser.add_argument(
-        "--format",
-        choices=SAMPLE_FORMATS,
+        "--format", choices=SAMPLE_FORMATS,
         help="table on a terminal, else json; without it, -o's suffix decides (.json .jsonl .bml .svg .html .eaf .mp4 "
-        ".webm .gif)",
+        ".webm .gif)"
     )
-    parser.add_argument(
-        "-o",
-        "--output",
-        help="write to this file (atomically) instead of stdout; with --count and "
-        "an export format, a folder (ending in '/') receives one file per timeline",
-    )
+    parser.add_argument("-o", "--output", help="write to this file (atomically) instead of stdout; with --count and "
+                        "an export format, a folder (ending in '/') receives one file per timeline")
     parser.add_argument(
         "--solver",
         choices=("greedy", "cpsat", "csp"),
@@ -68,20 +63,13 @@ def register(subparsers: Any) -> None:
         help="consistent (default) or constraint-less: ignore the constraints, the paper's control condition",
     )
     parser.add_argument("--stream", action="store_true", help="print each signal as a JSON line once decided")
-    parser.add_argument(
-        "--speech",
-        metavar="FILE",
-        help="the agent's speech (JSON: start, stop, words, stress) for speech.start, "
-        "speech.stop and stressed in constraints",
-    )
+    parser.add_argument("--speech", metavar="FILE",
+                        help="the agent's speech (JSON: start, stop, words, stress) for speech.start, "
+                        "speech.stop and stressed in constraints")
     parser.add_argument("--realtime", action="store_true", help="with --stream: pace the lines to the clock")
     parser.add_argument("--slot", type=float, help="greedy: time-stamp length in seconds (default about 1)")
-    parser.add_argument(
-        "--max-restarts",
-        type=int,
-        default=20,
-        help="greedy: backtracks without progress before the CP-SAT fallback (default 20)",
-    )
+    parser.add_argument("--max-restarts", type=int, default=20,
+                        help="greedy: backtracks without progress before the CP-SAT fallback (default 20)")
     wanted = parser.add_argument_group("requests", "A solver that cannot honour a request refuses it and says so.")
     pin_help = "SIG occurs from START to STOP seconds (repeatable)"
     wanted.add_argument("--pin", action="append", default=[], metavar="SIG@START-STOP", help=pin_help)
@@ -97,12 +85,8 @@ def register(subparsers: Any) -> None:
         "timeline; random: ignore the probabilities; most-signals/fewest-signals: as many/few signals as possible",
     )
     exact.add_argument("--diverse", action="store_true", help="with --count: maximally different timelines")
-    exact.add_argument(
-        "--time-limit",
-        type=float,
-        default=10.0,
-        help="seconds per timeline, and per window of the rolling horizon of a long one (default 10)",
-    )
+    exact.add_argument("--time-limit", type=float, default=10.0,
+                       help="seconds per timeline, and per window of the rolling horizon of a long one (default 10)")
     exact.add_argument("--workers", type=int, default=1, help="CP-SAT search workers (default 1: reproducible)")
     exact.add_argument("--grid", type=float, default=0.5, help="csp: grid step in seconds (default 0.5)")
     out = parser.add_argument_group("motion and export")
@@ -283,7 +267,8 @@ def _stream(model: Any, args: argparse.Namespace) -> int:
                     delay = signal.start - (time.monotonic() - began)
                     if delay > 0:
                         time.sleep(delay)
-                line = {**signal.to_json(), "expression": model.name, "seed": timeline_seed, "duration": args.duration}
+                line = {**signal.to_json(), "expression": model.name, "seed": timeline_seed,
+                        "duration": args.duration}
                 out.write(json.dumps(line, ensure_ascii=False) + "\n")
     return 0
 
@@ -304,23 +289,13 @@ def _sample(model: Any, args: argparse.Namespace) -> int:
     given = output_format(args.format, args.output, SAMPLE_FORMATS)
     fmt = given or ("table" if sys.stdout.isatty() and not args.output else "json")
     if args.count is not None and not args.animate and fmt in BASE_FORMATS:
-        timelines_stream = iter_timelines(
-            model, args.duration, seed=args.seed, count=args.count, solver=args.solver, mode=args.mode, **_options(args)
-        )
+        timelines_stream = iter_timelines(model, args.duration, seed=args.seed, count=args.count,
+                                          solver=args.solver, mode=args.mode, **_options(args))
         with output_to(args.output, [p for p in (args.source,) if p]) as out:
             write_many(timelines_stream, fmt, out)
         return 0
-    timelines = list(
-        iter_timelines(
-            model,
-            args.duration,
-            seed=args.seed,
-            count=args.count or 1,
-            solver=args.solver,
-            mode=args.mode,
-            **_options(args),
-        )
-    )
+    timelines = list(iter_timelines(model, args.duration, seed=args.seed, count=args.count or 1,
+                                    solver=args.solver, mode=args.mode, **_options(args)))
     if args.animate:
         from pathlib import Path
 
@@ -337,3 +312,5 @@ def _sample(model: Any, args: argparse.Namespace) -> int:
     inputs = [p for p in (args.source, args.library, args.face_library) if p]
     emit(render_timelines(timelines, fmt, args, many=args.count is not None), args.output, inputs=inputs)
     return 0
+
+

@@ -15,34 +15,20 @@ def register(subparsers: Any) -> None:
         help="plan dialogues live: a WebSocket server, one dialogue session per connection",
         description="Serve dialogue sessions over WebSocket (protocol 1; JSON Schema: mse/serve/protocol.schema.json): "
         "send events "
-        '({"emotion": "joy"}, {"say": "..."}, {"end": true}), receive the occurrences as they are '
+        "({\"emotion\": \"joy\"}, {\"say\": \"...\"}, {\"end\": true}), receive the occurrences as they are "
         "committed. Listens on 127.0.0.1 unless --host says otherwise; SIGINT or SIGTERM stop it (exit 0).",
     )
     parser.add_argument("--host", default="127.0.0.1", help="address to listen on (default 127.0.0.1)")
     parser.add_argument("--port", type=int, default=8765, help="port (default 8765; 0: a free one, printed)")
-    parser.add_argument(
-        "--max-sessions", type=int, default=100, help="sessions at once; one more is closed with 1013 (default 100)"
-    )
-    parser.add_argument(
-        "--max-message",
-        type=int,
-        default=65536,
-        metavar="BYTES",
-        help="largest message in; a larger one closes the connection with 1009 (default 65536)",
-    )
-    parser.add_argument(
-        "--max-rate",
-        type=float,
-        default=200.0,
-        help="messages a second per session; extra ones are dropped with an error (default 200)",
-    )
-    parser.add_argument(
-        "--clock",
-        choices=("real", "script"),
-        default="real",
-        help="session clock by default: real (wall time from the first event) or script "
-        "(event times drive it); a client's hello may choose",
-    )
+    parser.add_argument("--max-sessions", type=int, default=100,
+                        help="sessions at once; one more is closed with 1013 (default 100)")
+    parser.add_argument("--max-message", type=int, default=65536, metavar="BYTES",
+                        help="largest message in; a larger one closes the connection with 1009 (default 65536)")
+    parser.add_argument("--max-rate", type=float, default=200.0,
+                        help="messages a second per session; extra ones are dropped with an error (default 200)")
+    parser.add_argument("--clock", choices=("real", "script"), default="real",
+                        help="session clock by default: real (wall time from the first event) or script "
+                        "(event times drive it); a client's hello may choose")
     parser.add_argument("--seed", type=int, default=0, help="planner seed by default (a client's hello may choose)")
     parser.add_argument("-q", "--quiet", action="store_true", help="no log of connections on stderr")
     parser.set_defaults(handler=run)
@@ -65,13 +51,9 @@ def run(args: argparse.Namespace) -> int:
     except MseError as error:
         return print_error(error)
     log = None if args.quiet else (lambda line: print(line, file=sys.stderr, flush=True))
-    server = MseServer(
-        args.host,
-        args.port,
-        options=Options(seed=args.seed, clock=args.clock),
-        limits=Limits(max_sessions=args.max_sessions, max_message=args.max_message, max_rate=args.max_rate),
-        log=log,
-    )
+    server = MseServer(args.host, args.port, options=Options(seed=args.seed, clock=args.clock),
+                       limits=Limits(max_sessions=args.max_sessions, max_message=args.max_message,
+                                     max_rate=args.max_rate), log=log)
 
     def ready(started: MseServer) -> None:
         print(f"mse serve: ws://{started.host}:{started.port}/ (protocol 1)", flush=True)

@@ -47,7 +47,9 @@ def register(subparsers: Any) -> None:
         help="train a model of this style on its own takes only (no average model; "
         "on Bandai walks as good as adaptation from about two steps of data)",
     )
-    train.add_argument("--takes", type=int, default=0, help="with --style: takes to use (default 0: all)")
+    train.add_argument(
+        "--takes", type=int, default=0, help="with --style: takes to use (default 0: all)"
+    )
     train.add_argument("-o", "--output", required=True, help="model file to write")
     train.add_argument("--states", type=int, default=5, help="states per unit (default 5)")
     train.add_argument(
@@ -148,7 +150,9 @@ def run_train(args: argparse.Namespace) -> int:
 
     def step() -> str:
         options = Options(states=args.states, blocks=args.blocks)
-        model = train_from_library(args.library, args.action, options, style=args.style, takes=args.takes or None)
+        model = train_from_library(
+            args.library, args.action, options, style=args.style, takes=args.takes or None
+        )
         save_model(args.output, model)
         shape = f"{len(model.units)} unit(s) x {model.states} states"
         if args.style is not None:
@@ -205,8 +209,12 @@ def run_synth(args: argparse.Namespace) -> int:
 
     def step() -> str:
         model = load_model(args.model)
-        motion = synthesize(model, steps=args.steps, duration_s=args.duration, gv=not args.no_gv, seed=args.seed)
+        motion = synthesize(
+            model, steps=args.steps, duration_s=args.duration, gv=not args.no_gv, seed=args.seed
+        )
         write_bvh(args.output, motion)
-        return f"{motion.frame_count} frames ({motion.duration:.2f} s) of {model.style} {model.action}"
+        return (
+            f"{motion.frame_count} frames ({motion.duration:.2f} s) of {model.style} {model.action}"
+        )
 
     return _run_step(step, args.model, args.output, "synthesize", "BVH")

@@ -46,19 +46,15 @@ def output_format(given: str | None, output: str | None, offered: Collection[str
     named = _BY_SUFFIX.get("".join(Path(output).suffixes[-2:]).lower()) or _BY_SUFFIX.get(suffix)
     if suffix == ".csv" and named is None:
         if given is None:
-            raise _error(
-                f"-o {output}: a .csv file could hold several formats; give --format "
-                f"({', '.join(f for f in _CSV_FORMATS if f in offered)})"
-            )
+            raise _error(f"-o {output}: a .csv file could hold several formats; give --format "
+                         f"({', '.join(f for f in _CSV_FORMATS if f in offered)})")
         if given not in _CSV_FORMATS:
             raise _error(f"-o {output}: --format {given} is not CSV; name the file for what it holds")
         return given
     if suffix == ".xml":
         if given is None:
-            raise _error(
-                f"-o {output}: an .xml file could hold several formats; give --format "
-                f"({', '.join(f for f in _XML_FORMATS if f in offered)})"
-            )
+            raise _error(f"-o {output}: an .xml file could hold several formats; give --format "
+                         f"({', '.join(f for f in _XML_FORMATS if f in offered)})")
         if given not in _XML_FORMATS:
             raise _error(f"-o {output}: --format {given} is not XML; name the file for what it holds")
         return given

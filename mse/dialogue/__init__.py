@@ -5,14 +5,6 @@ from mse.dialogue.script import EmotionEvent, EndEvent, Event, SayEvent, Word, p
 from mse.dialogue.session import HORIZON, Session, plan_script
 
 __all__ = [
-    "HORIZON",
-    "EmotionEvent",
-    "EndEvent",
-    "Event",
-    "SayEvent",
-    "Session",
-    "Word",
-    "parse_event",
-    "plan_script",
+    "HORIZON", "EmotionEvent", "EndEvent", "Event", "SayEvent", "Session", "Word", "parse_event", "plan_script",
     "read_script",
 ]

@@ -71,21 +71,19 @@ def episodes_of(timeline: Timeline, model_of: Callable[[Mapping[str, Any]], Mode
             if isinstance(item, Mapping):
                 begin, end = _number(item, "start", label), _number(item, "stop", label)
                 dropped.append(Occurrence(to_ticks(begin), to_ticks(end), str(item.get("id", ""))))
-        result.append(
-            Episode(
-                index=index,
-                emotion=str(entry.get("emotion", "")),
-                # speech anchors read the utterances overlapping the plan, in the episode's own time
-                model=episode_model(model_of(entry), _planned_with(entry, utterances), start, plan_stop),
-                start=to_ticks(start),
-                stop=to_ticks(stop),
-                plan_stop=to_ticks(plan_stop),
-                played=tuple(played),
-                cut=tuple(cut),
-                dropped=tuple(dropped),
-                interrupted=bool(entry.get("interrupted", False)),
-            )
-        )
+        result.append(Episode(
+            index=index,
+            emotion=str(entry.get("emotion", "")),
+            # speech anchors read the utterances overlapping the plan, in the episode's own time
+            model=episode_model(model_of(entry), _planned_with(entry, utterances), start, plan_stop),
+            start=to_ticks(start),
+            stop=to_ticks(stop),
+            plan_stop=to_ticks(plan_stop),
+            played=tuple(played),
+            cut=tuple(cut),
+            dropped=tuple(dropped),
+            interrupted=bool(entry.get("interrupted", False)),
+        ))
     if by_index:
         index = min(by_index)
         message = f"signals of episode {index} but no such episode in 'episodes'"
@@ -102,10 +100,8 @@ def _planned_with(entry: Mapping[str, Any], utterances: Sequence[Speech]) -> Seq
     return [utterances[i] for i in named if isinstance(i, int) and not isinstance(i, bool) and 0 <= i < len(utterances)]
 
 
-def check_dialogue(
-    timeline: Timeline,
-    model_of: Callable[[Mapping[str, Any]], Model] | None = None,
-) -> list[EpisodeViolation]:
+def check_dialogue(timeline: Timeline, model_of: Callable[[Mapping[str, Any]], Model] | None = None,
+                   ) -> list[EpisodeViolation]:
     """Every violation of a multi-episode timeline, episode by episode (empty: consistent)."""
     episodes = episodes_of(timeline, model_of or model_loader())
     return check_episodes(episodes, to_ticks(timeline.duration))

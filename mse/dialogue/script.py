@@ -205,7 +205,7 @@ def parse_event(obj: Any, span: Span) -> Event:
 
     Raises MseError (E217 at ``span``) with a clear message when the object is not an event."""
     if not isinstance(obj, dict):
-        raise _fail('an event must be a JSON object such as {"t": 0.0, "emotion": "anger"}', span)
+        raise _fail("an event must be a JSON object such as {\"t\": 0.0, \"emotion\": \"anger\"}", span)
     kinds = [key for key in ("emotion", "say", "end") if key in obj]
     if len(kinds) != 1:
         found = f"it has {' and '.join(repr(k) for k in kinds)}" if kinds else "it has none"

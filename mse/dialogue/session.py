@@ -115,9 +115,8 @@ class Session:
     ``base`` is the folder relative set files are looked up in first; ``keep=False`` forgets
     committed occurrences once handed out (a server that streams them needs no timeline)."""
 
-    def __init__(
-        self, *, seed: int = 0, horizon: float = HORIZON, base: str | os.PathLike[str] | None = None, keep: bool = True
-    ) -> None:
+    def __init__(self, *, seed: int = 0, horizon: float = HORIZON, base: str | os.PathLike[str] | None = None,
+                 keep: bool = True) -> None:
         if not horizon > 0:
             raise ValueError("horizon must be positive")
         self.seed = seed
@@ -179,9 +178,8 @@ class Session:
             obj["until"] = until
         return self.feed(parse_event(obj, self._span()))
 
-    def say(
-        self, t: float, text: str, words: Sequence[tuple[str, float, float]] | None = None, stress: Iterable[str] = ()
-    ) -> SayEvent:
+    def say(self, t: float, text: str, words: Sequence[tuple[str, float, float]] | None = None,
+            stress: Iterable[str] = ()) -> SayEvent:
         """An utterance from ``t`` (word timings estimated from the text when not given)."""
         obj: dict[str, Any] = {"t": t, "say": text, "stress": list(stress)}
         if words is not None:
@@ -216,16 +214,8 @@ class Session:
             loaded = self._models[name] = _Loaded(model, expression_source(model), own)
         return loaded
 
-    def _plan(
-        self,
-        loaded: _Loaded,
-        index: int,
-        start: float,
-        length: float,
-        intensity: float,
-        span: Span,
-        said: Sequence[int],
-    ) -> Iterator[TimelineSignal]:
+    def _plan(self, loaded: _Loaded, index: int, start: float, length: float, intensity: float,
+              span: Span, said: Sequence[int]) -> Iterator[TimelineSignal]:
         """One episode's occurrences, as the sampler's stream commits them: a timeline of
         ``length`` seconds (the default solver: the walk, its complete fallback), at ``start``."""
         from mse.solve.protocol import GreedyOptions, NoSolution, SolveRequest, get_solver
@@ -243,41 +233,24 @@ class Session:
                 finish = _r(start + to_seconds(occurrence.stop))
                 strength = intensity * loaded.own_intensity.get(occurrence.signal, 1.0)
                 leaf = model.signal(occurrence.signal).motion
-                yield TimelineSignal(
-                    occurrence.signal,
-                    modality,
-                    lexeme,
-                    begin,
-                    finish,
-                    {"action": leaf.action} if leaf is not None else None,
-                    episode=index,
-                    envelope=envelope(modality, begin, finish, strength),
-                )
+                yield TimelineSignal(occurrence.signal, modality, lexeme, begin, finish,
+                                     {"action": leaf.action} if leaf is not None else None, episode=index,
+                                     envelope=envelope(modality, begin, finish, strength))
         except NoSolution as failure:
             reason = failure.diagnostics[0].message if failure.diagnostics else "no solution"
             message = f"no timeline of {model.name!r} fits an episode of {length:g} s ({reason})"
             raise MseError([Diagnostic(CODE, message, span)]) from None
 
-    def _open(
-        self,
-        loaded: _Loaded,
-        emotion: str,
-        start: float,
-        stop: float,
-        announced: bool,
-        intensity: float,
-        span: Span,
-        continues: bool = False,
-    ) -> _Running:
+    def _open(self, loaded: _Loaded, emotion: str, start: float, stop: float, announced: bool, intensity: float,
+              span: Span, continues: bool = False) -> _Running:
         index = self._next_index
         self._next_index += 1
         said: tuple[int, ...] = ()
         if uses_anchors(loaded.model):  # what has been said by now that reaches into the episode
             said = tuple(i for i, u in enumerate(self._speeches) if u.start <= start + _EPSILON and u.stop > start)
         plan = self._plan(loaded, index, start, stop - start, intensity, span, said)
-        running = _Running(
-            index, emotion, loaded.model, loaded.source, start, stop, announced, intensity, [], continues, plan
-        )
+        running = _Running(index, emotion, loaded.model, loaded.source, start, stop, announced, intensity, [],
+                           continues, plan)
         running.said = said if uses_anchors(loaded.model) else None
         return running
 
@@ -290,9 +263,8 @@ class Session:
             closed.extend(self._close(running, running.plan_stop))
             loaded = self._models[running.emotion]
             start = running.plan_stop
-            running = self._open(
-                loaded, running.emotion, start, _r(start + self.horizon), False, running.intensity, span, continues=True
-            )
+            running = self._open(loaded, running.emotion, start, _r(start + self.horizon), False,
+                                 running.intensity, span, continues=True)
             self._carry(closed, running, start)
         if running is not None:
             closed.extend(self._close(running, t, final=final))
@@ -310,16 +282,8 @@ class Session:
         while running is not None and running.plan_stop < t - _EPSILON:
             closed = self._close(running, running.plan_stop)
             start = running.plan_stop
-            running = self._open(
-                self._models[running.emotion],
-                running.emotion,
-                start,
-                _r(start + self.horizon),
-                False,
-                running.intensity,
-                self._span(),
-                continues=True,
-            )
+            running = self._open(self._models[running.emotion], running.emotion, start, _r(start + self.horizon),
+                                 False, running.intensity, self._span(), continues=True)
             self._carry(closed, running, start)
             self._commit(closed)
             self._running = running
@@ -383,8 +347,7 @@ class Session:
             if signal.envelope is not None:
                 rise = signal.envelope
                 running.planned[position] = replace(
-                    signal, carry=True, envelope=replace(rise, attack=0.0, sustain=rise.sustain + rise.attack)
-                )
+                    signal, carry=True, envelope=replace(rise, attack=0.0, sustain=rise.sustain + rise.attack))
 
     def _commit(self, signals: list[TimelineSignal]) -> None:
         if self.keep:
@@ -394,7 +357,8 @@ class Session:
         loaded = self._load(event.emotion, event.span)
         closed = self._advance(event.t, event.span)
         stop = event.until if event.until is not None else _r(event.t + self.horizon)
-        running = self._open(loaded, event.emotion, event.t, stop, event.until is not None, event.intensity, event.span)
+        running = self._open(loaded, event.emotion, event.t, stop, event.until is not None, event.intensity,
+                             event.span)
         self._running = running
         self._clock = event.t
         self._carry(closed, running, running.start)
@@ -421,32 +385,24 @@ class Session:
         if running is None:
             raise MseError([Diagnostic(CODE, "an utterance before the first emotion (which face speaks?)", event.span)])
         stressed = {word.start for word in event.stressed_words()}
-        self._speeches.append(
-            Speech(
-                event.t,
-                event.stop,
-                tuple(SpokenWord(w.text, w.start, w.stop, w.start in stressed) for w in event.words),
-            )
-        )
-        self._utterances.append(
-            {
-                "index": len(self._utterances),
-                "start": event.t,
-                "stop": event.stop,
-                "text": event.text,
-                "words": [[w.text, w.start, w.stop] for w in event.words],
-                "stress": list(event.stress),
-            }
-        )
+        self._speeches.append(Speech(event.t, event.stop, tuple(
+            SpokenWord(w.text, w.start, w.stop, w.start in stressed) for w in event.words)))
+        self._utterances.append({
+            "index": len(self._utterances),
+            "start": event.t,
+            "stop": event.stop,
+            "text": event.text,
+            "words": [[w.text, w.start, w.stop] for w in event.words],
+            "stress": list(event.stress),
+        })
         if not uses_anchors(running.model) or event.t >= running.plan_stop - _EPSILON:
             return iter(())
         until = running.plan_stop if running.announced else None
         closed = self._advance(event.t, event.span)
         loaded = self._models[running.emotion]
         stop = until if until is not None else _r(event.t + self.horizon)
-        again = self._open(
-            loaded, running.emotion, event.t, stop, until is not None, running.intensity, event.span, continues=True
-        )
+        again = self._open(loaded, running.emotion, event.t, stop, until is not None, running.intensity,
+                           event.span, continues=True)
         self._running = again
         self._carry(closed, again, event.t)
         self._commit(closed)
@@ -481,15 +437,9 @@ class Session:
     @staticmethod
     def _running_entry(running: _Running) -> dict[str, Any]:
         return {
-            "index": running.index,
-            "emotion": running.emotion,
-            "source": running.source,
-            "start": _r(running.start),
-            "stop": _r(running.plan_stop),
-            "announced": running.announced,
-            "interrupted": False,
-            "intensity": running.intensity,
-            "plan_stop": _r(running.plan_stop),
+            "index": running.index, "emotion": running.emotion, "source": running.source,
+            "start": _r(running.start), "stop": _r(running.plan_stop), "announced": running.announced,
+            "interrupted": False, "intensity": running.intensity, "plan_stop": _r(running.plan_stop),
             **({"continues": True} if running.continues else {}),
         }
 
@@ -508,27 +458,19 @@ class Session:
             episodes.append(self._running_entry(running))
             duration = running.plan_stop
         if duration is None or not episodes:
-            raise MseError(
-                [Diagnostic(CODE, "the dialogue has no episode yet (start with an emotion)", Span("<session>"))]
-            )
+            raise MseError([Diagnostic(CODE, "the dialogue has no episode yet (start with an emotion)",
+                                       Span("<session>"))])
         names = {str(e["emotion"]) for e in episodes}
         expression = next(iter(names)) if len(names) == 1 else "dialogue"
         for episode in episodes:
             if episode.get("source") is None:
                 episode.pop("source", None)
-        return Timeline(
-            expression,
-            _r(duration),
-            tuple(signals),
-            "greedy",
-            self.seed,
-            {"episodes": episodes, "utterances": list(self._utterances)},
-        )
+        return Timeline(expression, _r(duration), tuple(signals), "greedy", self.seed,
+                        {"episodes": episodes, "utterances": list(self._utterances)})
 
 
-def plan_script(
-    events: Sequence[Event], *, seed: int = 0, horizon: float = HORIZON, base: str | os.PathLike[str] | None = None
-) -> Timeline:
+def plan_script(events: Sequence[Event], *, seed: int = 0, horizon: float = HORIZON,
+                base: str | os.PathLike[str] | None = None) -> Timeline:
     """The whole timeline of a script's events (``mse live``)."""
     session = Session(seed=seed, horizon=horizon, base=base)
     for event in events:

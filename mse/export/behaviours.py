@@ -47,9 +47,8 @@ def block_id(timeline: Timeline, options: ExportOptions | None = None) -> str:
         return chosen if chosen != "bml" else "bml_"
     if timeline.episodes:
         seed = "x" if timeline.seed is None else str(timeline.seed)
-        stem = sanitize_id(
-            f"{timeline.expression or 'dialogue'}_s{seed}_{round(timeline.duration * 1000)}ms", prefix=""
-        )
+        stem = sanitize_id(f"{timeline.expression or 'dialogue'}_s{seed}_{round(timeline.duration * 1000)}ms",
+                           prefix="")
         return "bml_" + stem
     return "bml_" + sanitize_id(timeline.expression or "timeline", prefix="")
 

@@ -45,27 +45,12 @@ AU_LEXEMES: Mapping[int, str] = {
 
 #: The lexemes BML 1.0 defines for ``<faceLexeme>`` and ``<head>`` (the standard's core
 #: sets); other names are open-set items only a realizer with them in its own lexicon plays.
-CORE_FACE_LEXEMES = frozenset(
-    {
-        "OBLIQUE_BROWS",
-        "RAISE_BROWS",
-        "RAISE_LEFT_BROW",
-        "RAISE_RIGHT_BROW",
-        "LOWER_BROWS",
-        "LOWER_LEFT_BROW",
-        "LOWER_RIGHT_BROW",
-        "LOWER_MOUTH_CORNERS",
-        "LOWER_LEFT_MOUTH_CORNER",
-        "LOWER_RIGHT_MOUTH_CORNER",
-        "RAISE_MOUTH_CORNERS",
-        "RAISE_RIGHT_MOUTH_CORNER",
-        "RAISE_LEFT_MOUTH_CORNER",
-        "OPEN_MOUTH",
-        "OPEN_LIPS",
-        "WIDEN_EYES",
-        "CLOSE_EYES",
-    }
-)
+CORE_FACE_LEXEMES = frozenset({
+    "OBLIQUE_BROWS", "RAISE_BROWS", "RAISE_LEFT_BROW", "RAISE_RIGHT_BROW", "LOWER_BROWS", "LOWER_LEFT_BROW",
+    "LOWER_RIGHT_BROW", "LOWER_MOUTH_CORNERS", "LOWER_LEFT_MOUTH_CORNER", "LOWER_RIGHT_MOUTH_CORNER",
+    "RAISE_MOUTH_CORNERS", "RAISE_RIGHT_MOUTH_CORNER", "RAISE_LEFT_MOUTH_CORNER", "OPEN_MOUTH", "OPEN_LIPS",
+    "WIDEN_EYES", "CLOSE_EYES",
+})
 CORE_HEAD_LEXEMES = frozenset({"NOD", "SHAKE"})
 
 _GAZE_ANGLE_DEGREES = 20.0
@@ -161,12 +146,8 @@ def _behaviour_elements(
     if b.modality == "gaze":
         return [_gaze(b, realizer, library, options)]
     if b.modality == "head":
-        return [
-            element(
-                "head",
-                {**timing(b), "lexeme": head_lexeme(realizer, b.lexeme.name), "amount": amount(b) or FULL_AMOUNT},
-            )
-        ]
+        return [element("head", {**timing(b), "lexeme": head_lexeme(realizer, b.lexeme.name),
+                                 "amount": amount(b) or FULL_AMOUNT})]
     if b.modality == "gesture":
         return [element("gesture", {**timing(b), "lexeme": name})]
     if b.modality in ("torso", "posture"):
@@ -207,14 +188,12 @@ def core_lexeme_notes(timeline: Timeline, options: ExportOptions, where: str) ->
             tag, f"it leaves {tag} lexemes to each realizer"
         )
         occurrences = ", ".join(ids[:3]) + (", …" if len(ids) > 3 else "")
-        notes.append(
-            Diagnostic(
-                "W603",
-                f"<{tag} lexeme={lexeme!r}> ({occurrences}) is not a BML 1.0 lexeme ({core}): a realizer plays it "
-                "only if its own lexicon has it (docs/export.md)",
-                Span(where),
-            )
-        )
+        notes.append(Diagnostic(
+            "W603",
+            f"<{tag} lexeme={lexeme!r}> ({occurrences}) is not a BML 1.0 lexeme ({core}): a realizer plays it "
+            "only if its own lexicon has it (docs/export.md)",
+            Span(where),
+        ))
     return notes
 
 

@@ -24,14 +24,10 @@ from mse.timeline import Timeline
 LINGUISTIC_TYPE = "mse-signal"
 #: ELAN's standard stereotypes, written by ELAN itself in every file.
 _STEREOTYPES = (
-    (
-        "Time_Subdivision",
-        "Time subdivision of parent annotation's time interval, no time gaps allowed within this interval",
-    ),
-    (
-        "Symbolic_Subdivision",
-        "Symbolic subdivision of a parent annotation. Annotations refering to the same parent are ordered",
-    ),
+    ("Time_Subdivision", "Time subdivision of parent annotation's time interval, no time gaps allowed within "
+                         "this interval"),
+    ("Symbolic_Subdivision", "Symbolic subdivision of a parent annotation. Annotations refering to the same "
+                             "parent are ordered"),
     ("Symbolic_Association", "1-1 association with a parent annotation"),
     ("Included_In", "Time alignable annotations within the parent annotation's time interval, gaps are allowed"),
 )
@@ -39,11 +35,8 @@ _STEREOTYPES = (
 
 def _date() -> str:
     epoch = os.environ.get("SOURCE_DATE_EPOCH")
-    moment = (
-        datetime.datetime.fromtimestamp(int(epoch), tz=datetime.UTC)
-        if epoch and epoch.isdigit()
-        else datetime.datetime.now(tz=datetime.UTC).replace(microsecond=0)
-    )
+    moment = (datetime.datetime.fromtimestamp(int(epoch), tz=datetime.UTC) if epoch and epoch.isdigit()
+              else datetime.datetime.now(tz=datetime.UTC).replace(microsecond=0))
     return moment.isoformat()
 
 
@@ -54,17 +47,12 @@ def render_eaf(timeline: Timeline, options: ExportOptions) -> str:
     tiers: dict[str, list[Element]] = {}
     for number, signal in enumerate(timeline.signals, 1):
         annotation = element(
-            "ANNOTATION",
-            {},
-            element(
-                "ALIGNABLE_ANNOTATION",
-                {
-                    "ANNOTATION_ID": f"a{number}",
-                    "TIME_SLOT_REF1": slot_of[to_ticks(signal.start)],
-                    "TIME_SLOT_REF2": slot_of[to_ticks(signal.stop)],
-                },
-                element("ANNOTATION_VALUE", {}, signal.id),
-            ),
+            "ANNOTATION", {},
+            element("ALIGNABLE_ANNOTATION", {
+                "ANNOTATION_ID": f"a{number}",
+                "TIME_SLOT_REF1": slot_of[to_ticks(signal.start)],
+                "TIME_SLOT_REF2": slot_of[to_ticks(signal.stop)],
+            }, element("ANNOTATION_VALUE", {}, signal.id)),
         )
         tiers.setdefault(signal.modality or "signals", []).append(annotation)
     properties = [
@@ -76,31 +64,21 @@ def render_eaf(timeline: Timeline, options: ExportOptions) -> str:
     properties.append(element("PROPERTY", {"NAME": "lastUsedAnnotationId"}, str(len(timeline.signals))))
     children: list[Element] = [
         element("HEADER", {"MEDIA_FILE": "", "TIME_UNITS": "milliseconds"}, *properties),
-        element(
-            "TIME_ORDER", {}, *(element("TIME_SLOT", {"TIME_SLOT_ID": slot_of[t], "TIME_VALUE": str(t)}) for t in times)
-        ),
+        element("TIME_ORDER", {}, *(element("TIME_SLOT", {"TIME_SLOT_ID": slot_of[t], "TIME_VALUE": str(t)})
+                                    for t in times)),
     ]
     for modality in sorted(tiers):
-        children.append(
-            element("TIER", {"LINGUISTIC_TYPE_REF": LINGUISTIC_TYPE, "TIER_ID": modality}, *tiers[modality])
-        )
-    children.append(
-        element(
-            "LINGUISTIC_TYPE",
-            {"GRAPHIC_REFERENCES": "false", "LINGUISTIC_TYPE_ID": LINGUISTIC_TYPE, "TIME_ALIGNABLE": "true"},
-        )
-    )
+        children.append(element("TIER", {"LINGUISTIC_TYPE_REF": LINGUISTIC_TYPE, "TIER_ID": modality},
+                                *tiers[modality]))
+    children.append(element("LINGUISTIC_TYPE", {"GRAPHIC_REFERENCES": "false",
+                                                "LINGUISTIC_TYPE_ID": LINGUISTIC_TYPE, "TIME_ALIGNABLE": "true"}))
     children.extend(element("CONSTRAINT", {"DESCRIPTION": text, "STEREOTYPE": name}) for name, text in _STEREOTYPES)
-    root = element(
-        "ANNOTATION_DOCUMENT",
-        {
-            "AUTHOR": "mse",
-            "DATE": _date(),
-            "FORMAT": "3.0",
-            "VERSION": "3.0",
-            "xmlns:xsi": "http://www.w3.org/2001/XMLSchema-instance",
-            "xsi:noNamespaceSchemaLocation": "http://www.mpi.nl/tools/elan/EAFv3.0.xsd",
-        },
-        *children,
-    )
+    root = element("ANNOTATION_DOCUMENT", {
+        "AUTHOR": "mse",
+        "DATE": _date(),
+        "FORMAT": "3.0",
+        "VERSION": "3.0",
+        "xmlns:xsi": "http://www.w3.org/2001/XMLSchema-instance",
+        "xsi:noNamespaceSchemaLocation": "http://www.mpi.nl/tools/elan/EAFv3.0.xsd",
+    }, *children)
     return document(root)

@@ -96,3 +96,4 @@ def format_seconds(value: float) -> str:
     """Seconds with at most three decimals and no exponent: ``1.5``, ``2``, ``0.125``."""
     text = f"{round(value, 3):.3f}".rstrip("0").rstrip(".")
     return "0" if text in ("", "-0") else text
+

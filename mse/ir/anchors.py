@@ -88,14 +88,12 @@ def episode_speech(utterances: Sequence[Speech], start: float, stop: float | Non
     inside = [u for u in utterances if u.stop > start and (stop is None or u.start < stop)]
     if not inside:
         return None
-
     def moved(time: float) -> float:  # on the 1 ms grid, as every time of a timeline
         return to_ticks(time - start) / 1000
 
     shifted = [
-        Speech(
-            moved(u.start), moved(u.stop), tuple(replace(w, start=moved(w.start), stop=moved(w.stop)) for w in u.words)
-        )
+        Speech(moved(u.start), moved(u.stop),
+               tuple(replace(w, start=moved(w.start), stop=moved(w.stop)) for w in u.words))
         for u in inside
     ]
     return Speech.join(shifted)
@@ -154,15 +152,13 @@ def no_speech_error(model: ir.Model) -> MseError:
     diagnostics = []
     for constraint in anchored_constraints(model):
         term = _first_anchor(next(anchored_atoms(constraint.expr)))
-        diagnostics.append(
-            Diagnostic(
-                NO_SPEECH_CODE,
-                f"constraint {constraint.id!r} refers to the agent's speech ({term_text(term)}), but no speech "
-                "was given: pass --speech FILE (mse sample, mse check), a timeline with 'utterances', or "
-                "call mse.ir.anchors.resolve_anchors(model, speech)",
-                term.span if term.span.line > 0 else constraint.span,
-            )
-        )
+        diagnostics.append(Diagnostic(
+            NO_SPEECH_CODE,
+            f"constraint {constraint.id!r} refers to the agent's speech ({term_text(term)}), but no speech "
+            "was given: pass --speech FILE (mse sample, mse check), a timeline with 'utterances', or "
+            "call mse.ir.anchors.resolve_anchors(model, speech)",
+            term.span if term.span.line > 0 else constraint.span,
+        ))
     return MseError(diagnostics)
 
 
@@ -211,7 +207,8 @@ class _Resolver:
         if not self.stressed:
             return _false_like(atom)
         choices = [
-            replace(atom, left=self.term(atom.left, word), right=self.term(atom.right, word)) for word in self.stressed
+            replace(atom, left=self.term(atom.left, word), right=self.term(atom.right, word))
+            for word in self.stressed
         ]
         return choices[0] if len(choices) == 1 else ir.Or(tuple(choices), atom.span)
 
@@ -271,19 +268,15 @@ def _words(raw: Any, where: str, span: Span) -> list[Word]:
     words: list[Word] = []
     for index, entry in enumerate(raw):
         if not isinstance(entry, list) or len(entry) != 3 or not isinstance(entry[0], str):
-            raise _fail(
-                f"{where}words[{index}] must be [word, start, stop] (a string and two numbers), not {entry!r}", span
-            )
+            raise _fail(f"{where}words[{index}] must be [word, start, stop] (a string and two numbers), "
+                        f"not {entry!r}", span)
         start = _seconds(entry[1], f"{where}words[{index}] start", span)
         stop = _seconds(entry[2], f"{where}words[{index}] stop", span)
         if stop < start:
             raise _fail(f"{where}words[{index}] ({entry[0]!r}) stops at {stop:g} s, before its start {start:g} s", span)
         if words and start < words[-1].stop:
-            raise _fail(
-                f"{where}words[{index}] ({entry[0]!r}) starts at {start:g} s, before the previous word "
-                f"stops at {words[-1].stop:g} s: words are in order and do not overlap",
-                span,
-            )
+            raise _fail(f"{where}words[{index}] ({entry[0]!r}) starts at {start:g} s, before the previous word "
+                        f"stops at {words[-1].stop:g} s: words are in order and do not overlap", span)
         words.append(Word(entry[0], start, stop))
     return words
 
@@ -293,18 +286,14 @@ def utterance_from_json(obj: Any, span: Span, where: str = "") -> Speech:
     (``start``/``stop`` default to the first word's start and the last word's stop); E220 at
     ``span`` with what is wrong otherwise."""
     if not isinstance(obj, dict):
-        raise _fail(
-            f"{where}speech must be a JSON object such as "
-            '{"start": 0.4, "stop": 2.0, "words": [["I", 0.4, 0.52]], "stress": ["I"]}',
-            span,
-        )
+        raise _fail(f"{where}speech must be a JSON object such as "
+                    '{"start": 0.4, "stop": 2.0, "words": [["I", 0.4, 0.52]], "stress": ["I"]}', span)
     for key in obj:
         if key not in UTTERANCE_KEYS:
             guess = difflib.get_close_matches(str(key), sorted(UTTERANCE_KEYS), n=1, cutoff=0.6)
             hint = f" (did you mean {guess[0]!r}?)" if guess else ""
-            raise _fail(
-                f"{where}unknown key {key!r} in speech{hint}; allowed: {', '.join(sorted(UTTERANCE_KEYS))}", span
-            )
+            raise _fail(f"{where}unknown key {key!r} in speech{hint}; allowed: {', '.join(sorted(UTTERANCE_KEYS))}",
+                        span)
     words = _words(obj.get("words", []), where, span)
     if "start" not in obj and not words:
         raise _fail(f"{where}speech needs 'start' (seconds) or 'words'", span)
@@ -314,11 +303,8 @@ def utterance_from_json(obj: Any, span: Span, where: str = "") -> Speech:
         raise _fail(f"{where}'stop' {stop:g} s is before 'start' {start:g} s", span)
     for index, word in enumerate(words):
         if word.start < start or word.stop > stop:
-            raise _fail(
-                f"{where}words[{index}] ({word.text!r}, {word.start:g}-{word.stop:g} s) lies outside "
-                f"the utterance ({start:g}-{stop:g} s)",
-                span,
-            )
+            raise _fail(f"{where}words[{index}] ({word.text!r}, {word.start:g}-{word.stop:g} s) lies outside "
+                        f"the utterance ({start:g}-{stop:g} s)", span)
     stress = obj.get("stress", [])
     if not isinstance(stress, list) or not all(isinstance(s, str) for s in stress):
         raise _fail(f"{where}'stress' must be a list of words of the utterance", span)

@@ -208,3 +208,5 @@ def _constraints(document: ast.Document, signal_ids: set[str], checker: BuildChe
             )
         )
     return result
+
+

@@ -65,12 +65,8 @@ class BuildChecker:
         """``seconds`` on the 1 ms grid, with a W309 warning when that rounds it."""
         ticks = to_ticks(seconds)
         if abs(seconds * 1000 - ticks) > 1e-6:
-            self.error(
-                "W309",
-                f"{what} {seconds:g} s is finer than the 1 ms grid of the semantics: "
-                f"it is rounded to {ticks / 1000:g} s",
-                span,
-            )
+            self.error("W309", f"{what} {seconds:g} s is finer than the 1 ms grid of the semantics: "
+                       f"it is rounded to {ticks / 1000:g} s", span)
         return ticks
 
     def integer(self, attributes: dict[str, ast.Attribute], key: str, default: int, *, minimum: int, code: str) -> int:

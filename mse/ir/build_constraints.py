@@ -129,10 +129,14 @@ class ConstraintResolver:
         left, right = node.left, node.right
         if isinstance(left, ast.DifferenceNode) and isinstance(right, ast.NumberNode):
             shift = self.ticks(right.value - left.offset, right.span, "time")
-            return ir.Compare(op, self._edge(left.minuend), self._edge(left.subtrahend, shift), tolerance, node.span)
+            return ir.Compare(
+                op, self._edge(left.minuend), self._edge(left.subtrahend, shift), tolerance, node.span
+            )
         if isinstance(right, ast.DifferenceNode) and isinstance(left, ast.NumberNode):
             shift = self.ticks(left.value - right.offset, left.span, "time")
-            return ir.Compare(op, self._edge(right.subtrahend, shift), self._edge(right.minuend), tolerance, node.span)
+            return ir.Compare(
+                op, self._edge(right.subtrahend, shift), self._edge(right.minuend), tolerance, node.span
+            )
         other = right if isinstance(left, ast.DifferenceNode) else left
         self.checker.error(
             "E216",

@@ -50,6 +50,8 @@ def _term(node: dict[str, Any]) -> ir.Term:
     raise DecodeError(f"not a term: {node!r}")
 
 
+
+
 def decode_expr(node: dict[str, Any], span: Span) -> ir.Expr:
     op = node.get("op")
     if op == "exists":

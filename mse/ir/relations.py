@@ -188,16 +188,12 @@ def unresolved_anchor(term: ir.SpeechTime) -> MseError:
     speech, which :func:`mse.ir.anchors.resolve_anchors` puts in first."""
     from mse.ir.printer import term_text
 
-    return MseError(
-        [
-            Diagnostic(
-                "E219",
-                f"{term_text(term)} refers to the agent's speech, but no speech was given "
-                "(mse sample/check --speech FILE, a timeline's 'utterances', or mse.ir.anchors.resolve_anchors)",
-                term.span,
-            )
-        ]
-    )
+    return MseError([Diagnostic(
+        "E219",
+        f"{term_text(term)} refers to the agent's speech, but no speech was given "
+        "(mse sample/check --speech FILE, a timeline's 'utterances', or mse.ir.anchors.resolve_anchors)",
+        term.span,
+    )])
 
 
 class PerEntry(dict[str, _Made]):

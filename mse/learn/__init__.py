@@ -25,9 +25,8 @@ def read_corpus(paths: Iterable[str | Path], mapping: TierMapping = DEFAULT_MAPP
     return corpus
 
 
-def learn(
-    paths: Iterable[str | Path], options: LearnOptions = DEFAULT_OPTIONS, mapping: TierMapping = DEFAULT_MAPPING
-) -> LearnResult:
+def learn(paths: Iterable[str | Path], options: LearnOptions = DEFAULT_OPTIONS,
+          mapping: TierMapping = DEFAULT_MAPPING) -> LearnResult:
     """Learn a behaviour set from annotation files; reading notes (W503) come with the result."""
     from dataclasses import replace
 

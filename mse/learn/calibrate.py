@@ -80,9 +80,8 @@ def calibrate(
     current = model
     for round_number in progress.each(range(rounds + 1), "calibrate", unit="round"):
         try:
-            schedules = solver.solve(
-                current, SolveRequest(duration=duration, seed=seed + round_number * samples, count=samples)
-            ).schedules
+            schedules = solver.solve(current, SolveRequest(duration=duration, seed=seed + round_number * samples,
+                                                           count=samples)).schedules
         except MseError as error:
             notes.append(f"calibration stopped: the learned set could not be sampled ({error})")
             break

@@ -111,7 +111,9 @@ def modality_of(tier: str, mapping: TierMapping) -> str | None:
     return name or None
 
 
-def build_corpus(raw: Sequence[RawSequence], mapping: TierMapping = DEFAULT_MAPPING) -> tuple[Corpus, list[Diagnostic]]:
+def build_corpus(
+    raw: Sequence[RawSequence], mapping: TierMapping = DEFAULT_MAPPING
+) -> tuple[Corpus, list[Diagnostic]]:
     """Signals and sequences from raw annotations; notes (W503) for what was merged or left out."""
     notes: list[Diagnostic] = []
     # label -> modalities it appears on: a label used on two modalities names two signals.
@@ -126,18 +128,12 @@ def build_corpus(raw: Sequence[RawSequence], mapping: TierMapping = DEFAULT_MAPP
             signal = mapping.labels.get(annotation.label) or identifier(annotation.label)
             longest = max(len(signal), len(modality))
             if longest > MAX_NAME_CHARS:
-                notes.append(
-                    Diagnostic(
-                        "E121",
-                        f"annotation label or tier name of {longest} characters; names are at most {MAX_NAME_CHARS}",
-                        annotation.span,
-                    )
-                )
+                notes.append(Diagnostic("E121", f"annotation label or tier name of {longest} characters; "
+                                        f"names are at most {MAX_NAME_CHARS}", annotation.span))
                 continue
             if not signal:
-                notes.append(
-                    Diagnostic("W503", f"annotation {annotation.label!r} has no usable name; left out", annotation.span)
-                )
+                notes.append(Diagnostic("W503", f"annotation {annotation.label!r} has no usable name; left out",
+                                        annotation.span))
                 continue
             kept.append((annotation, modality, signal))
             modalities_of.setdefault(signal, set()).add(modality)
@@ -156,13 +152,8 @@ def build_corpus(raw: Sequence[RawSequence], mapping: TierMapping = DEFAULT_MAPP
         last_stop = max((o[-1][1] for o in occurrences.values() if o), default=0)
         duration = sequence.duration if sequence.duration is not None else last_stop
         if duration <= 0:
-            notes.append(
-                Diagnostic(
-                    "W503",
-                    f"sequence {sequence.name!r} has no annotation; its length is unknown, left out",
-                    sequence.span,
-                )
-            )
+            notes.append(Diagnostic("W503", f"sequence {sequence.name!r} has no annotation; its length is unknown, "
+                                    "left out", sequence.span))
             continue
         sequences.append(CorpusSequence(sequence.name, duration, occurrences, sequence.span))
     return Corpus(tuple(sequences), dict(sorted(signals.items()))), notes
@@ -173,13 +164,8 @@ def _merged(signal: str, spans: list[tuple[int, int, Span]], notes: list[Diagnos
     merged: list[list[int]] = []
     for start, stop, span in sorted(spans, key=lambda item: (item[0], item[1])):
         if merged and start < merged[-1][1]:
-            notes.append(
-                Diagnostic(
-                    "W503",
-                    f"{signal} overlaps its own previous annotation (ending at {merged[-1][1] / 1000:g} s); merged",
-                    span,
-                )
-            )
+            notes.append(Diagnostic("W503", f"{signal} overlaps its own previous annotation "
+                                    f"(ending at {merged[-1][1] / 1000:g} s); merged", span))
             merged[-1][1] = max(merged[-1][1], stop)
         else:
             merged.append([start, stop])

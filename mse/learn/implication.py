@@ -32,9 +32,8 @@ QUERY_TIME = 1.0
 class ImplicationChecker:
     """Questions "do these constraints imply that one?" over one model and extra constraints."""
 
-    def __init__(
-        self, model: ir.Model, extra: Sequence[ir.Expr] = (), *, duration: int, query_time: float = QUERY_TIME
-    ) -> None:
+    def __init__(self, model: ir.Model, extra: Sequence[ir.Expr] = (), *, duration: int,
+                 query_time: float = QUERY_TIME) -> None:
         """``model`` gives signals, modalities and constraints (ids as in the model);
         ``extra`` constraints get the ids ``extra:0``, ``extra:1``... ; ``duration`` in ms."""
         known = set(model.signal_by_id)
@@ -45,14 +44,16 @@ class ImplicationChecker:
         for constraint in constraints:
             named |= ir.mentioned_signals(constraint.expr)
         free = tuple(
-            ir.Signal(id=name, modality="__free__", lexeme=name, repetitivity=1) for name in sorted(named - known)
+            ir.Signal(id=name, modality="__free__", lexeme=name, repetitivity=1)
+            for name in sorted(named - known)
         )
         self.model = replace(model, signals=model.signals + free, constraints=tuple(constraints))
         self.duration = duration
         self.query_time = query_time
         counts = slot_counts(self.model, duration, complete=True)
         self.enc = build(self.model, duration, counts, switchable=True)
-        self.structural: list[Lit] = [lit for key, lit in self.enc.enable.items() if not key.startswith("constraint:")]
+        self.structural: list[Lit] = [lit for key, lit in self.enc.enable.items()
+                                      if not key.startswith("constraint:")]
 
     def implied(self, target: str, by: Iterable[str]) -> Answer:
         """Do the constraints ``by`` (ids) imply constraint ``target`` (an id)?"""
@@ -71,7 +72,8 @@ class ImplicationChecker:
         assumptions = list(self.structural) + [self.enc.enable[f"constraint:{name}"] for name in by]
         return self._solve(assumptions)
 
-    def reaches(self, x: tuple[str, str], y: tuple[str, str], by: Iterable[str], value: float, *, largest: bool) -> str:
+    def reaches(self, x: tuple[str, str], y: tuple[str, str], by: Iterable[str], value: float, *,
+                largest: bool) -> str:
         """Is there a timeline obeying ``by`` in which both signals occur and ``y - x``
         (``x``, ``y`` are (signal, edge) of their first occurrences, in ms) is at most
         ``value`` (at least, with ``largest``)?  'feasible' | 'infeasible' | 'unknown'."""

@@ -84,10 +84,8 @@ def exclusive_modalities(corpus: Corpus, confidence: float) -> dict[str, str]:
             if any(intervals[i][1] > intervals[i + 1][0] for i in range(len(intervals) - 1)):
                 overlapping += 1
         if tested and (tested - overlapping) >= confidence * tested - 1e-9:
-            found[modality] = (
-                f"exclusive: no overlap in {tested - overlapping} of the {tested} sequences "
-                f"with two or more {modality} annotations"
-            )
+            found[modality] = (f"exclusive: no overlap in {tested - overlapping} of the {tested} sequences "
+                               f"with two or more {modality} annotations")
     return found
 
 
@@ -108,40 +106,28 @@ def learn_corpus(corpus: Corpus, options: LearnOptions = DEFAULT_OPTIONS) -> Lea
     if options.calibrate and options.calibration_rounds > 0:
         from mse.learn.calibrate import calibrate
 
-        model, calibration = calibrate(
-            model, corpus, rounds=options.calibration_rounds, samples=options.calibration_samples, seed=options.seed
-        )
+        model, calibration = calibrate(model, corpus, rounds=options.calibration_rounds,
+                                       samples=options.calibration_samples, seed=options.seed)
     for attempt in range(2):
         xml = _xml(model, corpus, learned, kept, exclusive, options)
         final = _read_back(xml, options.name)
         diagnostics = _lint(final, corpus, options)
         # W406: the constraints never let the signal start in the first second, so a
         # probability_start above 0 is a promise the sampler cannot keep: start at 0.
-        late = {
-            s.id
-            for s in model.signals
-            for d in diagnostics
-            if d.code == "W406" and f"signal {s.id!r} has probability_start" in d.message
-        }
+        late = {s.id for s in model.signals for d in diagnostics
+                if d.code == "W406" and f"signal {s.id!r} has probability_start" in d.message}
         if not late or attempt:
             break
-        model = replace(
-            model,
-            signals=tuple(
-                replace(s, probability_start=0.0, probability_end=min(1.0, s.probability_start + s.probability_end))
-                if s.id in late
-                else s
-                for s in model.signals
-            ),
-        )
+        model = replace(model, signals=tuple(
+            replace(s, probability_start=0.0, probability_end=min(1.0, s.probability_start + s.probability_end))
+            if s.id in late else s for s in model.signals))
         calibration.append(f"probability_start set to 0 (W406): {', '.join(sorted(late))}")
     breaks = corpus_breaks(final, corpus)
     return LearnResult(final, xml, corpus, learned, kept, redundant, breaks, diagnostics, calibration)
 
 
-def select_rules(
-    base: ir.Model, candidates: list[Rule], duration: int, options: LearnOptions
-) -> tuple[list[Rule], list[tuple[Rule, str]]]:
+def select_rules(base: ir.Model, candidates: list[Rule], duration: int,
+                 options: LearnOptions) -> tuple[list[Rule], list[tuple[Rule, str]]]:
     """Drop the offsets the other rules explain, then every rule the others imply."""
     if not candidates:
         return [], []
@@ -161,18 +147,12 @@ def select_rules(
         margin = max(1.0, info.spacing * threshold, EXPLAINED_FRACTION * info.spread)
         # Not explained iff the other rules allow y - x beyond the offset by the margin.
         beyond = info.offset - margin if info.side == "lower" else info.offset + margin
-        answer = checker.reaches(
-            (info.a, info.x_edge), (info.b, info.y_edge), structure, beyond, largest=info.side == "upper"
-        )
+        answer = checker.reaches((info.a, info.x_edge), (info.b, info.y_edge), structure, beyond,
+                                 largest=info.side == "upper")
         if answer == "infeasible":
             alive.discard(rule.id)
-            dropped.append(
-                (
-                    rule,
-                    f"explained by the other rules: they never let it go {margin / 1000:g} s "
-                    f"beyond the {info.observed / 1000:g} s the corpus reached",
-                )
-            )
+            dropped.append((rule, f"explained by the other rules: they never let it go {margin / 1000:g} s "
+                                  f"beyond the {info.observed / 1000:g} s the corpus reached"))
         else:
             structure.append(rule.id)
     order = sorted((r for r in candidates if r.id in alive), key=lambda r: (r.rank, r.support, -r.p_value, r.id))
@@ -184,14 +164,8 @@ def select_rules(
     return kept, dropped
 
 
-def _xml(
-    model: ir.Model,
-    corpus: Corpus,
-    learned: list[LearnedSignal],
-    kept: list[Rule],
-    exclusive: dict[str, str],
-    options: LearnOptions,
-) -> str:
+def _xml(model: ir.Model, corpus: Corpus, learned: list[LearnedSignal], kept: list[Rule],
+         exclusive: dict[str, str], options: LearnOptions) -> str:
     from mse.learn.write import behaviour_set_xml
 
     n = len(corpus.sequences)
@@ -226,10 +200,8 @@ def _read_back(xml: str, name: str) -> ir.Model:
 
 
 def sequence_schedule(sequence_duration: int, occurrences: dict[str, tuple[tuple[int, int], ...]]) -> Schedule:
-    return Schedule.of(
-        sequence_duration,
-        (Occurrence(start, stop, signal) for signal, items in occurrences.items() for start, stop in items),
-    )
+    return Schedule.of(sequence_duration, (Occurrence(start, stop, signal)
+                                           for signal, items in occurrences.items() for start, stop in items))
 
 
 def corpus_breaks(model: ir.Model, corpus: Corpus) -> list[Break]:
@@ -257,12 +229,6 @@ def _lint(model: ir.Model, corpus: Corpus, options: LearnOptions) -> list[Diagno
     try:
         get_solver("greedy").solve(model, SolveRequest(duration=seconds, seed=options.seed))
     except NoSolution as error:
-        found.append(
-            Diagnostic(
-                "W401",
-                f"the default sampler found no timeline of {seconds:g} s: "
-                + "; ".join(d.message for d in error.diagnostics),
-                Span(model.path),
-            )
-        )
+        found.append(Diagnostic("W401", f"the default sampler found no timeline of {seconds:g} s: "
+                                + "; ".join(d.message for d in error.diagnostics), Span(model.path)))
     return found

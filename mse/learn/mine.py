@@ -45,18 +45,8 @@ SPACING_COUNT = 5
 
 #: Order in which redundant rules are looked for (first = dropped first when implied); a
 #: relation not listed ranks with ``precedes``.
-RANK = {
-    "needs": 0,
-    "either": 1,
-    "apart": 2,
-    "excludes": 3,
-    "bound": 4,
-    "equal": 5,
-    "rightincludes": 6,
-    "includes": 7,
-    "precedes": 8,
-    "exists": 9,
-}
+RANK = {"needs": 0, "either": 1, "apart": 2, "excludes": 3, "bound": 4, "equal": 5, "rightincludes": 6,
+        "includes": 7, "precedes": 8, "exists": 9}
 #: How a mined relation's rule is named (``{left}_{kind}_{right}`` when not listed).
 RULE_NAMES = {"precedes": "{left}_before_{right}", "excludes": "{left}_apart_from_{right}"}
 
@@ -102,10 +92,8 @@ class Rule:
         return RANK.get(self.kind, RANK["precedes"])
 
     def evidence(self) -> str:
-        text = (
-            f"support {self.support}, confidence {self.confidence:.3f} "
-            f"(holds in {self.holds} of {self.support} sequences)"
-        )
+        text = (f"support {self.support}, confidence {self.confidence:.3f} "
+                f"(holds in {self.holds} of {self.support} sequences)")
         if self.baseline is not None:
             text += f"; by chance {self.baseline:.2f}, p = {self.p_value:.1e}"
         return text + (f"; {self.note}" if self.note else "")
@@ -175,17 +163,8 @@ class Miner:
         self.ids.add(candidate)
         return candidate
 
-    def _accept(
-        self,
-        kind: str,
-        name: str,
-        expr: ir.Expr,
-        tested: Bools,
-        holds: Bools,
-        baseline: float | None,
-        note: str = "",
-        bound: BoundInfo | None = None,
-    ) -> bool:
+    def _accept(self, kind: str, name: str, expr: ir.Expr, tested: Bools, holds: Bools,
+                baseline: float | None, note: str = "", bound: BoundInfo | None = None) -> bool:
         support = int(tested.sum())
         hits = int((holds & tested).sum())
         options = self.options
@@ -224,15 +203,8 @@ class Miner:
         expr = ir.Implies(ir.Exists(a), ir.Not(ir.Exists(b)))
         together = int((first & second).sum())
         expected = float(first.mean() * second.mean() * self.n)
-        self._accept(
-            "apart",
-            f"{a}_without_{b}",
-            expr,
-            tested,
-            ~other,
-            rate,
-            f"together in {together} sequences, {expected:.1f} expected if independent",
-        )
+        self._accept("apart", f"{a}_without_{b}", expr, tested, ~other, rate,
+                     f"together in {together} sequences, {expected:.1f} expected if independent")
 
     def _either(self, a: str, b: str) -> None:
         """``exists(a) or exists(b)``: at least one of them."""
@@ -243,15 +215,8 @@ class Miner:
         everywhere = np.ones(self.n, dtype=bool)
         neither = int((~first & ~second).sum())
         expected = float((~first).mean() * (~second).mean() * self.n)
-        self._accept(
-            "either",
-            f"{a}_or_{b}",
-            ir.Or((ir.Exists(a), ir.Exists(b))),
-            everywhere,
-            first | second,
-            rate,
-            f"neither in {neither} sequences, {expected:.1f} expected if independent",
-        )
+        self._accept("either", f"{a}_or_{b}", ir.Or((ir.Exists(a), ir.Exists(b))), everywhere, first | second,
+                     rate, f"neither in {neither} sequences, {expected:.1f} expected if independent")
 
     # -- temporal rules ---------------------------------------------------------------------
     def _temporal(self, a: str, b: str) -> None:
@@ -264,15 +229,8 @@ class Miner:
         ca, cb = (_rows(sa, cross[0]), _rows(sb, cross[1])) if cross is not None else (None, None)
         tested = np.ones(len(both), dtype=bool)
 
-        def consider(
-            kind: str,
-            name: str,
-            expr: ir.Expr,
-            holds: Holds,
-            note: str = "",
-            exact: Bools | None = None,
-            bound: BoundInfo | None = None,
-        ) -> bool:
+        def consider(kind: str, name: str, expr: ir.Expr, holds: Holds, note: str = "",
+                     exact: Bools | None = None, bound: BoundInfo | None = None) -> bool:
             observed = holds(ra, rb) if exact is None else exact
             if observed.sum() < self.options.confidence * len(both) - 1e-9:
                 return False
@@ -296,9 +254,8 @@ class Miner:
             for y_edge in ("start", "stop"):
                 self._bounds(a, b, x_edge, y_edge, ra, rb, consider)
 
-    def _bounds(
-        self, a: str, b: str, x_edge: str, y_edge: str, ra: Rows, rb: Rows, consider: Callable[..., bool]
-    ) -> None:
+    def _bounds(self, a: str, b: str, x_edge: str, y_edge: str, ra: Rows, rb: Rows,
+                consider: Callable[..., bool]) -> None:
         """``y(b) >= x(a) + L``, ``y(b) <= x(a) + U`` and, when both are tight around 0, ``equal``."""
         low = np.sort(_edge(rb, y_edge, "min") - _edge(ra, x_edge, "max"))
         high = -np.sort(-(_edge(rb, y_edge, "max") - _edge(ra, x_edge, "min")))
@@ -310,20 +267,19 @@ class Miner:
         x_time = ir.SignalTime(a, x_edge)  # type: ignore[arg-type]
         tolerance = max(-lower, upper)
         if lower <= 0 <= upper and tolerance <= EQUAL_MAX_TOLERANCE:
-            expr: ir.Expr = ir.Compare(
-                "=",
-                x_time,
-                ir.SignalTime(b, y_edge),  # type: ignore[arg-type]
-                tolerance=to_ticks(tolerance),
-            )
-            if consider("equal", f"{y_edge}_{b}_with_{x_edge}_{a}", expr, _band(x_edge, y_edge, tolerance * 1000)):
+            expr: ir.Expr = ir.Compare("=", x_time, ir.SignalTime(b, y_edge),  # type: ignore[arg-type]
+                                       tolerance=to_ticks(tolerance))
+            if consider("equal", f"{y_edge}_{b}_with_{x_edge}_{a}", expr,
+                        _band(x_edge, y_edge, tolerance * 1000)):
                 return
         info = BoundInfo(a, x_edge, b, y_edge, "lower", lower_seen, lower_gap, spread, lower * 1000)
         after = ir.Compare(">=", ir.SignalTime(b, y_edge), ir.SignalTime(a, x_edge, to_ticks(lower)))  # type: ignore[arg-type]
-        consider("bound", f"{y_edge}_{b}_after_{x_edge}_{a}", after, _lower(x_edge, y_edge, lower * 1000), bound=info)
+        consider("bound", f"{y_edge}_{b}_after_{x_edge}_{a}", after, _lower(x_edge, y_edge, lower * 1000),
+                 bound=info)
         info = BoundInfo(a, x_edge, b, y_edge, "upper", upper_seen, upper_gap, spread, upper * 1000)
         before = ir.Compare("<=", ir.SignalTime(b, y_edge), ir.SignalTime(a, x_edge, to_ticks(upper)))  # type: ignore[arg-type]
-        consider("bound", f"{y_edge}_{b}_by_{x_edge}_{a}", before, _upper(x_edge, y_edge, upper * 1000), bound=info)
+        consider("bound", f"{y_edge}_{b}_by_{x_edge}_{a}", before, _upper(x_edge, y_edge, upper * 1000),
+                 bound=info)
 
     def _cross_pairs(self, sa: SignalArrays, sb: SignalArrays) -> tuple[Ints, Ints] | None:
         """Index pairs (sequence of a, another sequence of b) for the baseline."""
@@ -355,7 +311,7 @@ def _extreme(ordered: Floats, confidence: float) -> tuple[float, float]:
     """The ``1 - confidence`` quantile of values sorted from the extreme inward, and the mean
     spacing of the :data:`SPACING_COUNT` values from there inward (0 for one value)."""
     start = int(np.floor((1 - confidence) * (len(ordered) - 1) + 1e-9))
-    window = ordered[start : start + SPACING_COUNT]
+    window = ordered[start:start + SPACING_COUNT]
     gap = abs(float(window[-1] - window[0])) / (len(window) - 1) if len(window) > 1 else 0.0
     return float(ordered[start]), gap
 

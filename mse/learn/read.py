@@ -38,16 +38,12 @@ def expand_inputs(paths: Iterable[str | Path]) -> tuple[list[Path], list[Diagnos
         if path.is_dir():
             inside = sorted(p for p in path.rglob("*") if p.is_file() and p.suffix.lower() in SUFFIXES)
             if not inside:
-                problems.append(
-                    Diagnostic("E100", f"no annotation file ({', '.join(SUFFIXES)}) in this folder", Span(str(path)))
-                )
+                problems.append(Diagnostic("E100", f"no annotation file ({', '.join(SUFFIXES)}) in this folder",
+                                           Span(str(path))))
             files.extend(inside)
         elif path.suffix.lower() not in SUFFIXES:
-            problems.append(
-                Diagnostic(
-                    "E100", f"unknown kind of annotation file (suffixes: {', '.join(SUFFIXES)})", Span(str(path))
-                )
-            )
+            problems.append(Diagnostic("E100", f"unknown kind of annotation file (suffixes: {', '.join(SUFFIXES)})",
+                                       Span(str(path))))
         else:
             files.append(path)
     return files, problems
@@ -70,27 +66,12 @@ def read_timeline_sequences(path: Path, data: bytes) -> tuple[list[RawSequence],
             if not 0 <= start < stop:
                 return [], [Diagnostic("E212", f"signal {signal.id!r} must have 0 <= start < stop", span)]
             if signal.modality and not IDENTIFIER.match(signal.modality):
-                return [], [
-                    Diagnostic(
-                        "E212",
-                        f"signal {signal.id[:60]!r} has the modality {signal.modality[:60]!r}, "
-                        "which is not an identifier ([A-Za-z_][A-Za-z0-9_]*)",
-                        span,
-                    )
-                ]
+                return [], [Diagnostic("E212", f"signal {signal.id[:60]!r} has the modality {signal.modality[:60]!r}, "
+                                       "which is not an identifier ([A-Za-z_][A-Za-z0-9_]*)", span)]
             action = signal.motion.get("action") if signal.motion else None
-            annotations.append(
-                Annotation(
-                    signal.modality or "unknown",
-                    signal.id,
-                    start,
-                    stop,
-                    span,
-                    lexeme=signal.lexeme,
-                    motion=str(action) if action else None,
-                    modality=signal.modality or None,
-                )
-            )
+            annotations.append(Annotation(signal.modality or "unknown", signal.id, start, stop, span,
+                                          lexeme=signal.lexeme, motion=str(action) if action else None,
+                                          modality=signal.modality or None))
         duration = to_ticks(timeline.duration)
         if any(a.stop > duration for a in annotations):
             return [], [Diagnostic("E212", "a signal stops after the timeline's duration", span)]
@@ -141,28 +122,17 @@ def read_corpus(paths: Iterable[str | Path], mapping: TierMapping = DEFAULT_MAPP
     annotations = sum(len(sequence.annotations) for sequence in raw)
     if annotations > MAX_LEARN_ANNOTATIONS:
         where = str(files[0]) if files else "<input>"
-        found.append(
-            Diagnostic(
-                "E122",
-                f"{annotations} annotations; learn mines at most {MAX_LEARN_ANNOTATIONS} "
-                "(learn from a sample of the sequences)",
-                Span(where),
-            )
-        )
+        found.append(Diagnostic("E122", f"{annotations} annotations; learn mines at most {MAX_LEARN_ANNOTATIONS} "
+                                "(learn from a sample of the sequences)", Span(where)))
     if has_errors(found):
         raise MseError(found)
     corpus, notes = build_corpus(raw, mapping)
     found.extend(notes)
     if len(corpus.signals) > MAX_LEARN_SIGNALS:
         where = str(files[0]) if files else "<input>"
-        found.append(
-            Diagnostic(
-                "E122",
-                f"{len(corpus.signals)} distinct signals; learn mines at most "
-                f"{MAX_LEARN_SIGNALS} (map labels together with --mapping, or read fewer tiers)",
-                Span(where),
-            )
-        )
+        found.append(Diagnostic("E122", f"{len(corpus.signals)} distinct signals; learn mines at most "
+                                f"{MAX_LEARN_SIGNALS} (map labels together with --mapping, or read fewer tiers)",
+                                Span(where)))
     if has_errors(found):
         raise MseError(found)
     if not corpus.sequences or not corpus.signals:
@@ -178,19 +148,10 @@ def _too_long(raw: Iterable[RawSequence]) -> list[Diagnostic]:
     found = []
     limit = round(MAX_SOLVE_SECONDS * 1000)
     for sequence in raw:
-        length = (
-            sequence.duration
-            if sequence.duration is not None
-            else max((a.stop for a in sequence.annotations), default=0)
-        )
+        length = sequence.duration if sequence.duration is not None else max(
+            (a.stop for a in sequence.annotations), default=0)
         if length > limit:
-            found.append(
-                Diagnostic(
-                    "E122",
-                    f"sequence {sequence.name!r} is {length / 1000:g} s long; learn reads "
-                    f"sequences of at most {MAX_SOLVE_SECONDS:g} s (the longest that sample "
-                    "solves): cut the recording into shorter sequences",
-                    sequence.span,
-                )
-            )
+            found.append(Diagnostic("E122", f"sequence {sequence.name!r} is {length / 1000:g} s long; learn reads "
+                                    f"sequences of at most {MAX_SOLVE_SECONDS:g} s (the longest that sample "
+                                    "solves): cut the recording into shorter sequences", sequence.span))
     return found

@@ -68,10 +68,8 @@ class _EafReader:
             return None
         version = root.get("VERSION") or root.get("FORMAT") or ""
         if version not in SUPPORTED_VERSIONS:
-            self.note(
-                f"EAF version {version or '(none)'} is not one of {', '.join(SUPPORTED_VERSIONS)}; read as EAF 3.0",
-                root,
-            )
+            self.note(f"EAF version {version or '(none)'} is not one of {', '.join(SUPPORTED_VERSIONS)}; "
+                      "read as EAF 3.0", root)
         duration = self._header(root.find("HEADER"))
         slots = self._time_slots(root.find("TIME_ORDER"))
         if slots is None:
@@ -82,9 +80,8 @@ class _EafReader:
         if duration is not None:
             late = [a for a in annotations if a.stop > duration]
             if late:
-                self.error(
-                    f"annotation ends at {late[0].stop} ms, after the {DURATION_PROPERTY} of {duration} ms", root
-                )
+                self.error(f"annotation ends at {late[0].stop} ms, after the {DURATION_PROPERTY} of {duration} ms",
+                           root)
                 return None
         return RawSequence(Path(self.path).stem, tuple(annotations), Span(self.path), duration)
 
@@ -100,9 +97,8 @@ class _EafReader:
                 value = (prop.text or "").strip()
                 duration = _milliseconds(value)
                 if duration is None or duration <= 0:
-                    self.error(
-                        f"{DURATION_PROPERTY} must be a positive number of milliseconds, not {value[:40]!r}", prop
-                    )
+                    self.error(f"{DURATION_PROPERTY} must be a positive number of milliseconds, "
+                               f"not {value[:40]!r}", prop)
                     return None
                 return duration
         return None
@@ -126,11 +122,8 @@ class _EafReader:
                 continue
             milliseconds = _milliseconds(value)
             if milliseconds is None:
-                self.error(
-                    f"TIME_VALUE of {slot_id!r} must be a whole number of milliseconds "
-                    f"(ASCII digits, at most 15), not {value[:40]!r}",
-                    slot,
-                )
+                self.error(f"TIME_VALUE of {slot_id!r} must be a whole number of milliseconds "
+                           f"(ASCII digits, at most 15), not {value[:40]!r}", slot)
                 continue
             slots[slot_id] = milliseconds
         return slots

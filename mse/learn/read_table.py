@@ -55,13 +55,8 @@ def read_table(path: str | Path, data: bytes | None = None) -> tuple[list[RawSeq
                 columns = {column: index for index, column in enumerate(COLUMNS)}
             _row(cells, columns, Span(name, line, 1), order, durations, first_line, found)
     except csv.Error as error:
-        found.append(
-            Diagnostic(
-                "E120",
-                f"not a readable {'TSV' if delimiter == chr(9) else 'CSV'} file: {error}",
-                Span(name, rows.line_num, 1),
-            )
-        )
+        found.append(Diagnostic("E120", f"not a readable {'TSV' if delimiter == chr(9) else 'CSV'} file: {error}",
+                                Span(name, rows.line_num, 1)))
     if any(d.is_error for d in found):
         return [], found
     sequences = [
@@ -71,9 +66,8 @@ def read_table(path: str | Path, data: bytes | None = None) -> tuple[list[RawSeq
     for sequence in sequences:
         late = [a for a in sequence.annotations if sequence.duration is not None and a.stop > sequence.duration]
         if late:
-            found.append(
-                Diagnostic("E121", f"annotation ends after the duration of sequence {sequence.name!r}", late[0].span)
-            )
+            found.append(Diagnostic("E121", f"annotation ends after the duration of sequence {sequence.name!r}",
+                                    late[0].span))
     return sequences, found
 
 
@@ -105,11 +99,8 @@ def _row(
         duration = _seconds(cells[columns["duration"]], "duration", span, found)
         if duration is not None:
             if duration <= 0 or durations.get(sequence, duration) != duration:
-                found.append(
-                    Diagnostic(
-                        "E121", f"duration of sequence {sequence!r} must be positive and the same on every row", span
-                    )
-                )
+                found.append(Diagnostic("E121", f"duration of sequence {sequence!r} must be positive and the "
+                                        "same on every row", span))
                 return
             durations[sequence] = duration
     first_line.setdefault(sequence, span.line)
@@ -119,7 +110,8 @@ def _row(
 def _seconds(text: str, what: str, span: Span, found: list[Diagnostic]) -> int | None:
     value = parse_double(text)  # ASCII digits only (float() also takes "1_0" and other scripts' digits)
     if value is None:
-        found.append(Diagnostic("E121", f"{what} must be a number of seconds in ASCII digits, not {text[:40]!r}", span))
+        found.append(Diagnostic("E121", f"{what} must be a number of seconds in ASCII digits, not {text[:40]!r}",
+                                span))
         return None
     if not math.isfinite(value) or not 0 <= value < 1e7:
         found.append(Diagnostic("E121", f"{what} must be between 0 and 10^7 seconds, not {text[:40]!r}", span))

@@ -47,9 +47,8 @@ def behaviour_set_xml(
         note = modality_notes.get(modality.name)
         if note:
             children.append(Comment(note))
-        children.append(
-            element("modality", {"name": modality.name, "exclusive": "true" if modality.exclusive else "false"})
-        )
+        children.append(element("modality", {"name": modality.name, "exclusive": "true" if modality.exclusive
+                                             else "false"}))
     signals: list[Element | Comment | str] = []
     for signal in model.signals:
         note = signal_notes.get(signal.id)

@@ -87,20 +87,12 @@ def slot_counts(model: ir.Model, proposal: Proposal) -> dict[str, int]:
     for occurrence in proposal.known:
         assert occurrence.signal is not None
         proposed[occurrence.signal] = proposed.get(occurrence.signal, 0) + 1
-    return {
-        s.id: min(semantic_limit(s, proposal.duration), proposed.get(s.id, 0) + max(1, mentions[s.id]))
-        for s in model.signals
-    }
+    return {s.id: min(semantic_limit(s, proposal.duration), proposed.get(s.id, 0) + max(1, mentions[s.id]))
+            for s in model.signals}
 
 
-def build_repair(
-    model: ir.Model,
-    proposal: Proposal,
-    keep: Collection[int],
-    *,
-    switchable: bool = False,
-    counts: Mapping[str, int] | None = None,
-) -> RepairModel:
+def build_repair(model: ir.Model, proposal: Proposal, keep: Collection[int], *, switchable: bool = False,
+                 counts: Mapping[str, int] | None = None) -> RepairModel:
     """The repair model.  ``keep``: indices of proposed occurrences that must not be dropped
     (each one a switchable rule of kind "keep" when ``switchable``)."""
     duration = proposal.duration
@@ -142,10 +134,8 @@ def build_repair(
                 literals.append(literal)
             is_kept = cp.new_bool_var(f"kept{i}")
             cp.add(sum(literals) == is_kept)
-            for distance, at, proposed in (
-                (start_distance, start_at, occurrence.start),
-                (stop_distance, stop_at, occurrence.stop),
-            ):
+            for distance, at, proposed in ((start_distance, start_at, occurrence.start),
+                                           (stop_distance, stop_at, occurrence.stop)):
                 cp.add(distance >= at - proposed).only_enforce_if(is_kept)
                 cp.add(distance >= proposed - at).only_enforce_if(is_kept)
                 cp.add(distance == 0).only_enforce_if(~is_kept)
@@ -160,9 +150,8 @@ def build_repair(
                     enable = cp.new_bool_var(f"keep{i}")
                     what = "fixed at" if occurrence.fixed else "kept:"
                     enc.enable[f"keep:{i}"] = enable
-                    enc.items[f"keep:{i}"] = Item(
-                        occurrence.name, "keep", occurrence.span, f"{what} {occurrence.describe()}"
-                    )
+                    enc.items[f"keep:{i}"] = Item(occurrence.name, "keep", occurrence.span,
+                                                  f"{what} {occurrence.describe()}")
                     keep_enable[i] = enable
                     enforce = [enable]
                 cp.add(is_kept == 1).only_enforce_if(enforce)
@@ -180,10 +169,11 @@ def build_repair(
             cp.add(sum(kept[i] for i in indices) >= both)
         if len(indices) * len(slots) <= MONOTONE_LIMIT:
             for a, i in enumerate(indices):
-                for i2 in indices[a + 1 :]:
+                for i2 in indices[a + 1:]:
                     for j in range(len(slots)):
                         for j2 in range(j + 1):
-                            cp.add_bool_or([~match[(i, key_of[(signal_id, j)])], ~match[(i2, key_of[(signal_id, j2)])]])
+                            cp.add_bool_or([~match[(i, key_of[(signal_id, j)])],
+                                            ~match[(i2, key_of[(signal_id, j2)])]])
     _order_exclusive(model, enc)
     return RepairModel(enc, match, slot_keys, moved, farthest, kept, keep_enable)
 
@@ -198,13 +188,8 @@ def _order_exclusive(model: ir.Model, enc: Encoding) -> None:
 
     cp = enc.cp
     for modality in sorted(model.exclusive_modalities):
-        members = [
-            slot
-            for signal in model.signals
-            if signal.modality == modality
-            for slot in enc.slots[signal.id]
-            if slot.decided
-        ]
+        members = [slot for signal in model.signals if signal.modality == modality
+                   for slot in enc.slots[signal.id] if slot.decided]
         for first, second in itertools.combinations(members, 2):
             if first.signal == second.signal:
                 continue
@@ -288,20 +273,12 @@ def restricted(proposal: Proposal, part: ir.Model) -> Proposal:
     from dataclasses import replace
 
     ids = part.signal_by_id
-    return replace(
-        proposal, occurrences=tuple(o if o.signal in ids else replace(o, signal=None) for o in proposal.occurrences)
-    )
+    return replace(proposal, occurrences=tuple(
+        o if o.signal in ids else replace(o, signal=None) for o in proposal.occurrences))
 
 
-def solve(
-    model: ir.Model,
-    proposal: Proposal,
-    keep: Collection[int],
-    *,
-    time_limit: float = 10.0,
-    workers: int = 1,
-    seed: int = 0,
-) -> tuple[Solved | None, str, ir.Model | None]:
+def solve(model: ir.Model, proposal: Proposal, keep: Collection[int], *, time_limit: float = 10.0,
+          workers: int = 1, seed: int = 0) -> tuple[Solved | None, str, ir.Model | None]:
     """The nearest consistent timeline, part by part (:func:`components`): (the repair,
     "optimal" | "feasible"), or (None, "infeasible" | "unknown", the part that has none)."""
     from mse.ir.evaluate import check_schedule
@@ -312,13 +289,11 @@ def solve(
     for part in components(model):
         mine = restricted(proposal, part)
         if not check_schedule(part, mine.schedule()):
-            placed.extend(
-                Placed(o.signal, o.start, o.stop, i) for i, o in enumerate(mine.occurrences) if o.signal is not None
-            )
+            placed.extend(Placed(o.signal, o.start, o.stop, i) for i, o in enumerate(mine.occurrences)
+                          if o.signal is not None)
             continue
-        solved, status = solve_part(
-            part, mine, keep, time_limit=max(0.01, deadline - time.monotonic()), workers=workers, seed=seed
-        )
+        solved, status = solve_part(part, mine, keep, time_limit=max(0.01, deadline - time.monotonic()),
+                                    workers=workers, seed=seed)
         if solved is None:
             return None, status, part
         placed.extend(solved.placed)
@@ -330,15 +305,10 @@ def solve(
     return Solved(tuple(placed), optimal, changes, moved, seconds), ("optimal" if optimal else "feasible"), None
 
 
-def solve_part(
-    model: ir.Model,
-    proposal: Proposal,
-    keep: Collection[int],
-    *,
-    time_limit: float = 10.0,
-    workers: int = 1,
-    seed: int = 0,
-) -> tuple[Solved | None, str]:
+
+
+def solve_part(model: ir.Model, proposal: Proposal, keep: Collection[int], *, time_limit: float = 10.0,
+               workers: int = 1, seed: int = 0) -> tuple[Solved | None, str]:
     """(the repair, "optimal" | "feasible"), or (None, "infeasible" | "unknown").
 
     First the common case: nothing dropped or added, the proposed occurrences only moved (a
@@ -391,16 +361,10 @@ def _proposed_counts(proposal: Proposal) -> dict[str, int]:
     return counts
 
 
-def _solved(
-    repair: RepairModel, solver: cp_model.CpSolver, optimal: bool, changes: Any, moved: Any, began: float
-) -> tuple[Solved, str]:
-    solved = Solved(
-        _decode(repair, solver),
-        optimal,
-        round(solver.value(changes)),
-        round(solver.value(moved)),
-        time.perf_counter() - began,
-    )
+def _solved(repair: RepairModel, solver: cp_model.CpSolver, optimal: bool, changes: Any, moved: Any,
+            began: float) -> tuple[Solved, str]:
+    solved = Solved(_decode(repair, solver), optimal, round(solver.value(changes)), round(solver.value(moved)),
+                    time.perf_counter() - began)
     return solved, "optimal" if optimal else "feasible"
 
 
@@ -410,13 +374,13 @@ def _solved(
 #: the rest.  Minimizing the time moved: the full linear relaxation (level 2), which with the
 #: order literals of the exclusive modalities proves the bound after branching on orders.
 #: Measured in bench/evaluation/repair.py.
-CHANGE_SEARCHES: list[dict[str, Any]] = [{"light": True, "max_deterministic_time": 0.03}, {"linearization_level": 2}]
+CHANGE_SEARCHES: list[dict[str, Any]] = [{"light": True, "max_deterministic_time": 0.03},
+                                         {"linearization_level": 2}]
 MOVE_SEARCHES: list[dict[str, Any]] = [{"linearization_level": 2}]
 
 
-def _search(
-    cp: cp_model.CpModel, deadline: float, workers: int, seed: int, searches: Sequence[Mapping[str, Any]]
-) -> tuple[Any, cp_model.CpSolver]:
+def _search(cp: cp_model.CpModel, deadline: float, workers: int, seed: int,
+            searches: Sequence[Mapping[str, Any]]) -> tuple[Any, cp_model.CpSolver]:
     from ortools.sat.python import cp_model
 
     from mse.solve.cpsat.engine import make_solver
@@ -453,15 +417,13 @@ def _decode(repair: RepairModel, solver: cp_model.CpSolver) -> tuple[Placed, ...
     for signal_id, slots in repair.enc.slots.items():
         for j, slot in enumerate(slots):
             if slot.decided and solver.boolean_value(slot.present):
-                placed.append(
-                    Placed(signal_id, solver.value(slot.start), solver.value(slot.stop), source.get((signal_id, j)))
-                )
+                placed.append(Placed(signal_id, solver.value(slot.start), solver.value(slot.stop),
+                                     source.get((signal_id, j))))
     return tuple(sorted(placed, key=lambda p: (p.start, p.signal, p.stop)))
 
 
-def keep_core(
-    model: ir.Model, proposal: Proposal, keep: Collection[int], *, time_limit: float = 10.0, workers: int = 1
-) -> tuple[list[Item], bool]:
+def keep_core(model: ir.Model, proposal: Proposal, keep: Collection[int], *,
+              time_limit: float = 10.0, workers: int = 1) -> tuple[list[Item], bool]:
     """A minimal set of rules (the set's and the kept occurrences) that no timeline satisfies
     together, when no repair keeps ``keep``; and whether it is proven minimal (False when a
     shrinking step ran out of time).  Deletion-based, as :mod:`mse.solve.cpsat.explain`."""

@@ -74,9 +74,8 @@ class Proposal:
 
     def schedule(self) -> Schedule:
         """The known occurrences as a schedule (what the evaluator checks)."""
-        return Schedule.of(
-            self.duration, (Occurrence(o.start, o.stop, o.signal) for o in self.known if o.signal is not None)
-        )
+        return Schedule.of(self.duration, (Occurrence(o.start, o.stop, o.signal) for o in self.known
+                                           if o.signal is not None))
 
 
 def typical_length(signal: ir.Signal) -> int:

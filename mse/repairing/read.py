@@ -83,15 +83,8 @@ def read_proposal(model: ir.Model, text: str, *, path: str = "<proposal>", durat
     return _replace_text(proposal, text)
 
 
-def from_json(
-    model: ir.Model,
-    obj: Any,
-    *,
-    path: str = "<proposal>",
-    duration: float | None = None,
-    located: _Located | None = None,
-    timeline: Timeline | None = None,
-) -> Proposal:
+def from_json(model: ir.Model, obj: Any, *, path: str = "<proposal>", duration: float | None = None,
+              located: _Located | None = None, timeline: Timeline | None = None) -> Proposal:
     """A proposal from decoded JSON (a timeline or a light proposal); ``timeline``: the
     timeline ``obj`` was written from, when there is one (returned as it is when consistent)."""
     at = located or _Located(path, None)
@@ -128,22 +121,14 @@ def from_json(
 
 
 # -- the timeline form --------------------------------------------------------------------
-def _from_timeline(
-    model: ir.Model, obj: dict[str, Any], at: _Located, duration: float | None, timeline: Timeline | None
-) -> Proposal:
+def _from_timeline(model: ir.Model, obj: dict[str, Any], at: _Located, duration: float | None,
+                   timeline: Timeline | None) -> Proposal:
     from mse.timeline import Timeline
 
     given = _duration(obj, at)
     if duration is not None and to_ticks(duration) != to_ticks(given):
-        raise MseError(
-            [
-                Diagnostic(
-                    "E100",
-                    f"--duration {duration:g} differs from the timeline's own duration {given:g} s",
-                    Span("<arguments>"),
-                )
-            ]
-        )
+        raise MseError([Diagnostic("E100", f"--duration {duration:g} differs from the timeline's own duration "
+                                           f"{given:g} s", Span("<arguments>"))])
     raw = obj.get("signals")
     if not isinstance(raw, list):
         raise at.fail("'signals' must be a list", ("signals",))
@@ -180,14 +165,11 @@ def _light_occurrences(model: ir.Model, raw: Sequence[Any], at: _Located) -> lis
             raise at.fail(f"occurrences[{index}] must be an object", where)
         unknown = sorted(set(entry) - _OCCURRENCE_KEYS)
         if unknown:
-            raise at.fail(
-                f"occurrences[{index}]: unknown key {unknown[0]!r} (known: {', '.join(sorted(_OCCURRENCE_KEYS))})",
-                (*where, unknown[0]),
-            )
+            raise at.fail(f"occurrences[{index}]: unknown key {unknown[0]!r} "
+                          f"(known: {', '.join(sorted(_OCCURRENCE_KEYS))})", (*where, unknown[0]))
         if ("signal" in entry) == ("lexeme" in entry):
-            raise at.fail(
-                f"occurrences[{index}] names its signal by 'signal' (an id) or by 'lexeme', exactly one of them", where
-            )
+            raise at.fail(f"occurrences[{index}] names its signal by 'signal' (an id) or by 'lexeme', "
+                          "exactly one of them", where)
         by = "signal" if "signal" in entry else "lexeme"
         name = entry[by]
         if not isinstance(name, str) or not name:
@@ -213,10 +195,8 @@ def _light_occurrences(model: ir.Model, raw: Sequence[Any], at: _Located) -> lis
         if stop is None:
             stop = start + length
         if start < 0:
-            raise at.fail(
-                f"occurrences[{index}] would start at {start / 1000:g} s (its stop minus its length): give 'start'",
-                where,
-            )
+            raise at.fail(f"occurrences[{index}] would start at {start / 1000:g} s (its stop minus its length): "
+                          "give 'start'", where)
         weight = entry.get("weight", 1)
         if isinstance(weight, bool) or not isinstance(weight, int) or not 1 <= weight <= MAX_WEIGHT:
             raise at.fail(f"occurrences[{index}].weight must be an integer in [1, {MAX_WEIGHT}]", (*where, "weight"))
@@ -235,19 +215,15 @@ def _light_occurrences(model: ir.Model, raw: Sequence[Any], at: _Located) -> lis
                 raise at.fail(f"occurrences[{index}]: id {label!r} is already used at {line}:{col}", (*where, "id"))
             labels[label] = (*where, "id")
         _occurrence(name, signal, start, stop, at, where)
-        occurrences.append(
-            ProposedOccurrence(
-                name, signal, start, stop, weight, flags["keep"], flags["fixed"], label, estimated, at.span(where)
-            )
-        )
+        occurrences.append(ProposedOccurrence(name, signal, start, stop, weight, flags["keep"], flags["fixed"],
+                                              label, estimated, at.span(where)))
         previous_stop = stop
     return occurrences
 
 
 # -- the text form ----------------------------------------------------------------------------
-def _from_text(
-    model: ir.Model, text: str, words: Any, at: _Located, duration: float | None, line_text: str | None
-) -> Proposal:
+def _from_text(model: ir.Model, text: str, words: Any, at: _Located, duration: float | None,
+               line_text: str | None) -> Proposal:
     """Tagged text: ``[name]`` alone starts the signal at the next word (its typical length);
     ``[name]…[/name]`` spans the words between.  ``words`` are the words' ``[word, start, stop]``
     (else estimated).  ``line_text``: the document itself (positions are in it), else the text
@@ -269,16 +245,15 @@ def _from_text(
         cursor = 0
         for tag in _TAG.finditer(piece):
             if tag.start() > cursor:
-                tokens.append(("word", piece[cursor : tag.start()], base + cursor))
+                tokens.append(("word", piece[cursor:tag.start()], base + cursor))
             tokens.append(("close" if tag.group(1) else "open", tag.group(2), base + tag.start()))
             cursor = tag.end()
         if cursor < len(piece):
             tokens.append(("word", piece[cursor:], base + cursor))
     stray = next((t for t in tokens if t[0] == "word" and ("[" in t[1] or "]" in t[1])), None)
     if stray is not None:
-        raise fail(
-            f"{stray[1]!r} is not a tag: tags are [name] and [/name] (a signal id or lexeme, no spaces)", stray[2]
-        )
+        raise fail(f"{stray[1]!r} is not a tag: tags are [name] and [/name] (a signal id or lexeme, no spaces)",
+                   stray[2])
     spoken = [t for t in tokens if t[0] == "word"]
     times = _word_times(spoken, words, at, fail)
     if len(tokens) - len(spoken) > 2 * MAX_PROPOSED:
@@ -309,13 +284,13 @@ def _from_text(
             stop = times[last][1]
         else:
             stop = start + (typical_length(model.signal(signal)) if signal is not None else 1000)
-        occurrences.append(
-            ProposedOccurrence(name, signal, start, stop, estimated=words is None or last is None, span=span(offset))
-        )
+        occurrences.append(ProposedOccurrence(name, signal, start, stop, estimated=words is None or last is None,
+                                              span=span(offset)))
     return _finish(model, occurrences, duration, at, form="text", floor=end_of_speech)
 
 
-def _word_times(spoken: Sequence[tuple[str, str, int]], words: Any, at: _Located, fail: Any) -> list[tuple[int, int]]:
+def _word_times(spoken: Sequence[tuple[str, str, int]], words: Any, at: _Located,
+                fail: Any) -> list[tuple[int, int]]:
     if words is None:
         times, cursor = [], 0.0
         for _, word, _ in spoken:
@@ -326,17 +301,14 @@ def _word_times(spoken: Sequence[tuple[str, str, int]], words: Any, at: _Located
     if not isinstance(words, list):
         raise at.fail("'words' must be a list of [word, start, stop]", ("words",))
     if len(words) != len(spoken):
-        raise at.fail(f"'words' gives {len(words)} words; the text has {len(spoken)} (tags are not words)", ("words",))
+        raise at.fail(f"'words' gives {len(words)} words; the text has {len(spoken)} (tags are not words)",
+                      ("words",))
     times = []
     previous = 0
     for index, (entry, (_, word, _)) in enumerate(zip(words, spoken, strict=True)):
         where: Path = ("words", index)
-        if (
-            not isinstance(entry, list)
-            or len(entry) != 3
-            or not isinstance(entry[0], str)
-            or not all(_is_number(x) for x in entry[1:])
-        ):
+        if (not isinstance(entry, list) or len(entry) != 3 or not isinstance(entry[0], str)
+                or not all(_is_number(x) for x in entry[1:])):
             raise at.fail(f"words[{index}] must be [word, start, stop] (a string and two numbers)", where)
         if entry[0] != word:
             raise at.fail(f"words[{index}] is {entry[0]!r}; the text's word {index + 1} is {word!r}", where)
@@ -361,15 +333,10 @@ def _is_number(value: object) -> bool:
 
 def _duration(obj: Mapping[str, Any], at: _Located) -> float:
     value = obj.get("duration")
-    if (
-        not isinstance(value, int | float)
-        or not _is_number(value)
-        or not (MIN_DURATION_SECONDS <= float(value) <= MAX_SOLVE_SECONDS)
-    ):
-        raise at.fail(
-            f"'duration' must be a number of seconds in [{MIN_DURATION_SECONDS:g}, {MAX_SOLVE_SECONDS:g}]",
-            ("duration",),
-        )
+    if not isinstance(value, int | float) or not _is_number(value) or not (
+            MIN_DURATION_SECONDS <= float(value) <= MAX_SOLVE_SECONDS):
+        raise at.fail(f"'duration' must be a number of seconds in [{MIN_DURATION_SECONDS:g}, {MAX_SOLVE_SECONDS:g}]",
+                      ("duration",))
     return float(value)
 
 
@@ -397,9 +364,8 @@ def _resolve(model: ir.Model, name: str, by: str, at: _Located, where: Path) -> 
         return name if name in model.signal_by_id else None
     candidates = [s.id for s in model.signals if s.lexeme == name]
     if len(candidates) > 1:
-        raise at.fail(
-            f"lexeme {name!r} is used by several signals ({', '.join(candidates)}): name one by 'signal'", where
-        )
+        raise at.fail(f"lexeme {name!r} is used by several signals ({', '.join(candidates)}): name one by 'signal'",
+                      where)
     return candidates[0] if candidates else None
 
 
@@ -409,31 +375,21 @@ def _resolve_text(model: ir.Model, name: str, fail: Any, offset: int) -> str | N
         return name
     candidates = [s.id for s in model.signals if s.lexeme == name]
     if len(candidates) > 1:
-        raise fail(
-            f"[{name}]: lexeme {name!r} is used by several signals ({', '.join(candidates)}): tag with a signal id",
-            offset,
-        )
+        raise fail(f"[{name}]: lexeme {name!r} is used by several signals ({', '.join(candidates)}): "
+                   "tag with a signal id", offset)
     return candidates[0] if candidates else None
 
 
-def _occurrence(name: str, signal: str | None, start: int, stop: int, at: _Located, where: Path) -> ProposedOccurrence:
+def _occurrence(name: str, signal: str | None, start: int, stop: int, at: _Located,
+                where: Path) -> ProposedOccurrence:
     if stop <= start:
-        raise at.fail(
-            f"{_label(where)} ({name}) stops at {stop / 1000:g} s, not after its start {start / 1000:g} s", where
-        )
+        raise at.fail(f"{_label(where)} ({name}) stops at {stop / 1000:g} s, not after its start "
+                      f"{start / 1000:g} s", where)
     return ProposedOccurrence(name, signal, start, stop, span=at.span(where))
 
 
-def _finish(
-    model: ir.Model,
-    occurrences: list[ProposedOccurrence],
-    duration: float | None,
-    at: _Located,
-    *,
-    form: Form,
-    expression: str = "",
-    floor: int = 0,
-) -> Proposal:
+def _finish(model: ir.Model, occurrences: list[ProposedOccurrence], duration: float | None, at: _Located, *,
+            form: Form, expression: str = "", floor: int = 0) -> Proposal:
     """Check what only the whole proposal shows and fix its duration: the given one, else the
     latest stop (estimated times that run past a given duration are scaled into it)."""
     for occurrence in occurrences:
@@ -459,16 +415,8 @@ def _finish(
         for first, second in itertools.pairwise(ordered):
             if second.start < first.stop:
                 where = first.span.render()
-                raise MseError(
-                    [
-                        Diagnostic(
-                            CODE,
-                            f"{second.describe()} overlaps {first.describe()} (at {where}): "
-                            "occurrences of one signal never overlap",
-                            second.span,
-                        )
-                    ]
-                )
+                raise MseError([Diagnostic(CODE, f"{second.describe()} overlaps {first.describe()} (at {where}): "
+                                                 "occurrences of one signal never overlap", second.span)])
     return Proposal(ticks, tuple(occurrences), form, at.path, expression)
 
 

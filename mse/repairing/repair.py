@@ -86,22 +86,15 @@ class Change:
         code = f"{FOREIGN} " if self.kind == "foreign" else ""
         because = ""
         if self.kind != "foreign":
-            because = (
-                ": because of " + " … ".join(r.render() for r in self.reasons)
-                if self.reasons
-                else ": (no single rule: the repair is not proven optimal)"
-            )
+            because = (": because of " + " … ".join(r.render() for r in self.reasons) if self.reasons
+                       else ": (no single rule: the repair is not proven optimal)")
         return f"{self.span.render()}: {code}{self.describe()}{because}"
 
     def to_json(self) -> dict[str, Any]:
         entry: dict[str, Any] = {"change": self.kind, "signal": self.signal}
         if self.proposed is not None:
-            proposed: dict[str, Any] = {
-                "name": self.proposed.name,
-                "start": _s(self.proposed.start),
-                "stop": _s(self.proposed.stop),
-                "at": self.proposed.span.render(),
-            }
+            proposed: dict[str, Any] = {"name": self.proposed.name, "start": _s(self.proposed.start),
+                                        "stop": _s(self.proposed.stop), "at": self.proposed.span.render()}
             if self.proposed.label:
                 proposed["id"] = self.proposed.label
             if self.proposed.estimated:
@@ -112,9 +105,8 @@ class Change:
         if self.kind == "moved":
             entry["moved_ms"] = self.moved
         if self.kind != "foreign":
-            entry["because"] = [
-                {"rule": r.rule, "kind": r.kind, "at": where(r.span), "message": r.message} for r in self.reasons
-            ]
+            entry["because"] = [{"rule": r.rule, "kind": r.kind, "at": where(r.span), "message": r.message}
+                                for r in self.reasons]
         return entry
 
 
@@ -147,10 +139,8 @@ class Repair:
         if self.unchanged:
             return f"the proposal is consistent with {self.expression}: unchanged"
         proof = "" if self.optimal else " (not proven nearest: the time limit ran out)"
-        return (
-            f"repaired for {self.expression}: {self.count('dropped')} dropped, {self.count('added')} added, "
-            f"{self.count('moved')} moved by {self.moved} ms in all, {self.count('foreign')} foreign{proof}"
-        )
+        return (f"repaired for {self.expression}: {self.count('dropped')} dropped, {self.count('added')} added, "
+                f"{self.count('moved')} moved by {self.moved} ms in all, {self.count('foreign')} foreign{proof}")
 
     def render(self) -> list[str]:
         return [change.render() for change in self.changes] + [self.summary()]
@@ -180,9 +170,8 @@ class NoRepair(MseError):
     ``items``: a minimal set of rules that cannot hold together (``minimal`` False when the
     shrinking ran out of time)."""
 
-    def __init__(
-        self, diagnostics: list[Diagnostic], items: Sequence[Item] = (), *, proven: bool, minimal: bool = True
-    ) -> None:
+    def __init__(self, diagnostics: list[Diagnostic], items: Sequence[Item] = (), *, proven: bool,
+                 minimal: bool = True) -> None:
         super().__init__(diagnostics)
         self.items = tuple(items)
         self.proven = proven
@@ -219,9 +208,8 @@ def repair(
     if not check_schedule(model, read.schedule()):
         if not foreign and read.timeline is not None:
             return Repair(read.timeline, (), read, expression=expression)
-        placed = tuple(
-            Placed(o.signal, o.start, o.stop, i) for i, o in enumerate(read.occurrences) if o.signal is not None
-        )
+        placed = tuple(Placed(o.signal, o.start, o.stop, i) for i, o in enumerate(read.occurrences)
+                       if o.signal is not None)
         return Repair(_timeline(model, read, placed), tuple(foreign), read, expression=expression)
     solved, status, failing = solve(model, read, indices, time_limit=time_limit, workers=workers)
     if solved is None:
@@ -229,23 +217,12 @@ def repair(
         raise _no_repair(failing, read, indices, status, time_limit, workers)
     changes = _changes(model, read, solved)
     ordered = sorted(changes + foreign, key=_order(read))
-    return Repair(
-        _timeline(model, read, solved.placed),
-        tuple(ordered),
-        read,
-        solved.optimal,
-        solved.seconds,
-        expression=expression,
-    )
+    return Repair(_timeline(model, read, solved.placed), tuple(ordered), read, solved.optimal, solved.seconds,
+                  expression=expression)
 
 
-def as_proposal(
-    model: ir.Model,
-    proposal: Proposal | Timeline | Mapping[str, Any] | str,
-    *,
-    duration: float | None = None,
-    path: str = "<proposal>",
-) -> Proposal:
+def as_proposal(model: ir.Model, proposal: Proposal | Timeline | Mapping[str, Any] | str, *,
+                duration: float | None = None, path: str = "<proposal>") -> Proposal:
     """Any accepted form of a proposal, read for ``model``."""
     from mse.repairing.read import from_json, read_proposal
 
@@ -263,10 +240,12 @@ def _keep_indices(proposal: Proposal, keep: Iterable[str]) -> frozenset[int]:
     the proposal marks ``keep``."""
     found = {i for i, o in enumerate(proposal.occurrences) if o.keep and o.signal is not None}
     for name in keep:
-        named = {i for i, o in enumerate(proposal.occurrences) if o.signal is not None and name in (o.signal, o.label)}
+        named = {i for i, o in enumerate(proposal.occurrences)
+                 if o.signal is not None and name in (o.signal, o.label)}
         if not named:
             foreign = any(name in (o.name, o.label) for o in proposal.foreign)
-            why = "it names no signal of the set" if foreign else "no proposed occurrence has that signal or id"
+            why = ("it names no signal of the set" if foreign else
+                   "no proposed occurrence has that signal or id")
             raise MseError([Diagnostic("E100", f"--keep {name!r}: {why}", Span("<arguments>"))])
         found |= named
     return frozenset(found)
@@ -288,16 +267,8 @@ def _timeline(model: ir.Model, proposal: Proposal, placed: Sequence[Placed]) -> 
     for occurrence in placed:
         signal = model.signal(occurrence.signal)
         motion = {"action": signal.motion.action} if signal.motion is not None else None
-        signals.append(
-            TimelineSignal(
-                signal.id,
-                signal.modality,
-                signal.lexeme,
-                to_seconds(occurrence.start),
-                to_seconds(occurrence.stop),
-                motion,
-            )
-        )
+        signals.append(TimelineSignal(signal.id, signal.modality, signal.lexeme, to_seconds(occurrence.start),
+                                      to_seconds(occurrence.stop), motion))
     return Timeline(model.name, to_seconds(proposal.duration), tuple(signals), "repair", None)
 
 
@@ -319,7 +290,7 @@ def _changes(model: ir.Model, proposal: Proposal, solved: Solved) -> list[Change
         back = Occurrence(occurrence.start, occurrence.stop, occurrence.signal)
         changes.append(Change("dropped", occurrence.signal, occurrence, reasons=reasons([*current, back])))
     for position, p in enumerate(placed):
-        others = current[:position] + current[position + 1 :]
+        others = current[:position] + current[position + 1:]
         if p.source is None:
             changes.append(Change("added", p.signal, None, p.start, p.stop, reasons(others), proposal.path))
             continue
@@ -339,32 +310,22 @@ def _reason(violation: Violation) -> Reason:
     return Reason(rule, violation.kind, violation.span, message)
 
 
-def _no_repair(
-    part: ir.Model, proposal: Proposal, keep: Collection[int], status: str, time_limit: float, workers: int
-) -> NoRepair:
+def _no_repair(part: ir.Model, proposal: Proposal, keep: Collection[int], status: str, time_limit: float,
+               workers: int) -> NoRepair:
     seconds = f"{to_seconds(proposal.duration):g}"
     if status != "infeasible":
-        message = (
-            f"no repair found within the time limit of {time_limit:g} s; this is not a proof that none "
-            "exists (raise --time-limit)"
-        )
+        message = (f"no repair found within the time limit of {time_limit:g} s; this is not a proof that none "
+                   "exists (raise --time-limit)")
         return NoRepair([Diagnostic("W401", message, Span(proposal.path))], proven=False)
     mine = restricted(proposal, part)
-    items, minimal = _limit_core(part, mine, keep) or keep_core(
-        part, mine, keep, time_limit=time_limit, workers=workers
-    )
-    parts = [
-        f"{item.id if item.kind in ('constraint', 'keep') else f'{item.id} [{item.kind}]'} "
-        f"({where(item.span)}) {item.text}"
-        for item in items
-    ]
+    items, minimal = _limit_core(part, mine, keep) or keep_core(part, mine, keep, time_limit=time_limit,
+                                                                 workers=workers)
+    parts = [f"{item.id if item.kind in ('constraint', 'keep') else f'{item.id} [{item.kind}]'} "
+             f"({where(item.span)}) {item.text}" for item in items]
     note = "" if minimal else " (time limit reached: the set may not be minimal)"
     kept = any(item.kind == "keep" for item in items)
-    head = (
-        f"no timeline of {seconds} s keeps what must be kept"
-        if kept
-        else f"no timeline of {seconds} s is consistent with {part.name}"
-    )
+    head = (f"no timeline of {seconds} s keeps what must be kept" if kept
+            else f"no timeline of {seconds} s is consistent with {part.name}")
     message = f"{head}: " + " … ".join(parts) + note
     first = next((item.span for item in items if item.kind == "keep"), None)
     first = first or next((item.span for item in items if item.span.line > 0), Span(proposal.path))
@@ -380,20 +341,10 @@ def _limit_core(part: ir.Model, proposal: Proposal, keep: Collection[int]) -> tu
         mine = [i for i in sorted(keep) if proposal.occurrences[i].signal == signal.id]
         limit = semantic_limit(signal, proposal.duration)
         if len(mine) > limit:
-            why = (
-                f"{signal.id} fits no occurrence in {to_seconds(proposal.duration):g} s"
-                if limit == 0
-                else f"{signal.id} occurs at most {limit} time{'s' if limit > 1 else ''}"
-            )
+            why = (f"{signal.id} fits no occurrence in {to_seconds(proposal.duration):g} s" if limit == 0 else
+                   f"{signal.id} occurs at most {limit} time{'s' if limit > 1 else ''}")
             rule = Item(signal.id, "occurrence rule", signal.span, why)
-            kept = [
-                Item(
-                    proposal.occurrences[i].name,
-                    "keep",
-                    proposal.occurrences[i].span,
-                    f"kept: {proposal.occurrences[i].describe()}",
-                )
-                for i in mine[: limit + 1]
-            ]
+            kept = [Item(proposal.occurrences[i].name, "keep", proposal.occurrences[i].span,
+                         f"kept: {proposal.occurrences[i].describe()}") for i in mine[:limit + 1]]
             return [*kept, rule], True
     return None

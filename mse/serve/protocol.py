@@ -124,7 +124,7 @@ class Connection:
             except (ValueError, RecursionError) as error:
                 raise ProtocolError("bad-json", f"not JSON: {error}") from None
             if not isinstance(obj, dict):
-                raise ProtocolError("bad-message", 'a message is a JSON object such as {"emotion": "joy"}')
+                raise ProtocolError("bad-message", "a message is a JSON object such as {\"emotion\": \"joy\"}")
             kind = obj.get("type")
             if kind is None:
                 yield from self._event(obj, seq)
@@ -132,15 +132,8 @@ class Connection:
                 if self._session is not None:
                     raise ProtocolError("state", "hello comes before the first event")
                 self.options = _hello(obj, self.options)
-                yield {
-                    "type": "hello",
-                    "protocol": PROTOCOL,
-                    "session": self.name,
-                    "seed": self.options.seed,
-                    "clock": self.options.clock,
-                    "bml": self.options.bml,
-                    "keep": self.options.keep,
-                }
+                yield {"type": "hello", "protocol": PROTOCOL, "session": self.name, "seed": self.options.seed,
+                       "clock": self.options.clock, "bml": self.options.bml, "keep": self.options.keep}
             elif kind == "timeline":
                 yield self._timeline()
             elif kind == "face":
@@ -150,10 +143,8 @@ class Connection:
             elif kind == "clock":
                 yield {"type": "clock", "t": self.clock() if self.options.clock == "real" else self._last_t}
             else:
-                raise ProtocolError(
-                    "unknown-type",
-                    f"unknown message type {kind!r}: hello, timeline, face, tracks, clock, or an event without 'type'",
-                )
+                raise ProtocolError("unknown-type", f"unknown message type {kind!r}: hello, timeline, face, tracks, "
+                                    "clock, or an event without 'type'")
         except ProtocolError as problem:
             yield error_message(problem.code, problem.message, seq)
             return
@@ -177,10 +168,8 @@ class Connection:
             raise ProtocolError("event", "on the script clock every event has its time 't'")
         t = obj.get("t")
         if isinstance(t, int | float) and not isinstance(t, bool) and math.isfinite(t) and t < self._last_t:
-            raise ProtocolError(
-                "past",
-                f"t = {t:g} s is before the session's last event at {self._last_t:g} s: events come in time order",
-            )
+            raise ProtocolError("past", f"t = {t:g} s is before the session's last event at {self._last_t:g} s: "
+                                "events come in time order")
         event = parse_event(obj, Span(f"<{self.name}>", seq, 1))
         if isinstance(event, SayEvent) and self._session is None:
             raise ProtocolError("state", "an utterance before the first emotion (which face speaks?)")
@@ -242,25 +231,13 @@ class Connection:
         self._blocks_sent.add(index)
         origin = min([float(entry["start"]), *(s.start for s in signals)])
         stop = max([float(entry["stop"]), *(s.stop for s in signals)])
-        block = Timeline(
-            str(entry["emotion"]),
-            round(stop - origin, 3),
-            tuple(s.shifted(-origin) for s in signals),
-            "greedy",
-            session.seed,
-            {"utterances": [_shifted(u, origin) for u in utterances]},
-        )
+        block = Timeline(str(entry["emotion"]), round(stop - origin, 3), tuple(s.shifted(-origin) for s in signals),
+                         "greedy", session.seed, {"utterances": [_shifted(u, origin) for u in utterances]})
         identifier = f"bml_{self.name}_{index}"
         composition = "REPLACE" if interrupted and index > 0 and not entry.get("continues") else "MERGE"
         text = render(block, "bml", ExportOptions(block_id=identifier, composition=composition))
-        return {
-            "type": "bml",
-            "id": identifier,
-            "episode": index,
-            "offset": round(origin, 3),
-            "composition": composition,
-            "bml": text,
-        }
+        return {"type": "bml", "id": identifier, "episode": index, "offset": round(origin, 3),
+                "composition": composition, "bml": text}
 
     def _face(self, obj: dict[str, Any]) -> dict[str, Any]:
         """The face player's picture (SVG) at ``t`` (default: now), drawn from the dialogue so far
@@ -300,9 +277,8 @@ class Connection:
         if self._session is None:
             raise ProtocolError("state", "the dialogue has no episode yet (start with an emotion)")
         if not self.options.keep:
-            raise ProtocolError(
-                "state", 'the session keeps no timeline: say {"type": "hello", "keep": true} before the first event'
-            )
+            raise ProtocolError("state", "the session keeps no timeline: say {\"type\": \"hello\", \"keep\": true} "
+                                "before the first event")
         return self._session.timeline()
 
     def _timeline(self) -> dict[str, Any]:

@@ -45,9 +45,8 @@ def live_page() -> str:
     """The live page: a button per bundled emotion, a sentence to say, the face as it plays."""
     from mse.resources import bundled_names
 
-    buttons = "".join(
-        f'<button type="button" data-emotion="{escape(name)}">{escape(name)}</button>' for name in bundled_names()
-    )
+    buttons = "".join(f'<button type="button" data-emotion="{escape(name)}">{escape(name)}</button>'
+                      for name in bundled_names())
     page = resources.files("mse.serve").joinpath("page.html").read_text(encoding="utf-8")
     return page.replace("<!--EMOTIONS-->", buttons)
 
@@ -95,15 +94,8 @@ class _Closing(Exception):
 class MseServer:
     """The sessions of one server: ``await start()`` listens; ``port`` is the bound port."""
 
-    def __init__(
-        self,
-        host: str = "127.0.0.1",
-        port: int = 8765,
-        *,
-        options: Options | None = None,
-        limits: Limits | None = None,
-        log: Callable[[str], None] | None = None,
-    ) -> None:
+    def __init__(self, host: str = "127.0.0.1", port: int = 8765, *, options: Options | None = None,
+                 limits: Limits | None = None, log: Callable[[str], None] | None = None) -> None:
         self.host = host
         self.port = port
         self.options = options or Options()
@@ -117,14 +109,8 @@ class MseServer:
         with require("serve"):
             from websockets.asyncio.server import serve
         self._server = await serve(
-            self._handler,
-            self.host,
-            self.port,
-            max_size=self.limits.max_message,
-            max_queue=self.limits.max_queue,
-            write_limit=self.limits.write_limit,
-            compression=None,
-            process_request=self._process_request,
+            self._handler, self.host, self.port, max_size=self.limits.max_message, max_queue=self.limits.max_queue,
+            write_limit=self.limits.write_limit, compression=None, process_request=self._process_request,
         )
         self.port = self._server.sockets[0].getsockname()[1] if self._server.sockets else self.port
 
@@ -163,12 +149,8 @@ class MseServer:
                 if not bucket.take():
                     if bucket.excess > self.limits.max_rate:
                         raise _Closing(1008, f"flood: more than {self.limits.max_rate:g} messages a second")
-                    await self._send(
-                        websocket,
-                        error_message(
-                            "flood", f"more than {self.limits.max_rate:g} messages a second: message dropped"
-                        ),
-                    )
+                    await self._send(websocket, error_message(
+                        "flood", f"more than {self.limits.max_rate:g} messages a second: message dropped"))
                     continue
                 async with turn:
                     for out in connection.handle(message):

@@ -90,11 +90,14 @@ def slot_counts(
     return counts
 
 
-def is_complete(model: ir.Model, duration: int, counts: Mapping[str, int], pins: Iterable[str] = ()) -> bool:
+def is_complete(
+    model: ir.Model, duration: int, counts: Mapping[str, int], pins: Iterable[str] = ()
+) -> bool:
     """True when ``counts`` reach the (uncapped) witness bound of every signal, so that
     "infeasible" with these slots is a proof (only MAX_SLOTS can make this false)."""
     mentions = atom_mentions(model)
     pinned = Counter(pins)
     return all(
-        counts[s.id] >= min(semantic_limit(s, duration), max(1, mentions[s.id]) + pinned[s.id]) for s in model.signals
+        counts[s.id] >= min(semantic_limit(s, duration), max(1, mentions[s.id]) + pinned[s.id])
+        for s in model.signals
     )

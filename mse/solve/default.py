@@ -112,11 +112,9 @@ class _Setup:
         self.zeros = tuple(s.id for s in model.signals if never_occurs(s) and s.id not in asked)
         # Without them, a proof only sends us to the second pass: CP-SAT need not explain it
         # (docs/sampler.md "Proofs").  (Its seed plays no part: each pass is given its own.)
-        self.first = (
-            replace(request, forbid=(*request.forbid, *self.zeros), cpsat=replace(request.cpsat, explain=False))
-            if self.zeros
-            else request
-        )
+        self.first = (replace(request, forbid=(*request.forbid, *self.zeros),
+                              cpsat=replace(request.cpsat, explain=False))
+                      if self.zeros else request)
 
 
 class _Run:

@@ -251,8 +251,7 @@ def check_request(model: Model, request: SolveRequest) -> None:
     for pin in request.pinned:
         if not 0 <= pin.start < pin.stop <= request.duration:
             raise argument_error(
-                f"pin {pin.signal}@{pin.start:g}-{pin.stop:g} is not inside [0, {request.duration:g}] s"
-            )
+                f"pin {pin.signal}@{pin.start:g}-{pin.stop:g} is not inside [0, {request.duration:g}] s")
     if request.objective is not None and request.objective not in OBJECTIVES:
         raise argument_error(f"unknown objective {request.objective!r}")
     if request.duration <= 0:

@@ -78,49 +78,35 @@ def import_greta_report(lexicon_path: str | Path, constraint_path: str | Path) -
     _expect_root(lexicon, "behaviorsets", errors)
     _expect_root(constraints, "multimodals", errors)
     if lexicon.root.tag == "multimodals" and constraints.root.tag == "behaviorsets":
-        errors = [Diagnostic(d.code, f"{d.message} (LEXICON and CONSTRAINT swapped?)", d.span) for d in errors]
+        errors = [Diagnostic(d.code, f"{d.message} (LEXICON and CONSTRAINT swapped?)", d.span)
+                  for d in errors]
     if errors:
         raise MseError(errors)
     sets = [
-        (str(bs.get("name"))[len("emotion-") :], bs)
+        (str(bs.get("name"))[len("emotion-"):], bs)
         for bs in gr.elements(lexicon.root, "behaviorset")
         if bs.get("type") == "mse" and (bs.get("name") or "").startswith("emotion-")
     ]
-    multimodals = [(str(mm.get("emotion") or ""), mm) for mm in gr.elements(constraints.root, "multimodal")]
+    multimodals = [(str(mm.get("emotion") or ""), mm) for mm in gr.elements(constraints.root,
+                                                                                "multimodal")]
     loose: list[Diagnostic] = []
     pairs = _match(lexicon, sets, constraints, multimodals, loose)
     expressions: list[ImportedExpression] = []
     taken: set[str] = set()
     for set_name, behaviour_set, multimodal, notes in pairs:
-        where = (
-            constraints.attribute_span(multimodal, "emotion")
-            if multimodal is not None
-            else lexicon.attribute_span(behaviour_set, "name")
-        )
+        where = (constraints.attribute_span(multimodal, "emotion") if multimodal is not None
+                 else lexicon.attribute_span(behaviour_set, "name"))
         raw = str(multimodal.get("emotion")) if multimodal is not None else set_name
         name = _emotion_name(raw, taken, where, notes)
         signals_parent = _first(behaviour_set, "signals")
         cons = gr.elements(multimodal, "con") if multimodal is not None else []
         sources = f"behaviour set 'emotion-{set_name}' of {lexicon.name}" + (
-            f" and the constraints of multimodal emotion '{multimodal.get('emotion')}' of {constraints.name}"
-            if multimodal is not None
-            else f" (no constraints for it in {constraints.name})"
-        )
-        expressions.append(
-            _build(
-                name,
-                sources,
-                lexicon,
-                signals_parent,
-                gr.LEXICON_ATTRIBUTES,
-                "modality",
-                constraints,
-                cons,
-                _first(behaviour_set, "constraints"),
-                notes,
-                errors,
-            )
-        )
+            f" and the constraints of multimodal emotion '{multimodal.get('emotion')}' of "
+            f"{constraints.name}" if multimodal is not None
+            else f" (no constraints for it in {constraints.name})")
+        expressions.append(_build(
+            name, sources, lexicon, signals_parent, gr.LEXICON_ATTRIBUTES, "modality",
+            constraints, cons, _first(behaviour_set, "constraints"), notes, errors))
     if errors:
         raise MseError(errors)
     return _report(expressions, loose)
@@ -139,32 +125,16 @@ def import_greta_legacy_report(example_path: str | Path) -> GretaImport:
         notes: list[Diagnostic] = []
         base = emotion[:-1] if len(emotion) > 1 and emotion.endswith("S") else emotion
         if base != emotion:  # legacy names carry a trailing "S" (embarrassmentS)
-            notes.append(
-                Diagnostic(
-                    "W501",
-                    f"legacy emotion '{emotion}' imported as '{base}'",
-                    example.attribute_span(multimodal, "emotion"),
-                )
-            )
+            notes.append(Diagnostic(
+                "W501", f"legacy emotion '{emotion}' imported as '{base}'",
+                example.attribute_span(multimodal, "emotion")))
         name = _emotion_name(base, taken, example.attribute_span(multimodal, "emotion"), notes)
         holders = [multimodal, *gr.elements(multimodal, "cons")]
         cons = [con for holder in holders for con in gr.elements(holder, "con")]
         sources = f"multimodal emotion '{emotion}' of the legacy {example.name}"
-        expressions.append(
-            _build(
-                name,
-                sources,
-                example,
-                _first(multimodal, "signals"),
-                gr.LEGACY_ATTRIBUTES,
-                "type",
-                example,
-                cons,
-                None,
-                notes,
-                errors,
-            )
-        )
+        expressions.append(_build(
+            name, sources, example, _first(multimodal, "signals"), gr.LEGACY_ATTRIBUTES, "type",
+            example, cons, None, notes, errors))
     if errors:
         raise MseError(errors)
     return _report(expressions, [])
@@ -193,9 +163,8 @@ def _match(
     by_name: dict[str, etree._Element] = {}
     for emotion, element in multimodals:
         if emotion in by_name:
-            loose.append(
-                Diagnostic("W501", f'second <multimodal emotion="{emotion}"> ignored', constraints.span(element))
-            )
+            loose.append(Diagnostic("W501", f"second <multimodal emotion=\"{emotion}\"> ignored",
+                                    constraints.span(element)))
         else:
             by_name[emotion] = element
     unused = dict(by_name)
@@ -213,34 +182,21 @@ def _match(
             emotion = candidates[0]
             match = unused.pop(emotion)
             line = constraints.span(match).line
-            notes.append(
-                Diagnostic(
-                    "W501",
-                    f"behaviour set 'emotion-{set_name}' paired with <multimodal "
-                    f"emotion=\"{emotion}\"> ({constraints.name}:{line}); imported as '{emotion}'",
-                    where,
-                )
-            )
+            notes.append(Diagnostic(
+                "W501", f"behaviour set 'emotion-{set_name}' paired with <multimodal "
+                f"emotion=\"{emotion}\"> ({constraints.name}:{line}); imported as '{emotion}'",
+                where))
             pairs[index] = (set_name, element, match, notes)
         else:
-            notes.append(
-                Diagnostic(
-                    "W501",
-                    f'no <multimodal emotion="{set_name}"> in {constraints.name}'
-                    + (f" (ambiguous: {', '.join(sorted(candidates))})" if candidates else "")
-                    + "; imported without constraints",
-                    where,
-                )
-            )
+            notes.append(Diagnostic(
+                "W501", f"no <multimodal emotion=\"{set_name}\"> in {constraints.name}"
+                + (f" (ambiguous: {', '.join(sorted(candidates))})" if candidates else "")
+                + "; imported without constraints", where))
     for emotion, element in unused.items():
-        loose.append(
-            Diagnostic(
-                "W501",
-                f'<multimodal emotion="{emotion}"> has no behaviour set '
-                f"'emotion-{emotion}' in {lexicon.name}; its constraints are skipped",
-                constraints.span(element),
-            )
-        )
+        loose.append(Diagnostic(
+            "W501", f"<multimodal emotion=\"{emotion}\"> has no behaviour set "
+            f"'emotion-{emotion}' in {lexicon.name}; its constraints are skipped",
+            constraints.span(element)))
     return pairs
 
 
@@ -273,18 +229,14 @@ def _build(
         if signal is None:
             continue
         if signal.id in seen:
-            errors.append(
-                Diagnostic(
-                    "E201",
-                    f"duplicate Greta signal id {signal.greta_id} (first at line {seen[signal.id].line})",
-                    signal.span,
-                )
-            )
+            errors.append(Diagnostic("E201", f"duplicate Greta signal id {signal.greta_id} "
+                                     f"(first at line {seen[signal.id].line})", signal.span))
             continue
         seen[signal.id] = signal.span
         signals.append(signal)
     if not signals:
-        where = signal_file.span(signals_parent) if signals_parent is not None else Span(signal_file.path)
+        where = signal_file.span(signals_parent) if signals_parent is not None else Span(
+            signal_file.path)
         errors.append(Diagnostic("E209", f"emotion '{name}' has no signals", where))
     gw.warn_dropped(signals, signal_file, warnings)
     every_signal = signals
@@ -304,16 +256,14 @@ def _build(
     if lexicon_constraints is not None:
         for expr, span, what in gw.lexicon_rules(signal_file, lexicon_constraints, warnings):
             origin = f"{signal_file.name}:{span.line} {what}"
-            _add(converted, ids.fresh(f"lexicon_{what}"), expr, known, signals, span, origin, warnings)
+            _add(converted, ids.fresh(f"lexicon_{what}"), expr, known, signals, span, origin,
+                 warnings)
     for owner, left, right in gw.excludelist_pairs(every_signal, converted, warnings):
         if left in never or right in never:
             continue
         origin = f"{signal_file.name}:{owner.span.line} excludelist of signal {owner.greta_id}"
-        converted.append(
-            gw.NativeConstraint(
-                ids.fresh(f"excludelist_{left.id}_{right.id}"), f"excludes({left.id}, {right.id})", origin
-            )
-        )
+        converted.append(gw.NativeConstraint(ids.fresh(f"excludelist_{left.id}_{right.id}"),
+                                     f"excludes({left.id}, {right.id})", origin))
     description = (
         f"Imported from Greta by mse import-greta: emotion '{name}'"
         + (f" (the paper's '{PAPER_NAMES[name]}')" if name in PAPER_NAMES else "")
@@ -321,7 +271,8 @@ def _build(
         "Greta's labels. Mapping and approximations: docs/greta.md."
     )
     xml = gw.native_xml(name, description, signals, converted)
-    return ImportedExpression(name, xml, tuple(sorted(warnings, key=Diagnostic.sort_key)), len(signals), len(converted))
+    return ImportedExpression(name, xml, tuple(sorted(warnings, key=Diagnostic.sort_key)),
+                              len(signals), len(converted))
 
 
 def _without_impossible(
@@ -335,14 +286,9 @@ def _without_impossible(
     for signal in signals:
         if signal.attributes.get("max_duration") == "0":
             never.append(signal)
-            warnings.append(
-                Diagnostic(
-                    "W502",
-                    f"signal {signal.greta_id} ({signal.lexeme}) has max 0 and can never "
-                    f"occur; left out ({signal.id} is read as an absent signal)",
-                    signal.span,
-                )
-            )
+            warnings.append(Diagnostic(
+                "W502", f"signal {signal.greta_id} ({signal.lexeme}) has max 0 and can never "
+                f"occur; left out ({signal.id} is read as an absent signal)", signal.span))
         else:
             kept.append(signal)
     return kept, never
@@ -362,22 +308,18 @@ def _add(
     simplified, rewrite = simplify(expr, known)
     for relation in rewrite.self_relations:
         holds = relation.kind in ("includes", "rightincludes")
-        warnings.append(
-            Diagnostic(
-                "W502",
-                f"constraint '{constraint_id}': {relation.kind}({relation.left}, "
-                f"{relation.left}) relates a signal with itself; written as "
-                f"{'' if holds else 'not '}exists({relation.left})",
-                span,
-            )
-        )
+        warnings.append(Diagnostic(
+            "W502", f"constraint '{constraint_id}': {relation.kind}({relation.left}, "
+            f"{relation.left}) relates a signal with itself; written as "
+            f"{'' if holds else 'not '}exists({relation.left})", span))
     if not rewrite.missing:
         converted.append(gw.NativeConstraint(constraint_id, render(flatten(simplified)), origin))
         return
     missing = ", ".join(sorted(rewrite.missing))
     subject = f"constraint '{constraint_id}' names {missing}, absent from the behaviour set"
     if isinstance(simplified, GConst) and simplified != FALSE:
-        warnings.append(Diagnostic("W502", f"{subject}: it can never be violated; left out", span))
+        warnings.append(Diagnostic("W502", f"{subject}: it can never be violated; left out",
+                                   span))
         return
     if simplified == FALSE:  # false whenever instantiated: its other triggers must not occur
         present = sorted(triggers_of(expr) & known)
@@ -386,18 +328,19 @@ def _add(
         elif signals:  # always violated: keep it so (the set has no consistent timeline)
             simplified = gw.conjunction([GExists(signals[0].id), GNot(GExists(signals[0].id))])
     if has_constant(simplified):
-        warnings.append(Diagnostic("W502", f"{subject}; the rest cannot be stated without it; left out", span))
+        warnings.append(Diagnostic(
+            "W502", f"{subject}; the rest cannot be stated without it; left out", span))
         return
     text = render(flatten(simplified))
-    warnings.append(Diagnostic("W502", f"{subject} (exists false, its relations unknown); written as {text}", span))
+    warnings.append(Diagnostic(
+        "W502", f"{subject} (exists false, its relations unknown); written as {text}", span))
     converted.append(gw.NativeConstraint(constraint_id, text, origin))
 
 
 def _expect_root(file: gr.GretaFile, tag: str, errors: list[Diagnostic]) -> None:
     if file.root.tag != tag:
-        errors.append(
-            Diagnostic("E102", f"expected a Greta <{tag}> file, found <{file.root.tag}>", file.span(file.root))
-        )
+        errors.append(Diagnostic("E102", f"expected a Greta <{tag}> file, found <{file.root.tag}>",
+                                 file.span(file.root)))
 
 
 def _first(parent: etree._Element, tag: str) -> etree._Element | None:

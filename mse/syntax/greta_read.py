@@ -139,22 +139,19 @@ def read_signal(
     identifier = native_id(raw_id) if raw_id is not None else None
     if identifier is None:
         errors.append(
-            Diagnostic(
-                "E210", f"Greta signal id must be an integer, not {raw_id!r}", file.attribute_span(element, "id")
-            )
+            Diagnostic("E210", f"Greta signal id must be an integer, not {raw_id!r}",
+                       file.attribute_span(element, "id"))
         )
         return None
     name = element.get("name")
     modality = element.get(modality_attribute)
     for attribute, value in (("name", name), (modality_attribute, modality)):
         if not value:
-            errors.append(Diagnostic("E102", f"<signal> needs a '{attribute}' attribute", file.span(element)))
+            errors.append(Diagnostic("E102", f"<signal> needs a '{attribute}' attribute",
+                                     file.span(element)))
     if modality and not re.fullmatch(r"[A-Za-z_][A-Za-z0-9_]*", modality):
-        errors.append(
-            Diagnostic(
-                "E210", f"modality {modality!r} is not an identifier", file.attribute_span(element, modality_attribute)
-            )
-        )
+        errors.append(Diagnostic("E210", f"modality {modality!r} is not an identifier",
+                                 file.attribute_span(element, modality_attribute)))
         modality = None
     values: dict[str, float] = {}
     for greta_name, native_name in attribute_map.items():
@@ -178,7 +175,8 @@ def read_signal(
         values[native_name] = number
     low, high = values.get("min_duration"), values.get("max_duration")
     if low is not None and high is not None and low > high:
-        errors.append(Diagnostic("E205", f"min {format_number(low)} > max {format_number(high)}", file.span(element)))
+        errors.append(Diagnostic("E205", f"min {format_number(low)} > max {format_number(high)}",
+                                 file.span(element)))
     if not name or not modality:
         return None
     known = set(attribute_map) | {"id", "name", modality_attribute, "excludelist"}
@@ -186,14 +184,17 @@ def read_signal(
     alternatives = [str(a.get("name") or "?") for a in elements(element, "alternative")]
     if alternatives:  # Greta's alternative shapes: the MSE language has one lexeme per signal
         dropped["<alternative>"] = ", ".join(alternatives)
-    excludelist = tuple(entry.strip() for entry in (element.get("excludelist") or "").split(",") if entry.strip())
+    excludelist = tuple(
+        entry.strip() for entry in (element.get("excludelist") or "").split(",") if entry.strip()
+    )
     return GretaSignal(
         greta_id=raw_id or "",
         id=identifier,
         lexeme=name,
         modality=modality,
         attributes={
-            key: (str(int(value)) if key == "repetitivity" else format_number(value)) for key, value in values.items()
+            key: (str(int(value)) if key == "repetitivity" else format_number(value))
+            for key, value in values.items()
         },
         excludelist=excludelist,
         span=file.span(element),
@@ -276,7 +277,9 @@ class ConReader:
             found.extend(subs)
         return found
 
-    def _signal_args(self, args: list[etree._Element], count: int, kind: str, span: Span) -> list[tuple[str, Edge]]:
+    def _signal_args(
+        self, args: list[etree._Element], count: int, kind: str, span: Span
+    ) -> list[tuple[str, Edge]]:
         """``(native id, edge)`` per argument; edge defaults to start (warned for comparisons)."""
         if len(args) != count:
             self._error(span, f"'{kind}' takes {count} argument(s), found {len(args)}")
@@ -294,14 +297,14 @@ class ConReader:
                 return []
             edge = arg.get("type")
             if edge not in (None, "start", "stop"):
-                self._error(self.file.attribute_span(arg, "type"), f"argument type {edge!r} is neither start nor stop")
+                self._error(self.file.attribute_span(arg, "type"), f"argument type {edge!r} "
+                            "is neither start nor stop")
                 return []
             if edge is None and kind in _COMPARISONS:
-                self.warnings.append(
-                    Diagnostic(
-                        "W502", f"'{kind}' argument id={raw} has no start/stop type; read as start({identifier})", where
-                    )
-                )
+                self.warnings.append(Diagnostic(
+                    "W502", f"'{kind}' argument id={raw} has no start/stop type; read as "
+                    f"start({identifier})",
+                    where))
             found.append((identifier, "stop" if edge == "stop" else "start"))
         return found
 

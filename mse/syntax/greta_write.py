@@ -47,24 +47,18 @@ def lexicon_rules(
                 if not isinstance(item.tag, str):
                     continue
                 identifier = gr.native_id(item.get("id") or "")
-                kinds = {
-                    "ifpresent": ("if", False),
-                    "thenpresent": ("then", False),
-                    "thennotpresent": ("then", True),
-                    "ifnotpresent": ("if", True),
-                }
+                kinds = {"ifpresent": ("if", False), "thenpresent": ("then", False),
+                         "thennotpresent": ("then", True), "ifnotpresent": ("if", True)}
                 if identifier is None or item.tag not in kinds:
-                    warnings.append(
-                        Diagnostic("W502", f"<{item.tag}> in a rule not understood; ignored", file.span(item))
-                    )
+                    warnings.append(Diagnostic("W502", f"<{item.tag}> in a rule not understood;"
+                                               " ignored", file.span(item)))
                     continue
                 side, negated = kinds[str(item.tag)]
                 atom: GExpr = GExists(identifier)
                 parts[side].append(GNot(atom) if negated else atom)
             if parts["if"] and parts["then"]:
-                found.append(
-                    (GImplies(conjunction(parts["if"]), conjunction(parts["then"])), file.span(rule), f"rule_{count}")
-                )
+                found.append((GImplies(conjunction(parts["if"]), conjunction(parts["then"])),
+                              file.span(rule), f"rule_{count}"))
     return found
 
 
@@ -81,21 +75,17 @@ def excludelist_pairs(
         if signal.lexeme != signal.bare_name:
             by_name.setdefault(signal.lexeme, []).append(signal)
     order = {s.id: index for index, s in enumerate(signals)}
-    stated = {frozenset(m.groups()) for c in converted if (m := re.fullmatch(r"excludes\((\w+), (\w+)\)", c.text))}
+    stated = {frozenset(m.groups()) for c in converted
+              if (m := re.fullmatch(r"excludes\((\w+), (\w+)\)", c.text))}
     pairs: list[tuple[gr.GretaSignal, gr.GretaSignal, gr.GretaSignal]] = []
     done: set[frozenset[str]] = set()
     for signal in signals:
         for entry in signal.excludelist:
             targets = by_name.get(entry, [])
             if not targets:
-                warnings.append(
-                    Diagnostic(
-                        "W502",
-                        f"excludelist of signal {signal.greta_id} names '{entry}', which is "
-                        "no signal of this set; ignored",
-                        signal.excludelist_span,
-                    )
-                )
+                warnings.append(Diagnostic(
+                    "W502", f"excludelist of signal {signal.greta_id} names '{entry}', which is "
+                    "no signal of this set; ignored", signal.excludelist_span))
             for target in targets:
                 key = frozenset({signal.id, target.id})
                 if target.id == signal.id or key in done or key in stated:
@@ -106,7 +96,8 @@ def excludelist_pairs(
     return pairs
 
 
-def warn_dropped(signals: list[gr.GretaSignal], file: gr.GretaFile, warnings: list[Diagnostic]) -> None:
+def warn_dropped(signals: list[gr.GretaSignal], file: gr.GretaFile,
+                  warnings: list[Diagnostic]) -> None:
     """Greta attributes with no counterpart (legacy ``occurence``, ``meaning``...): one note."""
     dropped: dict[str, set[str]] = {}
     first: dict[str, Span] = {}
@@ -116,15 +107,10 @@ def warn_dropped(signals: list[gr.GretaSignal], file: gr.GretaFile, warnings: li
             first.setdefault(key, signal.span)
     for key, values in sorted(dropped.items()):
         shown = ", ".join(sorted(values))
-        warnings.append(
-            Diagnostic(
-                "W502",
-                f"Greta signal {'element' if key.startswith('<') else 'attribute'} "
-                f"'{key.strip('<>')}' (values {shown}) has no counterpart in the MSE language; "
-                "dropped",
-                first[key],
-            )
-        )
+        warnings.append(Diagnostic(
+            "W502", f"Greta signal {'element' if key.startswith('<') else 'attribute'} "
+            f"'{key.strip('<>')}' (values {shown}) has no counterpart in the MSE language; "
+            "dropped", first[key]))
 
 
 class IdMaker:
@@ -138,12 +124,14 @@ class IdMaker:
         self.used.add(candidate)
         return candidate
 
-    def from_label(self, label: str | None, position: int, span: Span, warnings: list[Diagnostic]) -> str:
+    def from_label(self, label: str | None, position: int, span: Span,
+                   warnings: list[Diagnostic]) -> str:
         if not label:
             return self.fresh(f"con_{position}")
         chosen = self.fresh(identifier(label))
         if chosen != label:
-            warnings.append(Diagnostic("W501", f"Greta label '{label}' written as constraint id '{chosen}'", span))
+            warnings.append(Diagnostic("W501", f"Greta label '{label}' written as constraint id "
+                                       f"'{chosen}'", span))
         return chosen
 
 
@@ -162,13 +150,16 @@ def unique_name(name: str, taken: set[str]) -> str:
     return candidate
 
 
-def native_xml(name: str, description: str, signals: list[gr.GretaSignal], constraints: list[NativeConstraint]) -> str:
+def native_xml(name: str, description: str, signals: list[gr.GretaSignal],
+                constraints: list[NativeConstraint]) -> str:
     root = etree.Element("expression", name=name)
     etree.SubElement(root, "description").text = description
     holder = etree.SubElement(root, "signals")
     for signal in signals:
-        element = etree.SubElement(holder, "signal", id=signal.id, modality=signal.modality, lexeme=signal.lexeme)
-        for key in ("min_duration", "max_duration", "probability_start", "probability_end", "repetitivity"):
+        element = etree.SubElement(holder, "signal", id=signal.id, modality=signal.modality,
+                                   lexeme=signal.lexeme)
+        for key in ("min_duration", "max_duration", "probability_start", "probability_end",
+                    "repetitivity"):
             if key in signal.attributes:
                 element.set(key, signal.attributes[key])
     if constraints:

@@ -133,13 +133,8 @@ class StripPainter:
             draw.rounded_rectangle(box, radius=4, fill=colour, outline="#333333")
             if bar.label:
                 x = bar.x + 4 if bar.label_inside else bar.x + bar.width + 3
-                draw.text(
-                    (x, bar.y + BAR_HEIGHT / 2),
-                    _text(label_font, bar.label),
-                    fill="#111111",
-                    font=label_font,
-                    anchor="lm",
-                )
+                draw.text((x, bar.y + BAR_HEIGHT / 2), _text(label_font, bar.label), fill="#111111", font=label_font,
+                          anchor="lm")
             self.bars.append((bar.behaviour.signal.start, bar.behaviour.signal.stop, box))
         self.width = width
         self.drawn_height = drawn_height

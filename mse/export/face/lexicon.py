@@ -104,7 +104,9 @@ def action_from_entry(entry: Mapping[str, Any], source: str, where: str) -> Acti
     for value in (attack, release):
         if value is not None and value < 0:
             raise _fail(where, "attack and release must not be negative")
-    return Action(tuple(targets), source, attack, release, repeat, oscillate, tuple(sorted(set(missing))), tuple(units))
+    return Action(
+        tuple(targets), source, attack, release, repeat, oscillate, tuple(sorted(set(missing))), tuple(units)
+    )
 
 
 def parse_table(text: str, source: str, where: str) -> dict[str, Action]:

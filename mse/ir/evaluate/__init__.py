@@ -39,22 +39,9 @@ from mse.ir.evaluate.semantics import (
 from mse.ir.schedule import Occurrence, Schedule, to_seconds, to_ticks
 
 __all__ = [
-    "Intervals",
-    "Truth",
-    "Violation",
-    "check_schedule",
-    "compare_holds",
-    "constraint_status",
-    "evaluate_atom",
-    "evaluate_expr",
-    "intervals_of",
-    "is_clean",
-    "is_consistent",
-    "is_instantiated",
-    "is_violated",
-    "kleene_and",
-    "kleene_not",
-    "kleene_or",
+    "Intervals", "Truth", "Violation", "check_schedule", "compare_holds", "constraint_status", "evaluate_atom",
+    "evaluate_expr", "intervals_of", "is_clean", "is_consistent", "is_instantiated", "is_violated", "kleene_and",
+    "kleene_not", "kleene_or",
 ]
 
 
@@ -202,3 +189,5 @@ def _all_violations(model: ir.Model, schedule: Schedule) -> list[Violation]:
 
 def is_consistent(model: ir.Model, schedule: Schedule) -> bool:
     return not check_schedule(model, schedule)
+
+

@@ -51,10 +51,8 @@ class Episode:
     def plan(self) -> Schedule:
         """The plan the episode played (all of it when not interrupted), from 0."""
         planned = [*self.played, *(Occurrence(o.start, stop, o.signal) for o, stop in self.cut), *self.dropped]
-        return Schedule.of(
-            self.plan_stop - self.start,
-            (Occurrence(o.start - self.start, o.stop - self.start, o.signal) for o in planned),
-        )
+        return Schedule.of(self.plan_stop - self.start,
+                           (Occurrence(o.start - self.start, o.stop - self.start, o.signal) for o in planned))
 
 
 @dataclass(frozen=True, slots=True)
@@ -79,27 +77,19 @@ def _cut_problems(episode: Episode) -> list[str]:
     end = episode.stop
     for o in episode.played:
         if not episode.start <= o.start < end or o.stop > end:
-            problems.append(
-                f"{o.signal} [{_s(o.start)}, {_s(o.stop)}] lies outside the episode "
-                f"[{_s(episode.start)}, {_s(end)}] and is not cut"
-            )
+            problems.append(f"{o.signal} [{_s(o.start)}, {_s(o.stop)}] lies outside the episode "
+                            f"[{_s(episode.start)}, {_s(end)}] and is not cut")
     for o, planned in episode.cut:
         if not (episode.interrupted and episode.start <= o.start < end < planned):
-            problems.append(
-                f"{o.signal} [{_s(o.start)}, {_s(planned)}] is marked cut but was not open at the "
-                f"interruption at {_s(end)} s"
-            )
+            problems.append(f"{o.signal} [{_s(o.start)}, {_s(planned)}] is marked cut but was not open at the "
+                            f"interruption at {_s(end)} s")
         elif not end <= o.stop <= min(planned, end + CUT_RELEASE_TICKS):
-            problems.append(
-                f"{o.signal} cut at {_s(end)} s stops at {_s(o.stop)} s: a cut occurrence releases "
-                f"within {_s(CUT_RELEASE_TICKS)} s of the cut, never after its planned stop"
-            )
+            problems.append(f"{o.signal} cut at {_s(end)} s stops at {_s(o.stop)} s: a cut occurrence releases "
+                            f"within {_s(CUT_RELEASE_TICKS)} s of the cut, never after its planned stop")
     for o in episode.dropped:
         if not episode.interrupted or o.start < end or o.stop > episode.plan_stop:
-            problems.append(
-                f"{o.signal} [{_s(o.start)}, {_s(o.stop)}] is marked dropped but starts before the "
-                f"interruption at {_s(end)} s"
-            )
+            problems.append(f"{o.signal} [{_s(o.start)}, {_s(o.stop)}] is marked dropped but starts before the "
+                            f"interruption at {_s(end)} s")
     if episode.plan_stop < end or (not episode.interrupted and episode.plan_stop != end):
         problems.append(f"the plan ends at {_s(episode.plan_stop)} s, the episode at {_s(end)} s")
     return problems
@@ -122,10 +112,8 @@ def check_episodes(episodes: Sequence[Episode], duration: int) -> list[EpisodeVi
         span = Span(episode.model.path)
         if episode.start != at:
             what = "gap" if episode.start > at else "overlap"
-            message = (
-                f"{what} between episodes: the previous one ends at {_s(at)} s, this one starts at "
-                f"{_s(episode.start)} s (episodes follow each other without gap or overlap)"
-            )
+            message = (f"{what} between episodes: the previous one ends at {_s(at)} s, this one starts at "
+                       f"{_s(episode.start)} s (episodes follow each other without gap or overlap)")
             found.append(EpisodeViolation(episode.index, episode.emotion, Violation("episode", message, span)))
         found.extend(EpisodeViolation(episode.index, episode.emotion, v) for v in check_episode(episode))
         at = episode.stop

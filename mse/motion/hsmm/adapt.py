@@ -152,7 +152,9 @@ def transform_units(
         transform = found.get(f"unit:{name}", found.get(regression_class(name, by_context), output))
         means, variances = transform.model_space(unit.means, unit.variances)
         timing = (duration_classes or {}).get(regression_class(name, by_context, timing=True), duration)
-        d_means, d_vars = timing.model_space(unit.duration_means[None, :], unit.duration_variances[None, :])
+        d_means, d_vars = timing.model_space(
+            unit.duration_means[None, :], unit.duration_variances[None, :]
+        )
         out[name] = UnitModel(
             means,
             variances,
@@ -186,15 +188,18 @@ def map_update(
             weight = float(unit.duration_means[s]) if tau is None else tau
             squares = np.diag(st.scatter)
             means[s] = (weight * unit.means[s] + st.total) / (weight + st.count)
-            second = (weight * (unit.variances[s] + unit.means[s] ** 2) + squares) / (weight + st.count)
+            second = (weight * (unit.variances[s] + unit.means[s] ** 2) + squares) / (
+                weight + st.count
+            )
             variances[s] = np.maximum(second - means[s] ** 2, floor)
         d_means, d_vars = unit.duration_means.copy(), unit.duration_variances.copy()
         ds = dstats.get(name)
         if ds is not None:
             d_means = (tau_duration * unit.duration_means + ds.total) / (tau_duration + ds.count)
-            second = (tau_duration * (unit.duration_variances + unit.duration_means**2) + np.diag(ds.scatter)) / (
-                tau_duration + ds.count
-            )
+            second = (
+                tau_duration * (unit.duration_variances + unit.duration_means**2)
+                + np.diag(ds.scatter)
+            ) / (tau_duration + ds.count)
             d_vars = np.maximum(second - d_means**2, DURATION_VARIANCE_FLOOR)
             d_means = np.maximum(d_means, DURATION_FLOOR * unit.duration_means)
         out[name] = UnitModel(means, variances, np.maximum(d_means, 1.0), d_vars)
@@ -336,7 +341,8 @@ def _adaptive_training(
             duration = estimate_duration_scale(list(duration_stats(mine, units).values()), prior)
             transforms[style] = (output, duration)
         normalised = [
-            Instance(i.unit, i.style, transforms[i.style][0].apply(i.observations), i.bounds) for i in aligned
+            Instance(i.unit, i.style, transforms[i.style][0].apply(i.observations), i.bounds)
+            for i in aligned
         ]
         units = estimate_units(
             normalised,

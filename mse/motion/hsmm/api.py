@@ -299,7 +299,9 @@ def adapt_model(
         by_context=options.context_classes and average.cycle == "hands",
     )
     target = np.array([global_variance(s) for s in statics])
-    gv_mean = (options.gv_tau * average.gv_mean + target.sum(axis=0)) / (options.gv_tau + target.shape[0])
+    gv_mean = (options.gv_tau * average.gv_mean + target.sum(axis=0)) / (
+        options.gv_tau + target.shape[0]
+    )
     if options.style_gv_spread:
         # The average model's GV spread is mostly BETWEEN styles; one style varies less.
         # Same rule as a model trained on the target data alone (_gv_stats).

@@ -32,7 +32,9 @@ class AffineTransform:
         result: FloatArray = values @ self.matrix.T + self.bias
         return result
 
-    def model_space(self, means: FloatArray, variances: FloatArray) -> tuple[FloatArray, FloatArray]:
+    def model_space(
+        self, means: FloatArray, variances: FloatArray
+    ) -> tuple[FloatArray, FloatArray]:
         """Means and diagonal variances (rows of (K, n)) seen through the inverse transform."""
         inverse = np.linalg.inv(self.matrix)
         adapted_means = (means - self.bias) @ inverse.T
@@ -75,7 +77,9 @@ def blocks_for(static_dims: int, kind: str, root: int | None = None) -> list[np.
         return [np.arange(s * static_dims, (s + 1) * static_dims) for s in range(3)]
     if kind == "joint":
         return [
-            np.arange(s * static_dims + j, s * static_dims + j + 3) for s in range(3) for j in range(0, static_dims, 3)
+            np.arange(s * static_dims + j, s * static_dims + j + 3)
+            for s in range(3)
+            for j in range(0, static_dims, 3)
         ]
     raise ValueError(f"unknown regression blocks {kind!r} (full, stream, joint)")
 

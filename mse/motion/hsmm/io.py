@@ -128,25 +128,12 @@ def _read_arrays(name: str) -> dict[str, Any]:
                 raise _error(name, f"HSMM model expands beyond {MAX_MODEL_BYTES} bytes")
             for member in archive.infolist():  # what each header claims, before numpy allocates it
                 if member.filename.endswith(".npy") and _claimed_bytes(archive, member) > MAX_MODEL_BYTES:
-                    raise _error(
-                        name, f"HSMM model array {member.filename[:80]!r} claims more than {MAX_MODEL_BYTES} bytes"
-                    )
+                    raise _error(name, f"HSMM model array {member.filename[:80]!r} claims more than "
+                                 f"{MAX_MODEL_BYTES} bytes")
         with np.load(io.BytesIO(data), allow_pickle=False) as arrays:
             return {key: arrays[key] for key in arrays.files}
-    except (
-        OSError,
-        ValueError,
-        EOFError,
-        KeyError,
-        NotImplementedError,
-        zipfile.BadZipFile,
-        zlib.error,
-        RecursionError,
-        MemoryError,
-        SyntaxError,
-        TypeError,
-        tokenize.TokenError,
-    ):
+    except (OSError, ValueError, EOFError, KeyError, NotImplementedError, zipfile.BadZipFile, zlib.error,
+            RecursionError, MemoryError, SyntaxError, TypeError, tokenize.TokenError):
         # (crafted .npy headers: numpy parses them as Python literals)
         raise _error(name, f"cannot read HSMM model: not an {FORMAT} archive (damaged?)") from None
 
@@ -214,7 +201,8 @@ def load_model(path: str | os.PathLike[str]) -> HsmmModel:
             offsets=np.asarray(arrays["skeleton_offsets"], dtype=np.float64),
             channels=tuple(tuple(c) for c in sk["channels"]),
             end_sites=tuple(
-                (float(e[0]), float(e[1]), float(e[2])) if e is not None else None for e in sk["end_sites"]
+                (float(e[0]), float(e[1]), float(e[2])) if e is not None else None
+                for e in sk["end_sites"]
             ),
         )
         tp = meta["template"]
@@ -234,7 +222,9 @@ def load_model(path: str | os.PathLike[str]) -> HsmmModel:
             feet_lift=float(tp.get("feet_lift", 0.0)),
         )
         units = {
-            unit: UnitModel(*(np.asarray(arrays[f"unit:{unit}:{f}"], dtype=np.float64) for f in _UNIT_FIELDS))
+            unit: UnitModel(
+                *(np.asarray(arrays[f"unit:{unit}:{f}"], dtype=np.float64) for f in _UNIT_FIELDS)
+            )
             for unit in meta["units"]
         }
         model = HsmmModel(

@@ -141,7 +141,9 @@ def synthesize_leaf(
     base_key = f"{library.content_hash}-{action}-{settings}"
     where = Span(_where(source))
     try:
-        average = _cached(f"{base_key}-average", folder, lambda: train_from_library(library, action, options))
+        average = _cached(
+            f"{base_key}-average", folder, lambda: train_from_library(library, action, options)
+        )
         model = average
         if library.select(action=action, style=style):
             model = _cached(

@@ -34,7 +34,9 @@ def _logsumexp(values: FloatArray, axis: int) -> FloatArray:
     peak = np.max(values, axis=axis, keepdims=True)
     safe = np.where(np.isfinite(peak), peak, 0.0)
     with np.errstate(divide="ignore"):  # log 0 = -inf: an impossible run
-        result: FloatArray = np.squeeze(safe, axis=axis) + np.log(np.sum(np.exp(values - safe), axis=axis))
+        result: FloatArray = np.squeeze(safe, axis=axis) + np.log(
+            np.sum(np.exp(values - safe), axis=axis)
+        )
     return result
 
 

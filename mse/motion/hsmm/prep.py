@@ -79,7 +79,9 @@ def find_legs(
     children = list(skeleton.children(root))
     if len(children) < 2:
         raise ValueError("the root joint needs two legs among its children")
-    lowest = {c: float(np.min(np.mean(positions[:, _subtree(skeleton, c), 1], axis=0))) for c in children}
+    lowest = {
+        c: float(np.min(np.mean(positions[:, _subtree(skeleton, c), 1], axis=0))) for c in children
+    }
     legs = sorted(sorted(children, key=lambda c: lowest[c])[:2])
     contacts = []
     for leg in legs:
@@ -93,7 +95,9 @@ def _ancestor_rotation(motion: Motion, root: int) -> FloatArray:
     parent = motion.skeleton.parents[root]
     if parent < 0:
         return np.eye(3)
-    _, rotations = forward_kinematics(motion.skeleton.parents, motion.translations()[:1], motion.local_rotations()[:1])
+    _, rotations = forward_kinematics(
+        motion.skeleton.parents, motion.translations()[:1], motion.local_rotations()[:1]
+    )
     result: FloatArray = rotations[0, parent]
     return result
 

@@ -49,7 +49,9 @@ class Segment:
         return self.stop - self.start
 
 
-def foot_separation(positions: FloatArray, contacts: tuple[tuple[int, ...], tuple[int, ...]]) -> FloatArray:
+def foot_separation(
+    positions: FloatArray, contacts: tuple[tuple[int, ...], tuple[int, ...]]
+) -> FloatArray:
     """Forward (+Z, after alignment) distance of foot a in front of foot b, per frame."""
     foot_a = positions[:, contacts[0][0], 2]
     foot_b = positions[:, contacts[1][0], 2]
@@ -79,7 +81,9 @@ def segment_clip(
     """
     if not cyclic or separation is None:
         return [Segment(ONE_SHOT_UNIT, 0, frames)]
-    strikes = [s for s in step_boundaries(separation, min_gap) if min_unit <= s <= frames - min_unit]
+    strikes = [
+        s for s in step_boundaries(separation, min_gap) if min_unit <= s <= frames - min_unit
+    ]
     if not strikes:
         return [Segment(ONE_SHOT_UNIT, 0, frames)]
     bounds = [0, *strikes, frames]

@@ -60,7 +60,9 @@ def estimate_units_soft(
             means=means,
             variances=variances,
             duration_means=np.maximum(moved.mean(axis=0), 1.0),
-            duration_variances=np.maximum(moved.var(axis=0) + within.mean(axis=0), DURATION_VARIANCE_FLOOR),
+            duration_variances=np.maximum(
+                moved.var(axis=0) + within.mean(axis=0), DURATION_VARIANCE_FLOOR
+            ),
         )
     return out
 

@@ -24,7 +24,9 @@ class GaussianStats:
     variance: FloatArray  # (n,)
 
 
-def output_stats(instances: Sequence[Instance], units: Mapping[str, UnitModel]) -> dict[tuple[str, int], GaussianStats]:
+def output_stats(
+    instances: Sequence[Instance], units: Mapping[str, UnitModel]
+) -> dict[tuple[str, int], GaussianStats]:
     """Per (unit, state) statistics of the aligned frames."""
     acc: dict[tuple[str, int], list[FloatArray]] = {}
     for instance in instances:
@@ -46,7 +48,9 @@ def output_stats(instances: Sequence[Instance], units: Mapping[str, UnitModel]) 
     return out
 
 
-def duration_stats(instances: Sequence[Instance], units: Mapping[str, UnitModel]) -> dict[str, GaussianStats]:
+def duration_stats(
+    instances: Sequence[Instance], units: Mapping[str, UnitModel]
+) -> dict[str, GaussianStats]:
     """Per unit statistics of the state-duration vectors."""
     acc: dict[str, list[FloatArray]] = {}
     for instance in instances:
@@ -101,12 +105,16 @@ def soft_stats(
         dacc[instance.unit][1] += mean
         dacc[instance.unit][2] += scatter
     out = {
-        (unit, s): GaussianStats(float(c[0]), t, sc, units[unit].means[s], units[unit].variances[s])
+        (unit, s): GaussianStats(
+            float(c[0]), t, sc, units[unit].means[s], units[unit].variances[s]
+        )
         for (unit, s), (c, t, sc) in sorted(acc.items())
         if float(c[0]) > 1e-6
     }
     dout = {
-        unit: GaussianStats(float(c[0]), t, sc, units[unit].duration_means, units[unit].duration_variances)
+        unit: GaussianStats(
+            float(c[0]), t, sc, units[unit].duration_means, units[unit].duration_variances
+        )
         for unit, (c, t, sc) in sorted(dacc.items())
     }
     return out, dout

@@ -56,7 +56,9 @@ def plan_units(model: HsmmModel, steps: int | None = None, frames: int | None = 
     return names
 
 
-def state_durations(units: list[UnitModel], frames: int, rng: np.random.Generator | None = None) -> np.ndarray:
+def state_durations(
+    units: list[UnitModel], frames: int, rng: np.random.Generator | None = None
+) -> np.ndarray:
     """Integer frames per state (all units' states in order) summing exactly to ``frames``."""
     means = np.concatenate([u.duration_means for u in units]).astype(np.float64)
     variances = np.concatenate([u.duration_variances for u in units]).astype(np.float64)
@@ -237,7 +239,9 @@ def statics_to_motion(statics: FloatArray, model: HsmmModel, carried: FloatArray
         carried = smooth_carried(carried, template.frame_time, OUTPUT_CUTOFF_HZ)
     target = root_positions(relative, template, carried, standing=standing)
     parent = skeleton.parents[template.root_joint]
-    local = np.einsum("fba,fb->fa", world[:, parent], target - root_world) if parent >= 0 else target
+    local = (
+        np.einsum("fba,fb->fa", world[:, parent], target - root_world) if parent >= 0 else target
+    )
     translations[:, template.root_joint] = local
     values = np.zeros((frames, skeleton.channel_count))
     for joint in range(skeleton.joint_count):
@@ -246,7 +250,9 @@ def statics_to_motion(statics: FloatArray, model: HsmmModel, carried: FloatArray
             values[:, list(columns)] = translations[:, joint]
         order = skeleton.rotation_order(joint)
         if len(order) == 3:
-            values[:, list(skeleton.rotation_columns(joint))] = matrix_to_euler(rotations[:, joint], order)
+            values[:, list(skeleton.rotation_columns(joint))] = matrix_to_euler(
+                rotations[:, joint], order
+            )
     return Motion(skeleton, template.frame_time, values)
 
 

@@ -71,26 +71,19 @@ def _absent(name: str) -> Question:
 
 
 def _early(name: str, stamp: int) -> Question:
-    return Question(
-        frozenset({name}),
-        lambda iv: any(a < stamp for a, _ in iv.get(name, ())),
-        lambda enc: [early_literal(enc, name, stamp)],
-    )
+    return Question(frozenset({name}), lambda iv: any(a < stamp for a, _ in iv.get(name, ())),
+                    lambda enc: [early_literal(enc, name, stamp)])
 
 
 def _instantiated(constraint: ir.Constraint) -> Question:
-    return Question(
-        constraint.triggers, lambda iv: is_instantiated(constraint, iv), lambda enc: [enc.instantiated[constraint.id]]
-    )
+    return Question(constraint.triggers, lambda iv: is_instantiated(constraint, iv),
+                    lambda enc: [enc.instantiated[constraint.id]])
 
 
 def _violated(constraint: ir.Constraint, ticks: int) -> Question:
-    return Question(
-        ir.mentioned_signals(constraint.expr),
-        lambda iv: constraint_status(constraint, iv, ticks) is False,
-        lambda enc: [enc.violated[constraint.id]],
-        drop=constraint.id,
-    )
+    return Question(ir.mentioned_signals(constraint.expr),
+                    lambda iv: constraint_status(constraint, iv, ticks) is False,
+                    lambda enc: [enc.violated[constraint.id]], drop=constraint.id)
 
 
 class _Linter:
@@ -118,25 +111,15 @@ class _Linter:
         self._signals()
         self._constraints()
         if self.unasked:
-            self.found.append(
-                Diagnostic(
-                    "W400",
-                    f"{len(self.unasked)} question(s) not asked: the lint budget of {self.budget:g} CPU "
-                    f"seconds was spent (mse lint --deep-budget 0 asks them all; first: "
-                    f"{', '.join(self.unasked[:5])})",
-                    whole_set_span(self.model),
-                )
-            )
+            self.found.append(Diagnostic(
+                "W400", f"{len(self.unasked)} question(s) not asked: the lint budget of {self.budget:g} CPU "
+                f"seconds was spent (mse lint --deep-budget 0 asks them all; first: "
+                f"{', '.join(self.unasked[:5])})", whole_set_span(self.model)))
         if self.skipped:
-            self.found.append(
-                Diagnostic(
-                    "W400",
-                    f"{len(self.skipped)} question(s) left undecided: neither a nearby timeline nor the "
-                    f"constraints around them decided them, and the {WHOLE_BUDGET:g} s budget for questions about "
-                    f"the whole set was spent (first: {', '.join(self.skipped[:5])})",
-                    whole_set_span(self.model),
-                )
-            )
+            self.found.append(Diagnostic(
+                "W400", f"{len(self.skipped)} question(s) left undecided: neither a nearby timeline nor the "
+                f"constraints around them decided them, and the {WHOLE_BUDGET:g} s budget for questions about "
+                f"the whole set was spent (first: {', '.join(self.skipped[:5])})", whole_set_span(self.model)))
         return self.found
 
     def _sample(self) -> bool:
@@ -150,12 +133,8 @@ class _Linter:
             # The wall-clock limit only matters when the deterministic budget finds nothing:
             # as generous as `mse sample`'s default, so a busy machine does not turn a
             # feasible set into "undecided".
-            request = SolveRequest(
-                duration=self.duration,
-                seed=seed,
-                time_limit=max(SAMPLE_TIME, 4 * self.query_time),
-                cpsat=CpSatOptions(work=SAMPLE_WORK, positions=False, sweeps=0, first=True),
-            )
+            request = SolveRequest(duration=self.duration, seed=seed, time_limit=max(SAMPLE_TIME, 4 * self.query_time),
+                                   cpsat=CpSatOptions(work=SAMPLE_WORK, positions=False, sweeps=0, first=True))
             try:
                 intervals = intervals_of(solve_one(self.model, request, seed))
             except NoSolution as error:
@@ -164,12 +143,8 @@ class _Linter:
                 if error.proven:
                     self.found.extend(Diagnostic("E401", d.message, d.span) for d in error.diagnostics)
                 else:
-                    self.report(
-                        "W401",
-                        f"is there a consistent timeline of {self.duration:g} s",
-                        whole_set_span(self.model),
-                        "unknown",
-                    )
+                    self.report("W401", f"is there a consistent timeline of {self.duration:g} s",
+                                whole_set_span(self.model), "unknown")
                 return False
             self.oracle.harvest(intervals)
             if seed == 0:
@@ -203,60 +178,38 @@ class _Linter:
         for signal in self.model.signals:
             name = signal.id
             status = "feasible" if name in seen.present else self._ask(_occurs(name))
-            if self._finding(
-                "W402", name, status, f"signal {name!r} occurs in no consistent timeline of {what}", signal.span
-            ):
+            if self._finding("W402", name, status, f"signal {name!r} occurs in no consistent timeline of {what}",
+                             signal.span):
                 continue
             if name not in seen.absent and name not in required:
-                self._finding(
-                    "W405",
-                    name,
-                    self._ask(_absent(name)),
-                    f"signal {name!r} occurs in every consistent timeline of {what} although no "
-                    "constraint requires it directly",
-                    signal.span,
-                )
+                self._finding("W405", name, self._ask(_absent(name)),
+                              f"signal {name!r} occurs in every consistent timeline of {what} although no "
+                              "constraint requires it directly", signal.span)
             if signal.probability_start > 0 and name not in seen.early:
-                self._finding(
-                    "W406",
-                    name,
-                    self._ask(_early(name, stamp)),
-                    f"signal {name!r} has probability_start {signal.probability_start:g} but can never "
-                    f"start in the first {stamp / 1000:g} s",
-                    signal.span,
-                )
+                self._finding("W406", name, self._ask(_early(name, stamp)),
+                              f"signal {name!r} has probability_start {signal.probability_start:g} but can never "
+                              f"start in the first {stamp / 1000:g} s", signal.span)
 
     def _constraints(self) -> None:
         for constraint in self.model.constraints:
             key = constraint.id
             if constraint.triggers and key not in self.oracle.seen.instantiated:
                 names = ", ".join(sorted(constraint.triggers))
-                if self._finding(
-                    "W403",
-                    key,
-                    self._ask(_instantiated(constraint)),
-                    f"constraint {key!r} is never instantiated: its trigger signals ({names}) never "
-                    f"occur in a consistent timeline of {self.duration:g} s",
-                    constraint.span,
-                ):
+                if self._finding("W403", key, self._ask(_instantiated(constraint)),
+                                 f"constraint {key!r} is never instantiated: its trigger signals ({names}) never "
+                                 f"occur in a consistent timeline of {self.duration:g} s", constraint.span):
                     continue
             status = self._ask(_violated(constraint, self.ticks))
-            self._finding(
-                "W404",
-                key,
-                status,
-                f"constraint {key!r} is redundant: the other rules imply it for timelines of {self.duration:g} s",
-                constraint.span,
-            )
+            self._finding("W404", key, status, f"constraint {key!r} is redundant: the other rules imply it for "
+                          f"timelines of {self.duration:g} s", constraint.span)
             if status == "infeasible":
                 # Dropped from later checks: of two equivalent constraints only the
                 # second is reported, so removing every W404 constraint stays safe.
                 self.oracle.redundant.append(key)
 
 
-def deep_lint(
-    model: ir.Model, duration: float = 10.0, *, query_time: float = QUERY_TIME, budget: float | None = LINT_BUDGET
-) -> list[Diagnostic]:
+def deep_lint(model: ir.Model, duration: float = 10.0, *, query_time: float = QUERY_TIME,
+              budget: float | None = LINT_BUDGET) -> list[Diagnostic]:
     """The E401/W4xx diagnostics of ``model`` for timelines of ``duration`` seconds; after
     ``budget`` CPU seconds (None: no limit) the questions left are summed up in a W400 note."""
     return _Linter(model, float(duration), query_time, budget).run()

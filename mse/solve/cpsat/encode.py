@@ -48,7 +48,6 @@ def _model_class(cp_model: Any) -> Any:
     many small local models.  We only use the snake_case names."""
     global _MODEL_CLASS
     if _MODEL_CLASS is None:
-
         class Model(cp_model.CpModel):  # type: ignore[misc]
             def _add_pre_pep8_methods(self) -> None:
                 pass
@@ -106,9 +105,8 @@ class _Builder:
         self.cp.add_bool_or(clause)
 
     # -- occurrences ----------------------------------------------------------------------
-    def _new_slot(
-        self, signal: ir.Signal, index: int, group: str, step: int, rule: Lit, earliest: int, latest: int
-    ) -> Slot:
+    def _new_slot(self, signal: ir.Signal, index: int, group: str, step: int, rule: Lit,
+                  earliest: int, latest: int) -> Slot:
         """A decided slot whose start lies in [earliest, latest] when present."""
         low, high = length_bounds(signal, self.duration)
         duration = self.duration
@@ -144,34 +142,24 @@ class _Builder:
         for signal in self.model.signals:
             count = counts.get(signal.id, 0)
             later_count = frame.later.get(signal.id, 0)
-            past = [
-                Slot(signal.id, i, True, a, b, b - a, "past") for i, (a, b) in enumerate(frame.past.get(signal.id, ()))
-            ]
+            past = [Slot(signal.id, i, True, a, b, b - a, "past")
+                    for i, (a, b) in enumerate(frame.past.get(signal.id, ()))]
             bounded = signal.min_duration > 0 or signal.max_duration is not None
             rule: Lit = True
             if bounded and (count or later_count):
                 upper = "inf" if signal.max_duration is None else f"{signal.max_duration:g}"
-                rule = self.guard(
-                    f"duration:{signal.id}",
-                    Item(
-                        signal.id,
-                        "duration",
-                        signal.span,
-                        f"{signal.id} lasts between {signal.min_duration:g} and {upper} s",
-                    ),
-                )
+                rule = self.guard(f"duration:{signal.id}", Item(
+                    signal.id, "duration", signal.span,
+                    f"{signal.id} lasts between {signal.min_duration:g} and {upper} s"))
             free_from = max([frame.begin] + [int(slot.stop) for slot in past])
             # A once-only signal's one slot may start anywhere after ``begin`` (its "later"
             # option); a repetitive signal's window slots start before ``end``.
             last_window_start = self.duration if not signal.repetitive else self.end - 1
-            window = [
-                self._new_slot(signal, i, "window", step, rule, int(free_from), last_window_start) for i in range(count)
-            ]
+            window = [self._new_slot(signal, i, "window", step, rule, int(free_from), last_window_start)
+                      for i in range(count)]
             self._chain(window)
-            later = [
-                self._new_slot(signal, count + i, "later", step, rule, max(self.end, int(free_from)), self.duration)
-                for i in range(later_count)
-            ]
+            later = [self._new_slot(signal, count + i, "later", step, rule, max(self.end, int(free_from)),
+                                    self.duration) for i in range(later_count)]
             self._chain(later)
             if later:
                 for slot in window:
@@ -193,24 +181,14 @@ class _Builder:
         for modality in self.model.modalities:
             if not modality.exclusive:
                 continue
-            members = [
-                slot
-                for s in self.model.signals
-                if s.modality == modality.name
-                for slot in self.enc.slots[s.id]
-                if slot.decided or int(slot.stop) > self.frame.begin
-            ]
+            members = [slot for s in self.model.signals if s.modality == modality.name
+                       for slot in self.enc.slots[s.id]
+                       if slot.decided or int(slot.stop) > self.frame.begin]
             if len({slot.signal for slot in members}) < 2:
                 continue
-            rule = self.guard(
-                f"modality:{modality.name}",
-                Item(
-                    modality.name,
-                    "occurrence rule",
-                    modality.span,
-                    f"signals of modality {modality.name!r} never overlap",
-                ),
-            )
+            rule = self.guard(f"modality:{modality.name}", Item(
+                modality.name, "occurrence rule", modality.span,
+                f"signals of modality {modality.name!r} never overlap"))
             intervals = []
             actives: list[Lit] = []
             for slot in members:
@@ -221,9 +199,11 @@ class _Builder:
                     if rule is True:
                         intervals.append(self.cp.new_fixed_size_interval_var(start, length, ""))
                     else:
-                        intervals.append(self.cp.new_optional_fixed_size_interval_var(start, length, active, ""))
+                        intervals.append(self.cp.new_optional_fixed_size_interval_var(
+                            start, length, active, ""))
                     continue
-                intervals.append(self.cp.new_optional_interval_var(slot.start, slot.length, slot.stop, active, ""))
+                intervals.append(self.cp.new_optional_interval_var(
+                    slot.start, slot.length, slot.stop, active, ""))
             self.cp.add_no_overlap(intervals)
             # The same rule once more as pairwise "one before the other" literals (shared
             # with the relational atoms) for signals that a relational atom relates:
@@ -348,10 +328,8 @@ class _Builder:
             self.enc.violated[constraint.id] = violated
             if not enforce:
                 continue
-            rule = self.guard(
-                f"constraint:{constraint.id}",
-                Item(constraint.id, "constraint", constraint.span, constraint.text or constraint.id),
-            )
+            rule = self.guard(f"constraint:{constraint.id}", Item(
+                constraint.id, "constraint", constraint.span, constraint.text or constraint.id))
             self.require_not(violated, rule)
 
     # -- request rules ----------------------------------------------------------------------

@@ -12,7 +12,9 @@ if TYPE_CHECKING:
     from ortools.sat.python import cp_model
 
 
-def make_solver(time_limit: float, workers: int = 1, seed: int = 0, *, light: bool = False) -> cp_model.CpSolver:
+def make_solver(
+    time_limit: float, workers: int = 1, seed: int = 0, *, light: bool = False
+) -> cp_model.CpSolver:
     """A CP-SAT solver; ``light`` skips presolve and LP relaxation, which cost more than
     they save on the small sampling models (measured in bench/speed/cpsat.py: 3x faster)."""
     from ortools.sat.python import cp_model

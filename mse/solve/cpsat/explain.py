@@ -25,7 +25,8 @@ from mse.solve.protocol import Pin
 ExplanationItem = Item
 
 #: Blame the user's constraints last: rules are tried for deletion first.
-_DELETION_ORDER = {"duration": 0, "occurrence rule": 1, "forbid": 2, "require": 3, "pin": 4, "constraint": 5}
+_DELETION_ORDER = {"duration": 0, "occurrence rule": 1, "forbid": 2, "require": 3, "pin": 4,
+                   "constraint": 5}
 
 
 def where(span: Span) -> str:
@@ -58,10 +59,8 @@ class Explanation:
 
     def render(self) -> str:
         if not self.proven:
-            return (
-                f"no timeline of {self.duration:g} s found within the time limit "
-                "(undecided: neither a timeline nor a proof)"
-            )
+            return (f"no timeline of {self.duration:g} s found within the time limit "
+                    "(undecided: neither a timeline nor a proof)")
         parts = [f"{self.label(item)} ({where(item.span)}) {item.text}" for item in self.items]
         note = "" if self.minimal else " (time limit reached: the set may not be minimal)"
         return f"no timeline of {self.duration:g} s: " + " … ".join(parts) + note
@@ -122,9 +121,8 @@ def explain(
     # A signal too long for the timeline still gets a slot, so that its duration rule
     # can be blamed (switched off) instead of the constraints that need it.
     counts = {signal: max(1, count) for signal, count in counts.items()}
-    enc = build(
-        model, ticks, counts, switchable=True, constraints=constraints, pins=pinned, require=require, forbid=forbid
-    )
+    enc = build(model, ticks, counts, switchable=True, constraints=constraints,
+                pins=pinned, require=require, forbid=forbid)
     everything = list(enc.enable)
     status, core = _status(enc, everything, max(0.05, time_limit * 0.5), workers)
     if status == "feasible":

@@ -126,10 +126,8 @@ class Stages:
 
 def _distance_terms(cp: Any, position: _Position) -> list[Any]:
     start_distance = cp.new_int_var(0, position.duration, "")
-    away = [
-        cp.add(start_distance >= position.start - position.target),
-        cp.add(start_distance >= position.target - position.start),
-    ]
+    away = [cp.add(start_distance >= position.start - position.target),
+            cp.add(start_distance >= position.target - position.start)]
     if position.later is not None:
         for constraint in away:
             constraint.only_enforce_if(~position.later)
@@ -140,7 +138,8 @@ def _distance_terms(cp: Any, position: _Position) -> list[Any]:
     return [-START_WEIGHT * start_distance, -LENGTH_WEIGHT * length_distance]
 
 
-def _choice_terms(enc: Encoding, slot: Slot, prior: SlotPrior, scores: Sequence[float], stages: Stages) -> int:
+def _choice_terms(enc: Encoding, slot: Slot, prior: SlotPrior, scores: Sequence[float],
+                  stages: Stages) -> int:
     """Add one slot's terms to ``stages``: its option scores (drawn option 0, others < 0)
     and its distances to the target start and length.  Returns how low its option terms
     can go (negated).
@@ -192,7 +191,8 @@ def _choice_terms(enc: Encoding, slot: Slot, prior: SlotPrior, scores: Sequence[
             terms.append(units[-1] * later_literal)
     cp.add(sum(literals) == present)
     stages.options.extend(literals)
-    stages.positions.append(_Position(start, length, present, sum(target), later_literal, prior.length, enc.duration))
+    stages.positions.append(_Position(start, length, present, sum(target), later_literal, prior.length,
+                                      enc.duration))
     return -min(units)
 
 
@@ -283,13 +283,8 @@ def _thinned(
     return kept
 
 
-def profile_stages(
-    enc: Encoding,
-    priors: Mapping[str, Sequence[SlotPrior]],
-    seed: int,
-    mode: str = "sample",
-    required: frozenset[str] = frozenset(),
-) -> tuple[Stages, list[Slot], int]:
+def profile_stages(enc: Encoding, priors: Mapping[str, Sequence[SlotPrior]], seed: int,
+                   mode: str = "sample", required: frozenset[str] = frozenset()) -> tuple[Stages, list[Slot], int]:
     """The perturb-and-MAP stages of every window slot (``mode``: sample, likely or random),
     the slots of never-occurring signals, and how low the option terms can go (negated).
     Window slots are hinted with the draw, thinned where it overlaps."""
@@ -353,9 +348,8 @@ def set_objective(
     if objective in ("most-signals", "fewest-signals"):
         stages = Stages(first=preference_terms(enc, objective, seed))
     else:
-        stages, never, floor = profile_stages(
-            enc, priors, seed, objective or "sample", required_signals(enc.model, require)
-        )
+        stages, never, floor = profile_stages(enc, priors, seed, objective or "sample",
+                                              required_signals(enc.model, require))
     if previous:
         reward, most = _diversity_terms(enc, previous)
         stages.first.extend(reward)

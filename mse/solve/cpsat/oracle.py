@@ -91,7 +91,8 @@ class Oracle:
                 self.touching.setdefault(name, []).append(constraint)
 
     # -- what timelines show ----------------------------------------------------------------
-    def harvest(self, intervals: Mapping[str, Sequence[tuple[int, int]]], changed: set[str] | None = None) -> None:
+    def harvest(self, intervals: Mapping[str, Sequence[tuple[int, int]]],
+                changed: set[str] | None = None) -> None:
         """Record what a consistent timeline shows (only about ``changed`` signals and the
         constraints naming them, when the rest is known from the base)."""
         names = [s.id for s in self.model.signals] if changed is None else sorted(changed)
@@ -103,11 +104,8 @@ class Oracle:
                     self.seen.early.add(name)
             else:
                 self.seen.absent.add(name)
-        constraints = (
-            self.model.constraints
-            if changed is None
-            else {c.id: c for n in changed for c in self.touching.get(n, ())}.values()
-        )
+        constraints = (self.model.constraints if changed is None
+                       else {c.id: c for n in changed for c in self.touching.get(n, ())}.values())
         for constraint in constraints:
             if is_instantiated(constraint, intervals):
                 self.seen.instantiated.add(constraint.id)
@@ -176,14 +174,9 @@ class Oracle:
                     for mine, theirs in ((node.left, node.right), (node.right, node.left)):
                         if not (isinstance(mine, ir.SignalTime) and mine.signal == name):
                             continue
-                        values = (
-                            [
-                                (a if theirs.edge == "start" else b) + theirs.offset
-                                for a, b in others.get(theirs.signal, ())
-                            ]
-                            if isinstance(theirs, ir.SignalTime)
-                            else [known_time(theirs, self.ticks)]
-                        )
+                        values = ([(a if theirs.edge == "start" else b) + theirs.offset
+                                   for a, b in others.get(theirs.signal, ())]
+                                  if isinstance(theirs, ir.SignalTime) else [known_time(theirs, self.ticks)])
                         for value in values:
                             edge = value - mine.offset
                             for t in (edge - 1, edge, edge + 1):
@@ -220,7 +213,7 @@ class Oracle:
         return any(self._quick_in(question, base) for base in [self.base, *self.pool])
 
     def _remember(self, intervals: Intervals) -> None:
-        self.pool = [intervals, *self.pool[: POOL - 1]]
+        self.pool = [intervals, *self.pool[:POOL - 1]]
 
     def _quick_in(self, question: Question, base: Intervals) -> bool:
         free = sorted(question.free)
@@ -237,7 +230,7 @@ class Oracle:
         for options in choices:
             combos = [(*combo, option) for combo in combos for option in options]
             if len(combos) > QUICK_COMBOS:
-                combos = combos[: QUICK_COMBOS // 2] + self._rng.sample(combos[QUICK_COMBOS // 2 :], QUICK_COMBOS // 2)
+                combos = combos[:QUICK_COMBOS // 2] + self._rng.sample(combos[QUICK_COMBOS // 2:], QUICK_COMBOS // 2)
         for combo in combos:
             taken: dict[str, list[tuple[int, int]]] = {}
             clash = False
@@ -278,13 +271,8 @@ class Oracle:
             keep |= ir.mentioned_signals(constraint.expr)
         ids = {c.id for c in constraints}
         model = self.model
-        return ir.Model(
-            model.name,
-            tuple(s for s in model.signals if s.id in keep),
-            tuple(c for c in model.constraints if c.id in ids),
-            model.modalities,
-            path=model.path,
-        )
+        return ir.Model(model.name, tuple(s for s in model.signals if s.id in keep),
+                        tuple(c for c in model.constraints if c.id in ids), model.modalities, path=model.path)
 
     def _rules(self, enc: Encoding, question: Question) -> list[Lit]:
         skipped = {f"constraint:{question.drop}", *(f"constraint:{c}" for c in self.redundant)}
@@ -301,13 +289,8 @@ class Oracle:
         sub = self._sub_model(free, constraints, mates)
         fixed = {s.id: tuple(self.base[s.id]) for s in sub.signals if s.id not in free and s.id in self.base}
         witness = slot_counts(sub, self.ticks, complete=True)
-        enc = build(
-            sub,
-            self.ticks,
-            {name: witness[name] for name in free},
-            switchable=True,
-            frame=Frame(past=fixed, committed={k: len(v) for k, v in fixed.items()}),
-        )
+        enc = build(sub, self.ticks, {name: witness[name] for name in free}, switchable=True,
+                    frame=Frame(past=fixed, committed={k: len(v) for k, v in fixed.items()}))
         extra = question.literals(enc)
         if extra is None:
             return False
@@ -339,9 +322,8 @@ class Oracle:
     def full(self) -> Encoding:
         """One switchable model of the whole set (built when first needed)."""
         if self._full is None:
-            self._full = build(
-                self.model, self.ticks, slot_counts(self.model, self.ticks, complete=True), switchable=True
-            )
+            self._full = build(self.model, self.ticks, slot_counts(self.model, self.ticks, complete=True),
+                               switchable=True)
             self._hint_base(self._full)
         return self._full
 

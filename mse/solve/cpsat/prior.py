@@ -155,9 +155,8 @@ def _pick(log_probabilities: list[float], rng: random.Random, mode: str) -> int:
     return len(weights) - 1
 
 
-def once_prior(
-    signal: ir.Signal, duration: int, begin: int, end: int, rng: random.Random, *, mode: str = "sample"
-) -> SlotPrior:
+def once_prior(signal: ir.Signal, duration: int, begin: int, end: int, rng: random.Random,
+               *, mode: str = "sample") -> SlotPrior:
     """The one slot of a once-only signal not yet occurred at ``begin``."""
     bins = window_bins(begin, end)
     profile = _OnceProfile(signal, duration)
@@ -174,18 +173,8 @@ def once_prior(
     picked = ABSENT if never else _pick(options, rng, mode) - 1
     targets = tuple(profile.sample(lo, hi, rng, mode=mode) for lo, hi in bins)
     start = targets[picked] if 0 <= picked < len(bins) else targets[0]
-    return SlotPrior(
-        signal.id,
-        0,
-        bins,
-        tuple(log_bins),
-        _log(absent),
-        log_later,
-        picked,
-        targets,
-        draw_length(signal, start, duration, rng, mode=mode),
-        never,
-    )
+    return SlotPrior(signal.id, 0, bins, tuple(log_bins), _log(absent), log_later, picked, targets,
+                     draw_length(signal, start, duration, rng, mode=mode), never)
 
 
 def draw_once(signal: ir.Signal, duration: int, rng: random.Random) -> tuple[int, int] | None:
@@ -203,16 +192,8 @@ def _mean_length(signal: ir.Signal, duration: int) -> float:
     return (low + min(high, duration)) / 2
 
 
-def renewal_starts(
-    signal: ir.Signal,
-    duration: int,
-    free_from: int,
-    end: int,
-    room: int | None,
-    rng: random.Random,
-    *,
-    mode: str = "sample",
-) -> list[tuple[int, int]]:
+def renewal_starts(signal: ir.Signal, duration: int, free_from: int, end: int, room: int | None,
+                   rng: random.Random, *, mode: str = "sample") -> list[tuple[int, int]]:
     """Occurrences (start, stop) of the profile's renewal process starting in [free_from, end):
     while free, starts at p(u) per second."""
     low, _ = length_bounds(signal, duration)
@@ -252,17 +233,9 @@ def _poisson_tail(mean: float, k: int) -> float:
     return max(0.0, 1.0 - below)
 
 
-def repetitive_priors(
-    signal: ir.Signal,
-    duration: int,
-    begin: int,
-    end: int,
-    free_from: int,
-    room: int | None,
-    slots: int,
-    drawn: list[tuple[int, int]],
-    rng: random.Random,
-) -> list[SlotPrior]:
+def repetitive_priors(signal: ir.Signal, duration: int, begin: int, end: int, free_from: int,
+                      room: int | None, slots: int, drawn: list[tuple[int, int]],
+                      rng: random.Random) -> list[SlotPrior]:
     """Priors of ``slots`` window slots of a repetitive signal whose draw is ``drawn``."""
     bins = window_bins(begin, end)
     mean_length = _mean_length(signal, duration) / TICKS_PER_SECOND
@@ -283,14 +256,13 @@ def repetitive_priors(
         if k < len(drawn):
             start, stop = drawn[k]
             choice = next(b for b, (lo, hi) in enumerate(bins) if lo <= start < hi)
-            targets = (*targets[:choice], start, *targets[choice + 1 :])
+            targets = (*targets[:choice], start, *targets[choice + 1:])
             length = stop - start
         else:
             choice = ABSENT
             length = draw_length(signal, targets[0], duration, rng, mode="sample")
-        priors.append(
-            SlotPrior(signal.id, k, bins, log_bins, _log(1.0 - present), None, choice, targets, length, never)
-        )
+        priors.append(SlotPrior(signal.id, k, bins, log_bins, _log(1.0 - present), None, choice,
+                                targets, length, never))
     return priors
 
 
@@ -316,18 +288,17 @@ def frame_priors(
             priors[signal.id] = []
             continue
         if not signal.repetitive:
-            priors[signal.id] = (
-                [] if committed.get(signal.id, 0) else [once_prior(signal, duration, begin, end, rng, mode=mode)]
-            )
+            priors[signal.id] = [] if committed.get(signal.id, 0) else [
+                once_prior(signal, duration, begin, end, rng, mode=mode)]
             continue
         room = None if signal.max_occurrences is None else signal.max_occurrences - committed.get(signal.id, 0)
         if room is not None and room <= 0:
             priors[signal.id] = []
             continue
-        drawn = [] if never_occurs(signal) else renewal_starts(signal, duration, start_from, end, room, rng, mode=mode)
+        drawn = [] if never_occurs(signal) else renewal_starts(signal, duration, start_from, end, room, rng,
+                                                               mode=mode)
         fit = max(1, (end - start_from) // max(1, low) + 1)
         slots = min(len(drawn) + extra, fit, room if room is not None else fit)
-        priors[signal.id] = repetitive_priors(
-            signal, duration, begin, end, start_from, room, max(slots, len(drawn)), drawn, rng
-        )
+        priors[signal.id] = repetitive_priors(signal, duration, begin, end, start_from, room, max(slots, len(drawn)),
+                                              drawn, rng)
     return priors

@@ -33,17 +33,9 @@ def _draw(signal: ir.Signal, duration: int, rng: random.Random) -> list[tuple[in
     return [] if drawn is None else [drawn]
 
 
-def refine(
-    model: ir.Model,
-    schedule: Schedule,
-    rng: random.Random,
-    *,
-    violate: bool = False,
-    keep: Sequence[str] = (),
-    require: Sequence[str] = (),
-    forbid: Sequence[str] = (),
-    sweeps: int = 12,
-) -> Schedule:
+def refine(model: ir.Model, schedule: Schedule, rng: random.Random, *, violate: bool = False,
+           keep: Sequence[str] = (), require: Sequence[str] = (), forbid: Sequence[str] = (),
+           sweeps: int = 12) -> Schedule:
     """``schedule`` (consistent; with ``violate``, violating some constraint) after ``sweeps``
     Gibbs sweeps; ``keep`` signals (pinned) never move, the request stays met."""
     duration = schedule.duration
@@ -66,17 +58,10 @@ def refine(
                 continue
             if proposal == intervals.get(name, []):
                 continue
-            if (
-                proposal
-                and signal.modality in exclusive
-                and any(
+            if proposal and signal.modality in exclusive and any(
                     a < stop and start < b
-                    for other in model.signals
-                    if other.id != name and other.modality == signal.modality
-                    for a, b in intervals.get(other.id, ())
-                    for start, stop in proposal
-                )
-            ):
+                    for other in model.signals if other.id != name and other.modality == signal.modality
+                    for a, b in intervals.get(other.id, ()) for start, stop in proposal):
                 continue
             before = intervals.get(name)
             if proposal:

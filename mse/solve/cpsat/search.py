@@ -40,9 +40,8 @@ def hint_later(enc: Encoding, later_hints: Sequence[Occurrence]) -> None:
                 hint(enc, slot, -1, 0)
 
 
-def stage_solver(
-    request: SolveRequest, seed: int, deadline: float, work: float, *, large: bool, stage: str = "options"
-) -> Any:
+def stage_solver(request: SolveRequest, seed: int, deadline: float, work: float, *, large: bool,
+            stage: str = "options") -> Any:
     """No presolve (it costs more than the search on these models).  Large models: no LP (it
     costs more than the whole search), branching on the hint (the thinned draw) and stopping
     at the first timeline: improving it costs seconds for little.  Small ones, by ``stage``
@@ -73,9 +72,8 @@ def stage_solver(
     return solver
 
 
-def run_search(
-    enc: Encoding, request: SolveRequest, seed: int, deadline: float, work: float, *, large: bool, stage: str
-) -> tuple[Any, Any]:
+def run_search(enc: Encoding, request: SolveRequest, seed: int, deadline: float, work: float, *,
+         large: bool, stage: str) -> tuple[Any, Any]:
     """Solve with a deterministic work budget; without any timeline by then, go on to the first
     one (or a proof) within the wall-clock deadline."""
     from ortools.sat.python import cp_model
@@ -89,9 +87,8 @@ def run_search(
     return solver.solve(enc.cp), solver
 
 
-def best_positions(
-    enc: Encoding, request: SolveRequest, seed: int, deadline: float, first: Any, stages: Stages, *, large: bool
-) -> list[Occurrence]:
+def best_positions(enc: Encoding, request: SolveRequest, seed: int, deadline: float, first: Any,
+               stages: Stages, *, large: bool) -> list[Occurrence]:
     """Stage 2: every option kept as stage 1 chose it, positions as close as possible to
     their targets (within POSITION_WORK); stage 1's timeline if nothing better is found."""
     from ortools.sat.python import cp_model

@@ -94,10 +94,8 @@ def _validate(model: ir.Model, request: SolveRequest) -> None:
     if request.mode not in ("consistent", "constraint-less"):
         raise argument_error(f"unknown mode {request.mode!r} (known: consistent, constraint-less)")
     if request.mode == "constraint-less" and not model.constraints:
-        raise argument_error(
-            f"{model.name!r} has no constraints, so no timeline can violate one "
-            "(--mode constraint-less needs a behaviour set with constraints)"
-        )
+        raise argument_error(f"{model.name!r} has no constraints, so no timeline can violate one "
+                             "(--mode constraint-less needs a behaviour set with constraints)")
     if request.diverse and to_ticks(request.duration) > SINGLE_FRAME:
         raise argument_error(f"--diverse works on timelines of at most {SINGLE_FRAME // 1000} s")
 
@@ -112,23 +110,18 @@ def _verified(model: ir.Model, schedule: Schedule, request: SolveRequest) -> Sch
     present = {o.signal for o in schedule.occurrences}
     missing = [name for name in request.require if name not in present]
     extra = [name for name in request.forbid if name in present]
-    unpinned = [
-        p
-        for p in request.pinned
-        if Occurrence(to_ticks(p.start), to_ticks(p.stop), p.signal) not in schedule.occurrences
-    ]
+    unpinned = [p for p in request.pinned
+                if Occurrence(to_ticks(p.start), to_ticks(p.stop), p.signal) not in schedule.occurrences]
     if violations or missing or extra or unpinned:
-        details = "; ".join(
-            [v.message for v in violations]
-            + [f"{n} missing" for n in missing]
-            + [f"{n} present" for n in extra]
-            + [f"pin {p} missing" for p in unpinned]
-        )
+        details = "; ".join([v.message for v in violations] + [f"{n} missing" for n in missing]
+                            + [f"{n} present" for n in extra] + [f"pin {p} missing" for p in unpinned])
         raise RuntimeError(f"CP-SAT produced an inconsistent timeline (a bug): {details}")
     return schedule
 
 
-def solve_one(model: ir.Model, request: SolveRequest, seed: int, previous: Sequence[Schedule] = ()) -> Schedule:
+def solve_one(
+    model: ir.Model, request: SolveRequest, seed: int, previous: Sequence[Schedule] = ()
+) -> Schedule:
     """One timeline; NoSolution (with an explanation when proven) when there is none."""
     duration = to_ticks(request.duration)
     schedule = Schedule.of(duration, _frames(model, request, seed, previous))
@@ -157,44 +150,26 @@ def _frames(model: ir.Model, request: SolveRequest, seed: int, previous: Sequenc
     committed = Committed(model, duration)
     later_hints: list[Occurrence] = []
     for index, (begin, end) in enumerate(windows):
-        priors = frame_priors(
-            model,
-            duration,
-            begin,
-            end,
-            committed.free_from(),
-            committed.counts,
-            random.Random(f"{seed}/{index}"),
-            mode=_mode(request),
-        )
+        priors = frame_priors(model, duration, begin, end, committed.free_from(), committed.counts,
+                              random.Random(f"{seed}/{index}"), mode=_mode(request))
         if len(windows) == 1 and not previous:
             drawn = _draw_if_acceptable(model, request, duration, priors)
             if drawn is not None:
                 yield from drawn
                 return
-        if (
-            index > 0
-            and request.objective not in ("most-signals", "fewest-signals")
-            and not any(o.start < end for o in later_hints)
-            and not any(p.present and p.choice < len(p.bins) for slots in priors.values() for p in slots)
-        ):
+        if index > 0 and request.objective not in ("most-signals", "fewest-signals") and not any(
+                o.start < end for o in later_hints) and not any(
+                p.present and p.choice < len(p.bins) for slots in priors.values() for p in slots):
             # Nothing drawn here and nothing planned here: committing nothing is the best this
             # window can do, and the previous window's plan for the rest still completes it.
             continue
         # The time limit is per window: a long timeline is many small solves, and one
         # budget shared by all of them would cap the duration a user can ask for.
         deadline = time.monotonic() + request.time_limit
-        frame = Frame(
-            begin,
-            end,
-            committed.representatives(),
-            dict(committed.counts),
-            frozenset(committed.falsified),
-            _later_counts(model, duration, end, committed),
-        )
-        solution = _solve_frame(
-            model, request, seed, frame, priors, previous, later_hints, first=index == 0, deadline=deadline
-        )
+        frame = Frame(begin, end, committed.representatives(), dict(committed.counts),
+                      frozenset(committed.falsified), _later_counts(model, duration, end, committed))
+        solution = _solve_frame(model, request, seed, frame, priors, previous, later_hints,
+                                first=index == 0, deadline=deadline)
         if len(windows) == 1 and not previous and request.objective is None:
             solution = list(_refined(model, request, seed, Schedule.of(duration, solution)).occurrences)
         kept = sorted(o for o in solution if o.start < end or end == duration)
@@ -208,31 +183,19 @@ def _refined(model: ir.Model, request: SolveRequest, seed: int, schedule: Schedu
     from mse.solve.cpsat.refine import refine
 
     sweeps = request.cpsat.sweeps if request.cpsat.sweeps is not None else REFINE_SWEEPS
-    return refine(
-        model,
-        schedule,
-        random.Random(f"refine/{seed}"),
-        violate=request.mode == "constraint-less",
-        keep=[p.signal for p in request.pinned],
-        require=request.require,
-        forbid=request.forbid,
-        sweeps=sweeps,
-    )
+    return refine(model, schedule, random.Random(f"refine/{seed}"), violate=request.mode == "constraint-less",
+                  keep=[p.signal for p in request.pinned], require=request.require, forbid=request.forbid,
+                  sweeps=sweeps)
 
 
-def _draw_if_acceptable(
-    model: ir.Model, request: SolveRequest, duration: int, priors: Mapping[str, Sequence[SlotPrior]]
-) -> list[Occurrence] | None:
+def _draw_if_acceptable(model: ir.Model, request: SolveRequest, duration: int,
+                        priors: Mapping[str, Sequence[SlotPrior]]) -> list[Occurrence] | None:
     """The prior draw itself when it is what CP-SAT would return: a consistent timeline (or,
     in constraint-less mode, one violating a constraint) meeting the request."""
     if request.pinned or request.objective in ("most-signals", "fewest-signals"):
         return None
-    occurrences = [
-        Occurrence(p.start, p.start + p.length, p.signal)
-        for slots in priors.values()
-        for p in slots
-        if p.present and p.choice < len(p.bins)
-    ]
+    occurrences = [Occurrence(p.start, p.start + p.length, p.signal)
+                   for slots in priors.values() for p in slots if p.present and p.choice < len(p.bins)]
     present = {o.signal for o in occurrences}
     if any(name not in present for name in request.require) or any(n in present for n in request.forbid):
         return None
@@ -268,9 +231,8 @@ def _later_counts(model: ir.Model, duration: int, end: int, committed: Committed
     return counts
 
 
-def _extended(
-    model: ir.Model, priors: Mapping[str, Sequence[SlotPrior]], frame: Frame, duration: int
-) -> tuple[dict[str, list[SlotPrior]], bool]:
+def _extended(model: ir.Model, priors: Mapping[str, Sequence[SlotPrior]], frame: Frame,
+              duration: int) -> tuple[dict[str, list[SlotPrior]], bool]:
     """Priors with at least the witness bound of window slots (extra slots drawn absent),
     and whether window plus later slots now reach the witness bound everywhere."""
     from mse.solve.cpsat.prior import repetitive_priors
@@ -284,49 +246,27 @@ def _extended(
         if signal.repetitive and slots:
             free_from = max([frame.begin] + [stop for _, stop in frame.past.get(signal.id, ())])
             _low, _ = length_bounds(signal, duration)
-            room = (
-                None if signal.max_occurrences is None else signal.max_occurrences - frame.committed.get(signal.id, 0)
-            )
+            room = None if signal.max_occurrences is None else signal.max_occurrences - frame.committed.get(
+                signal.id, 0)
             limit = min(semantic_limit(signal, duration - free_from), room if room is not None else MAX_SLOTS)
             wanted = min(max(len(slots), witness[signal.id]), limit, MAX_SLOTS)
             if wanted > len(slots):
                 drawn = [(p.start, p.start + p.length) for p in slots if p.present]
-                slots = repetitive_priors(
-                    signal,
-                    duration,
-                    frame.begin,
-                    end,
-                    free_from,
-                    room,
-                    wanted,
-                    drawn,
-                    random.Random(f"extend/{signal.id}"),
-                )
-            needed = min(
-                semantic_limit(signal, duration - free_from),
-                witness[signal.id],
-                room if room is not None else witness[signal.id],
-            )
+                slots = repetitive_priors(signal, duration, frame.begin, end, free_from, room, wanted, drawn,
+                                          random.Random(f"extend/{signal.id}"))
+            needed = min(semantic_limit(signal, duration - free_from), witness[signal.id],
+                         room if room is not None else witness[signal.id])
             complete &= len(slots) + frame.later.get(signal.id, 0) >= needed
         extended[signal.id] = slots
     return extended, complete
 
 
-def _build(
-    model: ir.Model, request: SolveRequest, priors: Mapping[str, Sequence[SlotPrior]], frame: Frame, duration: int
-) -> Encoding:
+def _build(model: ir.Model, request: SolveRequest, priors: Mapping[str, Sequence[SlotPrior]],
+           frame: Frame, duration: int) -> Encoding:
     free = request.mode == "constraint-less"
-    return build(
-        model,
-        duration,
-        {name: len(slots) for name, slots in priors.items()},
-        constraints=not free,
-        violate=free,
-        pins=request.pinned,
-        require=request.require,
-        forbid=request.forbid,
-        frame=frame,
-    )
+    return build(model, duration, {name: len(slots) for name, slots in priors.items()},
+                 constraints=not free, violate=free, pins=request.pinned, require=request.require,
+                 forbid=request.forbid, frame=frame)
 
 
 def _solve_frame(
@@ -352,22 +292,21 @@ def _solve_frame(
         enc = _build(model, request, priors, frame, duration)
         stages = set_objective(enc, request.objective, seed, priors, previous, request.require)
         hint_later(enc, later_hints)
-        large = sum(len(enc.decided(s.id)) for s in model.signals) > LARGE_SLOTS or request.cpsat.first
+        large = (sum(len(enc.decided(s.id)) for s in model.signals) > LARGE_SLOTS
+                 or request.cpsat.first)
         work = DIVERSE_WORK if previous else LARGE_WORK if large else SAMPLE_WORK
         work = request.cpsat.work if request.cpsat.work is not None else work
         mixed = bool(previous) or request.objective in ("most-signals", "fewest-signals")
-        status, solver = run_search(
-            enc, request, seed, deadline, work, large=large, stage="mixed" if mixed else "options"
-        )
+        status, solver = run_search(enc, request, seed, deadline, work, large=large,
+                              stage="mixed" if mixed else "options")
         if status in (cp_model.OPTIMAL, cp_model.FEASIBLE):
-            if stages.positions and not large and request.cpsat.positions and stages.position_cost(solver) > 0:
+            if (stages.positions and not large and request.cpsat.positions
+                    and stages.position_cost(solver) > 0):
                 return best_positions(enc, request, seed, deadline, solver, stages, large=large)
             return decided_occurrences(enc, solver)
         if status != cp_model.INFEASIBLE:
-            message = (
-                f"no timeline of {request.duration:g} s found within the time limit of "
-                f"{request.time_limit:g} s; this is not a proof that none exists (raise --time-limit)"
-            )
+            message = (f"no timeline of {request.duration:g} s found within the time limit of "
+                       f"{request.time_limit:g} s; this is not a proof that none exists (raise --time-limit)")
             raise NoSolution([Diagnostic("W401", message, whole_set_span(model))], proven=False, reason=message)
         if complete:
             break
@@ -380,10 +319,8 @@ def _solve_frame(
     if not first:
         raise RuntimeError("a committed window could not be extended (a bug: the later slots proved it could)")
     if not complete:
-        message = (
-            f"no timeline of {request.duration:g} s with at most {MAX_SLOTS} occurrences "
-            "per signal; this is not a proof that none exists"
-        )
+        message = (f"no timeline of {request.duration:g} s with at most {MAX_SLOTS} occurrences "
+                   "per signal; this is not a proof that none exists")
         raise NoSolution([Diagnostic("W401", message, whole_set_span(model))], proven=False, reason=message)
     raise _proven_infeasible(model, request)
 
@@ -393,21 +330,15 @@ def _proven_infeasible(model: ir.Model, request: SolveRequest) -> NoSolution:
 
     constraint_less = request.mode == "constraint-less"
     if constraint_less:
-        message = (
-            f"no timeline of {request.duration:g} s violates a constraint of {model.name!r}: "
-            "every constraint holds in every timeline that meets the request"
-        )
+        message = (f"no timeline of {request.duration:g} s violates a constraint of {model.name!r}: "
+                   "every constraint holds in every timeline that meets the request")
         return NoSolution([Diagnostic("W401", message, whole_set_span(model))], proven=True, reason=message)
     if not request.cpsat.explain:  # the caller only needs the verdict
         message = f"no timeline of {request.duration:g} s exists"
         return NoSolution([Diagnostic("E401", message, whole_set_span(model))], proven=True, reason=message)
     explanation = explain(
-        model,
-        request.duration,
-        pinned=request.pinned,
-        require=request.require,
-        forbid=request.forbid,
-        time_limit=min(request.time_limit, 5.0),
+        model, request.duration, pinned=request.pinned, require=request.require,
+        forbid=request.forbid, time_limit=min(request.time_limit, 5.0),
     )
     if explanation is None:  # the explainer ran out of time before its own proof
         message = f"no timeline of {request.duration:g} s exists"

@@ -55,10 +55,8 @@ def grid_values(signal: ir.Signal, duration: int, step: int) -> list[Value]:
                 value = (*prefix, (start, start + length))
                 values.append(value)
                 if len(values) > MAX_DOMAIN:
-                    raise argument_error(
-                        f"signal {signal.id!r} has more than {MAX_DOMAIN} placements on "
-                        "this grid: use a coarser --grid or --solver cpsat"
-                    )
+                    raise argument_error(f"signal {signal.id!r} has more than {MAX_DOMAIN} placements on "
+                                         "this grid: use a coarser --grid or --solver cpsat")
                 extend(value, start + length)
 
     extend((), 0)
@@ -70,10 +68,8 @@ class _Search:
 
     def __init__(self, model: ir.Model, request: SolveRequest) -> None:
         if len(model.signals) > MAX_SIGNALS:
-            raise argument_error(
-                f"the csp solver handles at most {MAX_SIGNALS} signals and {model.name!r} "
-                f"has {len(model.signals)}: use --solver cpsat"
-            )
+            raise argument_error(f"the csp solver handles at most {MAX_SIGNALS} signals and {model.name!r} "
+                                 f"has {len(model.signals)}: use --solver cpsat")
         self.model = model
         self.duration = to_ticks(request.duration)
         self.step = to_ticks(request.csp.grid)
@@ -89,9 +85,8 @@ class _Search:
         for pin in request.pinned:
             wanted = (to_ticks(pin.start), to_ticks(pin.stop))
             if wanted[0] % self.step or wanted[1] % self.step:
-                raise argument_error(
-                    f"pin {pin.signal}@{pin.start:g}-{pin.stop:g} is not on the {request.csp.grid:g} s grid"
-                )
+                raise argument_error(f"pin {pin.signal}@{pin.start:g}-{pin.stop:g} is not on the "
+                                     f"{request.csp.grid:g} s grid")
             self.domains[pin.signal] = [v for v in self.domains[pin.signal] if wanted in v]
 
     def _check(self, test: Callable[..., bool]) -> Callable[..., bool]:
@@ -106,7 +101,8 @@ class _Search:
         from constraint import FunctionConstraint, Problem
 
         if self.constraints and any(
-            not c.triggers and not ir.mentioned_signals(c.expr) and constraint_status(c, {}, self.duration) is False
+            not c.triggers and not ir.mentioned_signals(c.expr)
+            and constraint_status(c, {}, self.duration) is False
             for c in self.model.constraints
         ):
             return  # a constant constraint (e.g. ``duration < 2``) that is false
@@ -121,20 +117,18 @@ class _Search:
         for modality in sorted(self.model.exclusive_modalities):
             members = [s.id for s in self.model.signals if s.modality == modality]
             for index, first in enumerate(members):
-                for second in members[index + 1 :]:
+                for second in members[index + 1:]:
                     problem.addConstraint(FunctionConstraint(self._check(_disjoint)), [first, second])
         if self.constraints:
             for constraint in self.model.constraints:
                 names = sorted(ir.mentioned_signals(constraint.expr))
                 if names:
                     problem.addConstraint(
-                        FunctionConstraint(self._check(_satisfies(constraint, names, self.duration))), names
-                    )
+                        FunctionConstraint(self._check(_satisfies(constraint, names, self.duration))), names)
         for solution in problem.getSolutionIter():
-            yield Schedule.of(
-                self.duration,
-                (Occurrence(start, stop, signal_id) for signal_id, value in solution.items() for start, stop in value),
-            )
+            yield Schedule.of(self.duration, (
+                Occurrence(start, stop, signal_id)
+                for signal_id, value in solution.items() for start, stop in value))
 
 
 def _disjoint(first: Value, second: Value) -> bool:
@@ -185,15 +179,11 @@ class CspSolver:
 
 def _no_solution(model: ir.Model, request: SolveRequest, *, proven: bool) -> NoSolution:
     if proven:
-        message = (
-            f"no timeline of {request.duration:g} s on the {request.csp.grid:g} s grid "
-            "(exhaustive search); a finer grid or --solver cpsat may still find one"
-        )
+        message = (f"no timeline of {request.duration:g} s on the {request.csp.grid:g} s grid "
+                   "(exhaustive search); a finer grid or --solver cpsat may still find one")
     else:
-        message = (
-            f"the csp search on the {request.csp.grid:g} s grid did not finish within "
-            f"{request.time_limit:g} s: use a coarser --grid or --solver cpsat"
-        )
+        message = (f"the csp search on the {request.csp.grid:g} s grid did not finish within "
+                   f"{request.time_limit:g} s: use a coarser --grid or --solver cpsat")
     # Only a proof for the grid, never for the 1 ms semantics: proven stays False.
     return NoSolution([Diagnostic("W401", message, Span(model.path))], proven=False, reason=message)
 

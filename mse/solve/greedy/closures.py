@@ -146,20 +146,15 @@ def compile_expr(expr: ir.Expr, duration: int) -> Node:
     return lambda env: combine([part(env) for part in parts])
 
 
-_TABLES = {
-    "NOT": NOT_TABLE,
-    "AND": AND_TABLE,
-    "OR": OR_TABLE,
-    "IMPLIES": IMPLIES_TABLE,
-    "AND_MANY": mask_and,
-    "OR_MANY": mask_or,
-}
+_TABLES = {"NOT": NOT_TABLE, "AND": AND_TABLE, "OR": OR_TABLE, "IMPLIES": IMPLIES_TABLE, "AND_MANY": mask_and,
+           "OR_MANY": mask_or}
 
 
 def generated(expr: ir.Expr, triggers: tuple[str, ...] | None, duration: int) -> Callable[[Env], int]:
     """``compile_expr`` (``triggers`` None) or ``_acceptance`` as one generated function
     (codegen.py): the same values, without a call per node."""
     return generate(expr, triggers, lambda atom: compile_expr(atom, duration), _TABLES)
+
 
 
 def lift(expr: ir.Expr, duration: int) -> Callable[[Env, Mapping[str, Box]], int]:

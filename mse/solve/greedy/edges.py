@@ -90,9 +90,8 @@ def _conjuncts(expr: ir.Expr) -> list[ir.Expr]:
     return [expr]
 
 
-def _bound(
-    me: SignalLengths, mine: ir.SignalTime, other: ir.Term, limit: int, upper: bool, duration: int
-) -> StartBound:
+def _bound(me: SignalLengths, mine: ir.SignalTime, other: ir.Term, limit: int, upper: bool,
+           duration: int) -> StartBound:
     """The bound on start(me) from ``mine - other <= limit`` (``upper``) or ``other - mine <=
     limit``.  A bound on the stop bounds the start through the length: stop <= x gives
     start <= x - shortest, stop >= x gives start >= x - longest."""

@@ -32,7 +32,9 @@ _sqrt = math.sqrt
 
 #: What :meth:`Attempt.commit` restores when a placement is taken back: last stop of the
 #: signal, when its modality is free, frontier, owing, latest, needs, stuck.
-_Saved = tuple[int | None, int | None, int, set[str], dict[str, int], dict[str, tuple[str, ...]], frozenset[str]]
+_Saved = tuple[
+    int | None, int | None, int, set[str], dict[str, int], dict[str, tuple[str, ...]], frozenset[str]
+]
 
 
 class Attempt(Obligations):
@@ -161,13 +163,8 @@ class Attempt(Obligations):
 
     def _saved(self, signal: SignalPlan) -> _Saved:
         return (
-            self.last_stop.get(signal.id),
-            self.modality_free.get(signal.exclusive or ""),
-            self.frontier,
-            self.owing,
-            self.latest,
-            self.needs,
-            self.stuck,  # replaced, never mutated, once saved
+            self.last_stop.get(signal.id), self.modality_free.get(signal.exclusive or ""), self.frontier,
+            self.owing, self.latest, self.needs, self.stuck,  # replaced, never mutated, once saved
         )
 
     def _undo(self, signal: SignalPlan, saved: _Saved) -> None:

@@ -173,7 +173,7 @@ def _fold_by_extremes(kind: str) -> Callable[[Sequence[Box], Sequence[Box]], int
 
 
 def _fold_disjoint(left: Sequence[Box], right: Sequence[Box]) -> int:
-    """ "No overlap" for every pair: may be true when no pair certainly overlaps (a[stop_lo] >
+    """"No overlap" for every pair: may be true when no pair certainly overlaps (a[stop_lo] >
     b[start_hi] and b[stop_lo] > a[start_hi]), may be false when some pair may overlap."""
     may_true = not _sweep_overlaps(left, right, HIGH["start"], LOW["stop"])
     may_false = _sweep_overlaps(left, right, LOW["start"], HIGH["stop"])

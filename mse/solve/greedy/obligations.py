@@ -46,9 +46,8 @@ class Obligations(State):
                 doomed = None
             except Doomed as failure:
                 doomed = str(failure)
-            found = InitialDebts(
-                doomed, dict(self.latest), dict(self.needs), self.stuck, self.checked, self.work - work
-            )
+            found = InitialDebts(doomed, dict(self.latest), dict(self.needs), self.stuck, self.checked,
+                                 self.work - work)
             self.plan.initial_debts[key] = found
             self.work -= found.work
         self.work += found.work
@@ -106,9 +105,7 @@ class Obligations(State):
                     latest = latest_start(
                         lambda x: self.allows(signal, self.start_box(signal, x)),  # noqa: B023
                         lambda: self.critical(signal, "start", None),  # noqa: B023
-                        low,
-                        high,
-                        before,
+                        low, high, before,
                         lambda a, b: self.allows(signal, self.starts_box(signal, a, b)),  # noqa: B023
                     )
                 if latest is None:
@@ -157,7 +154,6 @@ class Obligations(State):
     def prerequisites(self, signal: SignalPlan, low: int, high: int) -> tuple[int, tuple[str, ...]] | None:
         """The latest start in [low, high] at which ``signal`` could be placed if some other
         signals were placed before it (from ``low`` on), and those signals; None if none."""
-
         def needed_at(x: int) -> tuple[str, ...] | None:
             box = self.start_box(signal, x)
             boxes = self.env.setdefault(signal.id, [])
@@ -195,9 +191,8 @@ class Obligations(State):
 
         # One relaxed check of the box of every start first (monotone, as in feasible_starts):
         # usually nothing, with or without prerequisites, lets the signal in.
-        if not self.relaxed_allows(
-            signal, (low, high, low + signal.shortest, min(high + signal.longest, self.plan.duration)), low
-        ):
+        if not self.relaxed_allows(signal, (low, high, low + signal.shortest,
+                                            min(high + signal.longest, self.plan.duration)), low):
             return None
         # The cells of starts are searched by halves, a half skipped when the relaxed check of
         # its box fails (monotone, and sound for the worlds: then no start of it has an
@@ -209,10 +204,7 @@ class Obligations(State):
             return bool(found)
 
         latest = latest_feasible(
-            needs_some,
-            low,
-            high,
-            lambda: self.critical(signal, "start", None),
+            needs_some, low, high, lambda: self.critical(signal, "start", None),
             lambda a, b: self.relaxed_allows(signal, self.starts_box(signal, a, b), low),
         )
         if latest is None:

@@ -54,6 +54,8 @@ def absent_gate(expr: ir.Expr, signal: str) -> str | None:
     return min(common) if common else None
 
 
+
+
 #: A constraint's check (or an operand's) runs as closures for its first HOT_CALLS calls, then
 #: as the function generated for it (codegen.py): generating costs about as much as a hundred
 #: closure calls, which a check called a few times (a one-off timeline, a huge set) never
@@ -61,11 +63,8 @@ def absent_gate(expr: ir.Expr, signal: str) -> str | None:
 HOT_CALLS = 64
 
 
-def _hot(
-    closure: Callable[[Env], Any],
-    make: Callable[[], Callable[[Env], Any]],
-    install: Callable[[Callable[[Env], Any]], None],
-) -> Callable[[Env], Any]:
+def _hot(closure: Callable[[Env], Any], make: Callable[[], Callable[[Env], Any]],
+         install: Callable[[Callable[[Env], Any]], None]) -> Callable[[Env], Any]:
     """``closure``, counting its calls; at the HOT_CALLS-th, ``install(make())``."""
     calls = 0
 
@@ -99,6 +98,7 @@ def _acceptance(triggers: tuple[str, ...], node: Node) -> Callable[[Env], bool |
         return True
 
     return acceptable
+
 
 
 WORLD_BUDGET = 64
@@ -145,16 +145,7 @@ class CompiledConstraint:
     """One constraint, compiled for a timeline of ``duration`` ms."""
 
     __slots__ = (
-        "_lifted",
-        "acceptable",
-        "constraint",
-        "duration",
-        "id",
-        "mentioned",
-        "node",
-        "parts",
-        "parts_or",
-        "shared",
+        "_lifted", "acceptable", "constraint", "duration", "id", "mentioned", "node", "parts", "parts_or", "shared",
         "triggers",
     )
 
@@ -182,16 +173,11 @@ class CompiledConstraint:
         self.parts: list[tuple[Node, tuple[str, ...]]] = []
         if isinstance(expr, ir.Or | ir.And) and len(expr.operands) > 1:
             for index, part in enumerate(expr.operands):
-                self.parts.append(
-                    (
-                        _hot(
-                            compile_expr(part, duration),
-                            lambda part=part: _generated(part, None, duration),  # type: ignore[misc]
-                            lambda generated, index=index: self._install_part(index, generated),  # type: ignore[misc]
-                        ),
-                        tuple(sorted(ir.mentioned_signals(part))),
-                    )
-                )
+                self.parts.append((_hot(
+                    compile_expr(part, duration),
+                    lambda part=part: _generated(part, None, duration),  # type: ignore[misc]
+                    lambda generated, index=index: self._install_part(index, generated),  # type: ignore[misc]
+                ), tuple(sorted(ir.mentioned_signals(part)))))
         # signals named by two operands or more: when one of them is optional, the operands'
         # worlds are not independent
         named = [name for _, mentioned in self.parts for name in mentioned]

@@ -57,15 +57,8 @@ class SignalPlan:
     __slots__ = ("exclusive", "id", "index", "limit", "longest", "probability_end", "probability_start", "shortest")
 
     def __init__(
-        self,
-        index: int,
-        id: str,
-        shortest: int,
-        longest: int,
-        limit: int,
-        exclusive: str | None,
-        probability_start: float,
-        probability_end: float,
+        self, index: int, id: str, shortest: int, longest: int, limit: int, exclusive: str | None,
+        probability_start: float, probability_end: float,
     ) -> None:
         self.index = index
         self.id = id
@@ -81,29 +74,9 @@ class Plan:
     """Everything about one model, duration and slot that does not depend on the draws."""
 
     __slots__ = (
-        "bounds",
-        "by_constraint_id",
-        "by_id",
-        "by_signal",
-        "constraint_ids",
-        "constraints",
-        "critical",
-        "cumulative",
-        "duration",
-        "edges",
-        "fixed",
-        "gated",
-        "in_modality",
-        "influence",
-        "initial_debts",
-        "initial_owing",
-        "masses",
-        "needs_before",
-        "partner_bounds",
-        "related",
-        "signals",
-        "stamps",
-        "table",
+        "bounds", "by_constraint_id", "by_id", "by_signal", "constraint_ids", "constraints", "critical", "cumulative",
+        "duration", "edges", "fixed", "gated", "in_modality", "influence", "initial_debts", "initial_owing", "masses",
+        "needs_before", "partner_bounds", "related", "signals", "stamps", "table",
     )
 
     def __init__(
@@ -130,17 +103,11 @@ class Plan:
         # length): an owed signal is due in stamp j with probability mass_j / (mass of j up to
         # its deadline), so that even a forced start follows the profile (walk.py).
         self.masses = tuple(
-            tuple(
-                itertools.accumulate(
-                    (
-                        p * (last - first)
-                        for p, (first, last) in zip(
-                            _profile(s, stamps, duration), itertools.pairwise(stamps), strict=True
-                        )
-                    ),
-                    initial=0.0,
-                )
-            )
+            tuple(itertools.accumulate(
+                (p * (last - first) for p, (first, last) in zip(
+                    _profile(s, stamps, duration), itertools.pairwise(stamps), strict=True)),
+                initial=0.0,
+            ))
             for s in signals
         )
         self.by_id = {s.id: s for s in signals}
@@ -298,7 +265,9 @@ def build_plan(model: ir.Model, duration: int, slot: float, with_constraints: bo
     distinct = {c.expr: c for c in reversed(model.constraints)} if with_constraints else {}
     constraints = tuple(compiled_constraint(c, duration) for c in model.constraints if distinct.get(c.expr) is c)
     by_signal = {s.id: [c for c in constraints if s.id in c.mentioned] for s in signals}
-    related = {s.id: tuple(sorted({name for c in by_signal[s.id] for name in c.mentioned} | {s.id})) for s in signals}
+    related = {
+        s.id: tuple(sorted({name for c in by_signal[s.id] for name in c.mentioned} | {s.id})) for s in signals
+    }
     edges = {s.id: edges_of(s.id, by_signal[s.id], duration) for s in signals}
     bounds = {s.id: start_bounds_of(s, by_signal[s.id], duration) for s in signals}
     return Plan(
@@ -322,7 +291,8 @@ _CACHE: OrderedDict[tuple[int, int, float, bool], tuple[weakref.ref[ir.Model], P
 _CACHE_LIMIT = 32
 
 
-def plan_for(model: ir.Model, duration: int, slot: float, with_constraints: bool = True, *, cache: bool = True) -> Plan:
+def plan_for(model: ir.Model, duration: int, slot: float, with_constraints: bool = True, *,
+             cache: bool = True) -> Plan:
     key = (id(model), duration, slot, with_constraints)
     entry = _CACHE.get(key)
     if entry is not None and entry[0]() is model:

@@ -44,8 +44,7 @@ def validate(model: ir.Model, request: SolveRequest) -> None:
     if unknown:
         known = ", ".join(s.id for s in model.signals)
         raise argument_error(
-            f"unknown signal(s) {', '.join(unknown)} in require/forbid for {model.name!r} (known: {known})"
-        )
+            f"unknown signal(s) {', '.join(unknown)} in require/forbid for {model.name!r} (known: {known})")
     both = sorted(set(request.require) & set(request.forbid))
     if both:
         raise argument_error(f"signal(s) {', '.join(both)} both required and forbidden")
@@ -192,3 +191,4 @@ def _reasons(failure: Exception) -> Counter[str]:
     if isinstance(failure, OutOfBudget):
         return failure.unmet
     return Counter([str(failure)])
+

@@ -21,27 +21,9 @@ class State:
     """The mutable state of one walk: placed occurrences, frontier, obligations."""
 
     __slots__ = (
-        "buckets",
-        "checked",
-        "count",
-        "dead",
-        "env",
-        "forbid",
-        "frontier",
-        "last_stop",
-        "latest",
-        "memo",
-        "modality_free",
-        "needs",
-        "occurrences",
-        "owing",
-        "placements",
-        "plan",
-        "require",
-        "rng",
-        "stamp_low",
-        "stuck",
-        "work",
+        "buckets", "checked", "count", "dead", "env", "forbid", "frontier", "last_stop", "latest",
+        "memo", "modality_free", "needs", "occurrences", "owing", "placements", "plan", "require", "rng", "stamp_low",
+        "stuck", "work",
     )
 
     def __init__(self, plan: Plan, rng: random.Random, forbid: frozenset[str], require: frozenset[str]) -> None:

@@ -142,9 +142,8 @@ def walk_steps(
                         yield attempt.occurrences[:]
                         del attempt.occurrences[:]
                         checkpoints, committed = [], True
-                    checkpoints.append(
-                        Checkpoint(j, len(attempt.occurrences), attempt.frontier, frozenset(attempt.owing))
-                    )
+                    checkpoints.append(Checkpoint(j, len(attempt.occurrences), attempt.frontier,
+                                                  frozenset(attempt.owing)))
                     if j > furthest:
                         furthest, failures = j, 0
                 walk_stamp(attempt, j)
@@ -156,10 +155,8 @@ def walk_steps(
                         return attempt.occurrences  # the last commit ends the timeline
                     raise OutOfBudget(unmet)
             if not attempt.settled():
-                raise Doomed(
-                    next(iter(sorted(attempt.owing)), "")
-                    or "require " + ", ".join(sorted(n for n in attempt.require if not attempt.env.get(n)))
-                )
+                raise Doomed(next(iter(sorted(attempt.owing)), "") or "require "
+                             + ", ".join(sorted(n for n in attempt.require if not attempt.env.get(n))))
             return attempt.occurrences
         except Doomed as doomed:
             unmet[str(doomed)] += 1
@@ -192,7 +189,7 @@ def walk_steps(
                 index, attempt.careful = 0, True
             reach = 0 if index == 0 else reach + 1
             resume = checkpoints[index]
-            del checkpoints[index + 1 :]
+            del checkpoints[index + 1:]
 
 
 def walk_stamp(attempt: Attempt, j: int) -> None:
