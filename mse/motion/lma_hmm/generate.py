@@ -169,7 +169,9 @@ def _modulate(
         )
     elif dynamic and params.topology == "auto":
         # a slow, small wave (feminine) cycles by its velocity only (standing.cycles_by_velocity)
-        found = cycles_by_velocity(phases, desired_phase, copies, params.states, params.n_iter, CYCLE_VELOCITY_WEIGHT)
+        found = cycles_by_velocity(
+            phases, desired_phase, copies, params.states, params.n_iter, CYCLE_VELOCITY_WEIGHT
+        )
         if found is not None:
             trained, phases, desired_phase = found
     if stands(carried, encoding.skeleton):
@@ -291,15 +293,8 @@ def _own_style(
     )
 
 
-def _key(
-    library: MotionLibrary,
-    action: str,
-    style: str,
-    desired: str,
-    original: str,
-    params: GenerationParams,
-    exclude: set[str],
-) -> str:
+def _key(library: MotionLibrary, action: str, style: str, desired: str, original: str, params: GenerationParams,
+         exclude: set[str]) -> str:
     text = json.dumps(
         [DISK_FORMAT, library.content_hash, action, style, desired, original, asdict(params), sorted(exclude)]
     )
