@@ -151,9 +151,8 @@ def test_one_shot_generation_keeps_the_neighbours_tempo() -> None:
     library = starter_library()
     jerks = {}
     for timing in ("neighbours", "desired"):
-        motion = generate_motion(
-            library, "arms_raised", "tired", duration=3.0, params=GenerationParams(timing=timing)
-        ).motion
+        motion = generate_motion(library, "arms_raised", "tired", duration=3.0,
+                                 params=GenerationParams(timing=timing)).motion
         _check_clip(motion, 3.0)
         hands = motion.positions()[:, [motion.skeleton.index("Hand_L"), motion.skeleton.index("Hand_R")]]
         jerks[timing] = float(np.sqrt(np.mean(np.diff(hands, n=3, axis=0) ** 2)))
