@@ -50,3 +50,29 @@ def test_walks_travel_without_skating(bandai_dir: Path, tmp_path: Path, method: 
     values = measure(motion)
     assert values["foot_slip"] < 2.0  # cm/s; real walks 0.5-9
     assert values["forward_speed"] > 20.0
+
+
+@pytest.mark.parametrize(
+    ("action", "style"),
+    [("walk-left", "sad"), ("walk-back", "musical"), ("dash", "not-confident"), ("run", "childish")],
+)
+def test_lma_hmm_travels_at_the_real_pace_at_every_length(
+    bandai_dir: Path, tmp_path: Path, action: str, style: str
+) -> None:
+    # issue 35: at 1x the root moved back by 3.7 cm in a frame (sad sidesteps: a foot put
+    # down still swinging), at 2x the dash stopped and stood in its last state (0 steps/s)
+    data = bandai_dir / "data"
+    files = sorted(data.glob(f"dataset-1_{action}_*.bvh"))
+    entries = [{"file": str(f), "action": action, "style": f.stem.split("_")[2]} for f in files]
+    (tmp_path / "library.json").write_text(json.dumps({"clips": entries}))
+    library = load_library(tmp_path)
+    real = [library.motion(c) for c in library.clips]
+    own = [library.motion(c) for c in library.clips if c.style == style]
+    action_reference, style_reference = reference(action, real), reference(action, own)
+    generator = generator_for("lma-hmm", tmp_path / "cache")
+    for factor in (1, 2, 3):
+        motion = generator.generate(library, GenerationRequest(action, style, factor * own[0].duration))
+        failed = [c for c in check(measure(motion), action_reference, style_reference) if not c.passed]
+        assert not failed, f"x{factor}: " + ", ".join(
+            f"{c.name} {c.value:.2f} [{c.low:.2f}, {c.high:.2f}]" for c in failed
+        )

@@ -210,3 +210,15 @@ def test_changes_the_neighbours_never_make_are_bridged() -> None:
     out = retimed(np.array([0, 0, 3, 3, 2, 2]), neighbours, refill_stuck=True)
     assert out.tolist() == [0] * 4 + [1] * 2 + [2] * 2 + [3] * 2 + [2] * 2
     assert retimed(np.array([0, 0, 3, 3, 2, 2]), neighbours).tolist() == [0] * 4 + [3] * 2 + [2] * 2
+
+
+def test_a_continued_cycle_never_runs_into_the_neighbours_stop() -> None:
+    from mse.motion.lma_hmm.modulated import continue_cycle
+
+    # the neighbour cycles 1 -> 2 -> 3 -> 1 ... and ends its take in 4 then 5 (its stop,
+    # entered once): continued into them, a Bandai dash at 2x stood in state 5 for a second
+    neighbour = np.array([0, 0] + [1, 1, 2, 2, 3, 3] * 6 + [4, 4, 5, 5, 5], dtype=np.int_)
+    states = np.array([1, 1, 2, 2, 3, 3], dtype=np.int_)
+    continued = continue_cycle(states, [neighbour], 200)
+    assert len(continued) == 200
+    assert set(continued.tolist()) == {1, 2, 3}

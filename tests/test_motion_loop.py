@@ -8,8 +8,9 @@ from pathlib import Path
 import numpy as np
 
 from bench.evaluation.fidelity import measure
+from mse.motion.base.contacts import find_root_joint
 from mse.motion.base.library import load_library
-from mse.motion.base.loop import loop_span, looped
+from mse.motion.base.loop import loop_span, looped, rested
 from mse.motion.generator import METHODS, GenerationRequest, generator_for
 
 
@@ -45,6 +46,25 @@ def test_a_request_not_longer_than_the_clip_is_left_alone() -> None:
     assert looped(values, 120, 1.0 / 30.0) is values
 
 
+def test_a_request_shorter_than_a_cycle_ends_on_the_rest_pose() -> None:
+    values = _cycle(120, 40.0)  # rises from rest, swings, falls back to rest (its last frame)
+    short = rested(values, 25, 1.0 / 30.0)
+    assert short.shape == (25, 3)
+    assert np.allclose(short[-1], values[-1])  # at rest, not mid-swing (values[24])
+    assert np.allclose(short[:12], values[:12])  # started at its own tempo
+    assert np.max(np.abs(np.diff(short, n=3, axis=0))) < 0.2  # eased, not snapped
+    assert rested(values, 120, 1.0 / 30.0) is values
+
+
+def test_a_travelling_loop_keeps_the_tempo_without_resampling() -> None:
+    values = _cycle(100, 20.0)[:, :2]
+    longer = looped(values, 250, 1.0 / 30.0, edge=0.0, period_s=20.0 / 30.0, ending=False)
+    assert longer.shape == (250, 2)
+    start, end = loop_span(values, 0.0, 20.0)
+    assert np.allclose(longer[end + 10 : end + 12], values[start + 10 : start + 12])  # its own frames
+    assert np.max(np.abs(np.diff(longer, n=3, axis=0))) < 3 * np.max(np.abs(np.diff(values, n=3, axis=0)))
+
+
 def test_a_run_twice_its_length_keeps_its_pace(bandai_dir: Path, tmp_path: Path) -> None:
     # one take per style (Bandai dataset 1): the LMA + HMM method plays it as itself; stretched
     # to twice its length it ran 1.25 steps/s at 121 cm/s (the take: 2.73, 261)
@@ -63,3 +83,22 @@ def test_a_run_twice_its_length_keeps_its_pace(bandai_dir: Path, tmp_path: Path)
         assert generated["step_rate"] > 0.8 * real["step_rate"], method
         assert generated["forward_speed"] > 0.75 * real["forward_speed"], method
         assert generated["backward"] < 0.5, method
+
+
+def test_a_run_shorter_than_a_cycle_ends_on_the_rest_pose(bandai_dir: Path, tmp_path: Path) -> None:
+    # a run's cycle (two steps) lasts 0.7-0.8 s in Bandai dataset 1; asked for 0.4 s, the LMA +
+    # HMM method played the first 0.4 s of the take and stopped mid-stride
+    data = bandai_dir / "data"
+    entries = [
+        {"file": str(data / f"dataset-1_run_{style}_001.bvh"), "action": "run", "style": style}
+        for style in ("normal", "tired")
+    ]
+    (tmp_path / "library.json").write_text(json.dumps({"clips": entries}))
+    library = load_library(tmp_path)
+    take = library.motion(library.clips[0])
+    motion = generator_for("lma-hmm", None).generate(library, GenerationRequest("run", "normal", 0.4))
+    assert abs(motion.duration - 0.4) < 1e-6
+    hips = find_root_joint(take)
+    rest, end = take.positions()[-1, 1:], motion.positions()[-1, 1:]  # joint_Root is on the floor
+    gap = np.linalg.norm((end - end[hips - 1]) - (rest - rest[hips - 1]), axis=-1)
+    assert np.max(gap) < 1.0  # cm: the take's last pose

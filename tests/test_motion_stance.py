@@ -37,7 +37,9 @@ def test_a_foot_swinging_through_low_does_not_take_the_stance() -> None:
     track = root_track(relative, [0, 1], 0.0, FRAME_TIME)
     velocity = np.diff(track[:, 2]) / FRAME_TIME
     assert np.all(velocity > 100.0), "the root was thrown back by the swinging foot"
-    stepped_on = root_track(relative, [0, 1], 0.0, FRAME_TIME, scuff=np.inf, double_support_s=0.0, jolt_limit=0.0)
+    stepped_on = root_track(
+        relative, [0, 1], 0.0, FRAME_TIME, scuff=np.inf, double_support_s=0.0, jolt_limit=0.0, forward=False
+    )
     assert np.min(np.diff(stepped_on[:, 2])) / FRAME_TIME < -100.0  # what the rule prevents
 
 
@@ -127,3 +129,52 @@ def test_the_musical_walk_walks(bandai_dir: Path) -> None:
     # bench's: this walk steps back 2.5 cm in one frame where real walks never do (open)
     failed = [c for c in checks if not c.passed and c.name != "backward"]
     assert not failed, failed
+
+
+def _landing_still_swinging(frames: int = 60, land: int = 30) -> np.ndarray:
+    """(frames, 2, 3) feet relative to the root: foot 0 carries the body forward at 120 cm/s
+    and lifts slowly after ``land``; foot 1 swings forward and comes down at ``land`` still
+    moving forward (as low-passed generated legs put a foot down), slowing to the stance
+    foot's pace over 8 frames."""
+    relative = np.zeros((frames, 2, 3))
+    t = np.arange(frames)
+    relative[:, 0, 2] = 20.0 - 4.0 * t
+    relative[:, 0, 1] = -LEG + np.clip(t - land, 0, None) * 0.3
+    pace = np.where(t < land, 6.0, np.clip(6.0 - 10.0 * (t - land) / 8.0, -4.0, 6.0))
+    relative[:, 1, 2] = -60.0 + np.concatenate([[0.0], np.cumsum(pace[1:])])
+    relative[:, 1, 1] = -LEG + np.clip(land - t, 0, None) * 1.0 - 0.5 * (t >= land)
+    return relative
+
+
+def test_a_foot_landing_still_swinging_does_not_throw_the_root_back() -> None:
+    relative = _landing_still_swinging()
+    track = root_track(relative, [0, 1], 0.0, FRAME_TIME)
+    assert np.min(np.diff(track[:, 2])) >= -1e-9, "the root moved against the direction of travel"
+    taken = root_track(relative, [0, 1], 0.0, FRAME_TIME, forward=False)
+    assert np.min(np.diff(taken[:, 2])) < -1.0  # what the rule prevents: centimetres back in a frame
+
+
+def test_feet_scissoring_while_both_down_carry_the_body_forward() -> None:
+    # both feet down for a third of a second; the stance foot (0) slides forward under the
+    # root while the other (1), as low, moves back: the body is carried by the one moving back
+    frames = 90
+    t = np.arange(frames)
+    relative = np.zeros((frames, 2, 3))
+    relative[:, 0, 1] = -LEG + np.clip(t - 40, 0, None) * 1.0  # lifts after the scissor
+    relative[:, 1, 1] = -LEG + 0.2 + np.clip(30 - t, 0, None) * 1.0  # down from frame 30
+    relative[:, 0, 2] = np.where(t < 30, -4.0 * t, -120.0 + 2.0 * (t - 30))
+    relative[:, 1, 2] = np.where(t < 30, 60.0, 60.0 - 4.0 * (t - 30))
+    track = root_track(relative, [0, 1], 0.0, FRAME_TIME)
+    assert np.min(np.diff(track[:, 2])) >= -1e-9
+    taken = root_track(relative, [0, 1], 0.0, FRAME_TIME, forward=False)
+    assert np.min(np.diff(taken[:, 2])) < -1.0
+
+
+def test_a_standing_body_has_no_direction_of_travel() -> None:
+    from mse.motion.base.contacts import travel_directions
+
+    rng = np.random.default_rng(1)
+    sway = rng.normal(0.0, 0.05, (90, 2))  # millimetres back and forth
+    assert not travel_directions(sway, FRAME_TIME, LEG).any()
+    walk = np.tile([0.0, 4.0], (90, 1))
+    assert np.allclose(travel_directions(walk, FRAME_TIME, LEG), [0.0, 1.0])

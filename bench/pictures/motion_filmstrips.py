@@ -1,9 +1,11 @@
 """Filmstrips for docs/images: real clip vs the two methods, a handful of cases.
 
     python -m bench.pictures.motion_filmstrips [--out docs/images] [--shared ../shared]
+    python -m bench.pictures.motion_filmstrips --case bandai-ds1:run:normal:10 --factor 3 --max-seconds 3
 
 Each PNG has three rows: a real clip of the target style (first take), the LMA + HMM clip and
-the HSMM clip generated for that style as long as the real clip; frames are spread evenly over
+the HSMM clip generated for that style as long as the real clip (``--factor``: that many
+times as long; ``--case LIBRARY:ACTION:STYLE:FRAMES``, repeatable, instead of the set); frames are spread evenly over
 each clip and every clip is seen from the side in its own body frame (bench/pictures/filmstrip.py).
 Models are cached under ``$MSE_CACHE_DIR``.
 """
@@ -36,11 +38,14 @@ def main() -> int:
     parser.add_argument("--out", default="docs/images")
     parser.add_argument("--shared", default=os.environ.get("MSE_SHARED", "../shared"))
     parser.add_argument("--max-seconds", type=float, default=4.0, help="clips are cut to this length")
+    parser.add_argument("--factor", type=float, default=1.0, help="generated clips last this many real lengths")
+    parser.add_argument("--case", action="append", default=[], metavar="LIBRARY:ACTION:STYLE:FRAMES")
     args = parser.parse_args()
+    cases = [(n, a, s, int(f)) for n, a, s, f in (c.split(":") for c in args.case)] if args.case else CASES
     warnings.simplefilter("ignore")
     cache = os.environ.get("MSE_CACHE_DIR", ".cache-mse")
     libraries: dict[str, MotionLibrary] = {}
-    for name, action, style, frames in CASES:
+    for name, action, style, frames in cases:
         if name not in libraries:
             folder = Path(args.shared) / "motion" / name
             libraries[name] = starter_library() if name == "starter" else load_library(folder)
@@ -48,10 +53,12 @@ def main() -> int:
         real = library.motion(sorted(library.select(action, style), key=lambda c: c.id)[0])
         rows = [(f"real {style}", real)]
         for method in ("lma-hmm", "hsmm"):
-            motion = generator_for(method, cache).generate(library, GenerationRequest(action, style, real.duration))
-            rows.append((f"{method} {style}", motion))
+            request = GenerationRequest(action, style, args.factor * real.duration)
+            motion = generator_for(method, cache).generate(library, request)
+            rows.append((f"{method} {style}" + (f" x{args.factor:g}" if args.factor != 1.0 else ""), motion))
         cut = [(label, m.slice(0, min(m.frame_count, round(args.max_seconds / m.frame_time)))) for label, m in rows]
-        path = Path(args.out) / f"motion_{name}_{action}_{style}.png"
+        times = f"_x{args.factor:g}" if args.factor != 1.0 else ""
+        path = Path(args.out) / f"motion_{name}_{action}_{style}{times}.png"
         filmstrip(cut, path, frames=frames)
         print(path)
     return 0

@@ -112,6 +112,30 @@ MIN_SUPPORT_SPREAD = 0.3
 #: the happy walk (0.30), 0.16 and 0.19 sideways; dataset 2 walks 0-0.30, any 8 of one style
 #: at most 0.22 pooled (active), so its walks never count
 RUN_FLIGHT_SHARE = 0.25
+#: a travelling body (its provisional track covers at least :data:`TRAVEL_LEG_LENGTHS_PER_S`
+#: over :data:`TRAVEL_DIRECTION_S`) keeps its stance foot while the foot that comes lower still
+#: moves forward against the root (along the travel) faster than the stance foot does, as long as
+#: the stance foot is at most this share of the leg length above it: taken at once, it threw
+#: the root back. Generated legs put the next foot down still swinging (low-passed rotations
+#: round off its stop) and scissor both feet apart while both are down; real Bandai takes
+#: never move the hips backwards (0.00 cm in any frame, 15-30 takes per action), generated
+#: walks did by up to 3.7 cm in a frame (dataset 1, LMA + HMM: 8 cases at 1x; see
+#: bench/results/motion.md). The change waits until the two feet move alike: the root's
+#: velocity stays continuous
+STANCE_DEFER_LIFT = 0.05
+#: see :data:`STANCE_DEFER_LIFT`: the provisional track's travel per second over this window
+#: (s, centred) gives the direction of travel, frame by frame (a turning walk's turns)
+TRAVEL_DIRECTION_S = 2.0
+#: a track travels when it covers at least this many leg lengths per second over
+#: :data:`CLIP_TRAVEL_WINDOW_S` (as :data:`mse.motion.base.cycles.TRAVEL_LEG_LENGTHS_PER_S`
+#: classifies actions; generated Bandai dataset 1 clips, LMA + HMM: sad sidesteps 0.40, sad
+#: walks backwards 0.54; a kick 0.04, the dance 0.16, a bow 0.003: the stance rules there let
+#: a standing foot slide, kick normal 7.1 cm/s against 2.7)
+CLIP_TRAVEL_LEG_LENGTHS_PER_S = 0.3
+CLIP_TRAVEL_WINDOW_S = 4.0
+#: within a travelling track, a frame whose :data:`TRAVEL_DIRECTION_S` window covers less than
+#: this (leg lengths per second) takes the direction of the nearest frame that covers more
+TRAVEL_LEG_LENGTHS_PER_S = 0.1
 
 
 def supported_at(lift: FloatArray) -> FloatArray:
@@ -228,6 +252,40 @@ def _jolts_limited(steps: FloatArray, bound: float) -> FloatArray:
     return result
 
 
+def travel_directions(steps: FloatArray, frame_time: float, leg: float) -> FloatArray:
+    """(T, 2) unit horizontal directions of travel of a root track's ``steps`` (T, 2, per
+    frame): their mean over :data:`TRAVEL_DIRECTION_S` about each frame; a frame where it
+    covers less than :data:`TRAVEL_LEG_LENGTHS_PER_S` takes the nearest frame's that covers
+    more; zero everywhere when the track does not travel (:data:`CLIP_TRAVEL_LEG_LENGTHS_PER_S`)."""
+    frames = len(steps)
+    directions = np.zeros((frames, 2))
+    if frames < 3:
+        return directions
+    track = np.cumsum(steps, axis=0)
+    lag = max(1, min(frames - 1, round(CLIP_TRAVEL_WINDOW_S / frame_time)))
+    covered = float(np.mean(np.linalg.norm(track[lag:] - track[:-lag], axis=1)))
+    if covered / (lag * frame_time) < CLIP_TRAVEL_LEG_LENGTHS_PER_S * leg:
+        return directions  # a body that stays where it is (its sway, a kick's step)
+    window = max(1, round(TRAVEL_DIRECTION_S / frame_time))
+    # the mean over the frames of the window that the clip has (near its ends, fewer)
+    pad = ((window // 2, window - 1 - window // 2), (0, 0))
+    kernel = np.ones(window)
+    padded = np.pad(steps, pad)
+    counts = np.convolve(np.pad(np.ones(frames), pad[0]), kernel, mode="valid")
+    mean = np.stack([np.convolve(padded[:, k], kernel, mode="valid") for k in (0, 1)], axis=1) / counts[:, None]
+    speed = np.linalg.norm(mean, axis=1)
+    moving = speed / frame_time >= TRAVEL_LEG_LENGTHS_PER_S * leg
+    if not moving.any():
+        return directions
+    known = np.flatnonzero(moving)
+    frame = np.arange(frames)
+    after = known[np.clip(np.searchsorted(known, frame), 0, len(known) - 1)]
+    before = known[np.clip(np.searchsorted(known, frame) - 1, 0, len(known) - 1)]
+    nearest = np.where(np.abs(before - frame) < np.abs(after - frame), before, after)
+    result: FloatArray = mean[nearest] / speed[nearest, None]
+    return result
+
+
 def support(motion: Motion) -> FloatArray:
     """(T, 4) per frame of a real clip: root velocity along X and Z (units per second, world),
     the lowest foot point's height above the clip's floor, and the support in [0, 1] (1: a
@@ -251,6 +309,32 @@ def sharpened_support(weight: FloatArray) -> FloatArray:
     return np.clip(0.5 + (MIN_SUPPORT_SPREAD / spread) * (weight - 0.5), 0.0, 1.0)
 
 
+def _still_swinging(landing_ahead: float, held_ahead: float, below: float, leg: float) -> bool:
+    """Whether a landing foot point that still swings forward at ``landing_ahead`` (its
+    velocity against the root along the travel) faster than the stance point (``held_ahead``),
+    which is ``below`` above it, at most :data:`STANCE_DEFER_LIFT` leg lengths, is to wait."""
+    return landing_ahead > 0.0 and landing_ahead > held_ahead and below <= STANCE_DEFER_LIFT * leg
+
+
+def _carrying_forward(
+    ahead: Sequence[float], points: Sequence[int], foot_heights: Sequence[float], current: int, leg: float
+) -> int:
+    """The stance foot of one frame: ``current``, unless its pinned point swings forward
+    (against the root along the travel: the root would move back) while another foot, at most
+    :data:`STANCE_DEFER_LIFT` leg lengths above it, carries the body forward (both feet down
+    and scissoring apart, as generated legs do; see there). ``ahead`` (per point): velocity
+    against the root along the travel; ``points`` (per foot): its lowest point."""
+    best, best_ahead = current, ahead[points[current]]
+    if best_ahead <= 0.0:
+        return current
+    for foot, point in enumerate(points):
+        if foot == current or foot_heights[foot] - foot_heights[current] > STANCE_DEFER_LIFT * leg:
+            continue
+        if ahead[point] < 0.0 and ahead[point] < best_ahead:
+            best, best_ahead = foot, ahead[point]
+    return best
+
+
 def root_track(
     relative: FloatArray,
     contacts: Sequence[int],
@@ -263,6 +347,7 @@ def root_track(
     scuff: float = SCUFF_LEG_LENGTHS_PER_S,
     double_support_s: float = DOUBLE_SUPPORT_S,
     jolt_limit: float = JOLT_LEG_LENGTHS_PER_S2,
+    forward: bool = True,
 ) -> FloatArray:
     """(T, 3) world root positions from joint positions relative to the root (T, J, 3);
     ``groups``: the contacts of each foot, as indices into ``contacts`` (default: each point
@@ -270,7 +355,9 @@ def root_track(
     :data:`STANCE_HYSTERESIS` and :data:`STANCE_BLEND_S` (0 and 0: the lowest point is
     pinned in every frame); ``scuff`` (leg lengths per second) and ``double_support_s`` (s):
     see :data:`SCUFF_LEG_LENGTHS_PER_S` and :data:`DOUBLE_SUPPORT_S` (``inf`` and 0: every
-    change of stance foot is taken, blended over ``blend_s`` only). Without hysteresis (a
+    change of stance foot is taken, blended over ``blend_s`` only); ``forward``: a travelling
+    body's stance keeps to the foot that carries it forward and its root never moves against
+    its travel (:data:`STANCE_DEFER_LIFT`; False: the lowest foot alone decides). Without hysteresis (a
     standing body, the lowest point pinned) there is no double support passage: both feet
     are always down.
 
@@ -287,34 +374,61 @@ def root_track(
     feet = [list(g) for g in groups] if groups else [[k] for k in range(count)]
     foot_heights = np.stack([heights[:, g].min(axis=1) for g in feet], axis=1)  # (T, feet)
     velocity = np.gradient(points[:, :, [0, 2]], axis=0) / frame_time if frames > 1 else np.zeros((frames, count, 2))
-    pinned = np.empty(frames, dtype=np.int_)
-    on = np.empty(frames, dtype=np.int_)  # the stance foot
-    current = int(np.argmin(foot_heights[0])) if frames else 0
-    for t in range(frames):
-        lowest = int(np.argmin(foot_heights[t]))
-        below = foot_heights[t, current] - foot_heights[t, lowest]
-        if below > margin and lowest != current:
-            held = feet[current][int(np.argmin(heights[t, feet[current]]))]
-            landing = feet[lowest][int(np.argmin(heights[t, feet[lowest]]))]
-            through = float(np.linalg.norm(velocity[t, landing] - velocity[t, held])) >= scuff * leg
-            if not through or below > SCUFF_LIFT * leg:
-                current = lowest
-        on[t] = current
-        # within the stance foot, its lowest point (heel, then toes as the foot rolls)
-        pinned[t] = feet[current][int(np.argmin(heights[t, feet[current]]))]
-    stance = _blend(np.eye(count)[pinned], blend_s / frame_time)
-    moves = np.zeros((frames, count, 2))
-    moves[1:] = -np.diff(points[:, :, [0, 2]], axis=0)
-    steps = np.sum(stance[:, :, None] * moves, axis=1)
-    if hysteresis > 0 and double_support_s > 0:
-        reach = max(1, round(double_support_s / frame_time))
-        steps = _double_support(steps, foot_heights, on, DOUBLE_SUPPORT_BAND * leg, reach)
-    if hysteresis > 0 and jolt_limit > 0 and (carried is None or not runs(carried[:, 3])):
-        # the first step is the start (0), not a velocity
-        steps[1:] = _jolts_limited(steps[1:], jolt_limit * leg * frame_time**2)
-    if carried is not None:
-        weight = sharpened_support(carried[:, 3:4])
-        steps[1:] = weight[1:] * steps[1:] + (1.0 - weight[1:]) * carried[1:, :2] * frame_time
+
+    # per frame: each foot's lowest point, the lowest foot (lists: the loop below is per frame)
+    lowest_points = (
+        np.stack([np.asarray(g)[np.argmin(heights[:, g], axis=1)] for g in feet], axis=1).tolist() if frames else []
+    )
+    lowest_foot = np.argmin(foot_heights, axis=1).tolist() if frames else []
+    heights_of_feet = foot_heights.tolist()
+
+    def stepped(travel: FloatArray | None) -> FloatArray:
+        """The root's horizontal step in each frame (T, 2); ``travel`` (T, 2): the directions
+        of travel, for the stance rules of :data:`STANCE_DEFER_LIFT`."""
+        pinned = np.empty(frames, dtype=np.int_)
+        on = np.empty(frames, dtype=np.int_)  # the stance foot
+        current = lowest_foot[0] if frames else 0
+        ahead = np.einsum("tkd,td->tk", velocity, travel).tolist() if travel is not None else []
+        for t in range(frames):
+            lowest = lowest_foot[t]
+            below = heights_of_feet[t][current] - heights_of_feet[t][lowest]
+            if below > margin and lowest != current:
+                held, landing = lowest_points[t][current], lowest_points[t][lowest]
+                through = float(np.linalg.norm(velocity[t, landing] - velocity[t, held])) >= scuff * leg
+                waits = bool(ahead) and _still_swinging(ahead[t][landing], ahead[t][held], below, leg)
+                if (not through or below > SCUFF_LIFT * leg) and not waits:
+                    current = lowest
+            if ahead:
+                current = _carrying_forward(ahead[t], lowest_points[t], heights_of_feet[t], current, leg)
+            on[t] = current
+            # within the stance foot, its lowest point (heel, then toes as the foot rolls)
+            pinned[t] = lowest_points[t][current]
+        stance = _blend(np.eye(count)[pinned], blend_s / frame_time)
+        moves = np.zeros((frames, count, 2))
+        moves[1:] = -np.diff(points[:, :, [0, 2]], axis=0)
+        steps: FloatArray = np.sum(stance[:, :, None] * moves, axis=1)
+        if hysteresis > 0 and double_support_s > 0:
+            reach = max(1, round(double_support_s / frame_time))
+            steps = _double_support(steps, foot_heights, on, DOUBLE_SUPPORT_BAND * leg, reach)
+        if hysteresis > 0 and jolt_limit > 0 and (carried is None or not runs(carried[:, 3])):
+            # the first step is the start (0), not a velocity
+            steps[1:] = _jolts_limited(steps[1:], jolt_limit * leg * frame_time**2)
+        if carried is not None:
+            weight = sharpened_support(carried[:, 3:4])
+            steps[1:] = weight[1:] * steps[1:] + (1.0 - weight[1:]) * carried[1:, :2] * frame_time
+        if travel is not None:
+            # what the choice of stance foot left (a run's foot landing still swinging forward,
+            # the old one already lifted): the root does not move back, the landing foot slides on
+            back = np.minimum(np.sum(steps[1:] * travel[1:], axis=1), 0.0)
+            steps[1:] -= back[:, None] * travel[1:]
+        return steps
+
+    steps = stepped(None)
+    if hysteresis > 0 and forward:
+        # a walking body: the track as before gives the direction of travel, frame by frame
+        travel = travel_directions(steps, frame_time, leg)
+        if travel.any():
+            steps = stepped(travel)
     root[:, [0, 2]] = np.cumsum(steps, axis=0)
     return root
 

@@ -63,7 +63,7 @@ from mse.motion.base.cycles import ActionShape, action_shape, leg_length
 from mse.motion.base.heading import heading
 from mse.motion.base.kinematics import FloatArray
 from mse.motion.base.library import Clip, MotionLibrary, MotionUnavailable
-from mse.motion.base.loop import EDGE_SHARE, held, looped
+from mse.motion.base.loop import EDGE_SHARE, held, looped, rested
 from mse.motion.lma_hmm.hmm import (
     decode,
     encode,
@@ -349,7 +349,10 @@ def generate_motion(
     if duration is not None:
         wanted = round(duration / frame_time)
         shape = modulated.shape
-        if shape.cyclic or wanted < LOOP_RATIO * len(path):
+        if shape.cyclic and wanted < len(path) and wanted * frame_time < shape.period_s:
+            # shorter than one cycle: started at its tempo, ended on the rest pose (base.loop)
+            path = rested(path, wanted, frame_time)
+        elif shape.cyclic or wanted < LOOP_RATIO * len(path):
             # (an action that does not cycle, measured on its clips, is not continued through
             # its state means even when its path's HMM cycles: a normal punch lost its reach)
             path = path_for(modulated, wanted, loop)
@@ -358,7 +361,9 @@ def generate_motion(
             # own-style copy, or neighbours the HMM did not judge cyclic): its cycles repeat at
             # their tempo (base.loop) rather than slow down (Bandai dataset 1 normal run at 2x
             # its length: 1.25 steps/s and 121 cm/s, the take 2.73 and 261)
-            path = looped(path, wanted, frame_time, 0.0 if shape.travels else EDGE_SHARE, shape.period_s)
+            path = looped(
+                path, wanted, frame_time, 0.0 if shape.travels else EDGE_SHARE, shape.period_s, not shape.travels
+            )
         elif wanted >= LOOP_RATIO * len(path):
             path = held(path, wanted)  # at its own tempo, then at rest (base.loop)
         played = len(path) * frame_time

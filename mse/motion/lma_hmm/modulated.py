@@ -54,29 +54,46 @@ class Modulated:
     shape: ActionShape
 
 
+def _cycling_end(labels: npt.NDArray[np.int_]) -> int:
+    """Where a neighbour's cycle ends: after the last run of a state it enters more than
+    once. The states after it (a run's or a dash's stop, entered once at the end of the take)
+    lead nowhere: continued into them, a dataset 1 dash at 2x its length stopped and stood in
+    its last state (0 steps/s, its stance foot sliding at 90 cm/s)."""
+    starts = [0] + [i for i in range(1, len(labels)) if labels[i] != labels[i - 1]]
+    entered: dict[int, int] = {}
+    for i in starts:
+        entered[int(labels[i])] = entered.get(int(labels[i]), 0) + 1
+    stops = [*starts[1:], len(labels)]
+    recurring = [stop for start, stop in zip(starts, stops, strict=True) if entered[int(labels[start])] > 1]
+    return recurring[-1] if recurring else len(labels)
+
+
 def continue_cycle(
     states: npt.NDArray[np.int_], neighbours: Sequence[npt.NDArray[np.int_]], frames: int
 ) -> npt.NDArray[np.int_]:
     """A cyclic state path continued to ``frames`` frames with the neighbours' own state
-    sequences: from the path's last state, the rest of a neighbour's sequence from a frame
-    where it enters that state (the first such frame after its first tenth), and so on. A
-    walk scheduled for longer than its desired path (Bandai's walk-back takes are one stride)
-    takes more steps, in the neighbours' order and pace, instead of slower ones. (Following
-    the most likely transition from state to state instead made jerky, looping gaits.)"""
+    sequences: from the path's last state, the rest of a neighbour's cycle (up to
+    :func:`_cycling_end`) from a frame where it enters that state (the first such frame after
+    its first tenth), and so on. A walk scheduled for longer than its desired path (Bandai's
+    walk-back takes are one stride) takes more steps, in the neighbours' order and pace,
+    instead of slower ones. (Following the most likely transition from state to state
+    instead made jerky, looping gaits.)"""
     path = [int(s) for s in states]
     usable = [n for n in neighbours if len(n) > 2]
     if not path or not usable:
         return states
+    ends = [_cycling_end(n) for n in usable]
     turn = 0
     while len(path) < frames:
         last = path[-1]
         extended = False
         for k in range(len(usable)):
-            labels = usable[(turn + k) % len(usable)]
+            index = (turn + k) % len(usable)
+            labels, stop = usable[index], ends[index]
             start = max(1, len(labels) // 10)
-            entries = [i for i in range(start, len(labels) - 1) if labels[i] == last and labels[i - 1] != last]
+            entries = [i for i in range(start, stop - 1) if labels[i] == last and labels[i - 1] != last]
             if entries:
-                tail = labels[entries[0] + 1 :]
+                tail = labels[entries[0] + 1 : stop]
                 path += [int(s) for s in tail[: frames - len(path)]]
                 extended = True
                 turn += k + 1
