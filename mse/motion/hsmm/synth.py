@@ -23,7 +23,7 @@ from mse.motion.base.filters import zero_phase_lowpass
 from mse.motion.base.kinematics import forward_kinematics, matrix_to_euler
 from mse.motion.base.loop import held, looped
 from mse.motion.hsmm.carried import carried_track, smooth_carried
-from mse.motion.hsmm.features import FloatArray
+from mse.motion.hsmm.features import FloatArray, yaw_matrix
 from mse.motion.hsmm.mlpg import generate_with_gv, mlpg
 from mse.motion.hsmm.model import HsmmModel, UnitModel
 from mse.motion.hsmm.prep import Template, local_rotations_from_features
@@ -233,10 +233,15 @@ def statics_to_motion(statics: FloatArray, model: HsmmModel, carried: FloatArray
     translations = np.broadcast_to(template.translations, (frames, skeleton.joint_count, 3)).copy()
     translations[:, template.root_joint] = 0.0
     positions, world = forward_kinematics(skeleton.parents, translations, rotations)
-    root_world = positions[:, template.root_joint]
-    relative = positions - root_world[:, None, :]
     if carried is not None:
         carried = smooth_carried(carried, template.frame_time, OUTPUT_CUTOFF_HZ)
+    path = path_yaws(model, frames)
+    if path is not None:
+        # turning locomotion: the features face the path; the path turns at the model's rate
+        rotations, carried = _turned_along(path, rotations, world, carried, template)
+        positions, world = forward_kinematics(skeleton.parents, translations, rotations)
+    root_world = positions[:, template.root_joint]
+    relative = positions - root_world[:, None, :]
     target = root_positions(relative, template, carried, standing=standing)
     parent = skeleton.parents[template.root_joint]
     local = (
@@ -254,6 +259,35 @@ def statics_to_motion(statics: FloatArray, model: HsmmModel, carried: FloatArray
                 rotations[:, joint], order
             )
     return Motion(skeleton, template.frame_time, values)
+
+
+def path_yaws(model: HsmmModel, frames: int) -> FloatArray | None:
+    """(frames,) the heading of a turning model's path (``info["turn_rate"]`` radians per
+    second, centred on the clip as the training clips' alignment is), or None."""
+    rate = model.info.get("turn_rate")
+    if not model.template.turning or not isinstance(rate, int | float):
+        return None
+    times = (np.arange(frames, dtype=np.float64) - 0.5 * (frames - 1)) * model.template.frame_time
+    return np.asarray(float(rate) * times, dtype=np.float64)
+
+
+def _turned_along(
+    path: FloatArray, rotations: FloatArray, world: FloatArray, carried: FloatArray | None, template: Template
+) -> tuple[FloatArray, FloatArray | None]:
+    """The root's local rotations (and the carried velocities) turned by ``path`` frame by
+    frame about the vertical (in the frame of the root's static parent, as the alignment)."""
+    root = template.root_joint
+    parent = template.skeleton.parents[root]
+    frame = world[0, parent] if parent >= 0 else np.eye(3)
+    turns = yaw_matrix(path)
+    rotations = rotations.copy()
+    rotations[:, root] = frame.T[None] @ turns @ frame[None] @ rotations[:, root]
+    if carried is not None:
+        carried = carried.copy()
+        x, z = carried[:, 0].copy(), carried[:, 1].copy()
+        carried[:, 0] = turns[:, 0, 0] * x + turns[:, 0, 2] * z
+        carried[:, 1] = turns[:, 2, 0] * x + turns[:, 2, 2] * z
+    return rotations, carried
 
 
 #: a cycle requested this much longer than its clips repeats, a one-shot action rests (base.loop)
