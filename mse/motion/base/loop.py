@@ -66,13 +66,19 @@ def loop_span(values: FloatArray, edge: float = EDGE_SHARE, period: float = 0.0)
 
 
 def looped(
-    values: FloatArray, frames: int, frame_time: float, edge: float = EDGE_SHARE, period_s: float = 0.0
+    values: FloatArray,
+    frames: int,
+    frame_time: float,
+    edge: float = EDGE_SHARE,
+    period_s: float = 0.0,
+    stretch: tuple[int, int] | None = None,
 ) -> FloatArray:
-    """``values`` (T, D) lasting ``frames`` frames: its loop (:func:`loop_span`) repeated
-    as often as fits, then resampled to exactly ``frames``. Unchanged when ``frames`` is not
-    longer than the clip by at least half a loop."""
+    """``values`` (T, D) lasting ``frames`` frames: its loop (:func:`loop_span`, or ``stretch``
+    when the caller knows where its cycles are) repeated as often as fits, then resampled to
+    exactly ``frames``. Unchanged when ``frames`` is not longer than the clip by at least half
+    a loop."""
     total = len(values)
-    start, end = loop_span(values, edge, period_s / frame_time)
+    start, end = stretch if stretch is not None else loop_span(values, edge, period_s / frame_time)
     span = end - start
     repeats = round((frames - total) / span) if span > 0 else 0
     if repeats <= 0:
