@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import argparse
 import os
+import shutil
 import statistics
 import subprocess
 import sys
@@ -100,8 +101,14 @@ def main() -> int:
         case_env = dict(env, MSE_CACHE_DIR=str(cache))
         out = work / "out"
         argv = [*MSE, "animate", str(source), "-o", str(out), *extra]
-        first = _run(argv, case_env)
-        warm = statistics.median(_run(argv, case_env) for _ in range(args.runs))
+
+        def once(argv: list[str] = argv, case_env: dict[str, str] = case_env, out: Path = out) -> float:
+            # `mse animate` refuses a folder that holds another run's files (E105)
+            shutil.rmtree(out, ignore_errors=True)
+            return _run(argv, case_env)
+
+        first = once()
+        warm = statistics.median(once() for _ in range(args.runs))
         verdict = "met" if warm <= 2.0 else "NOT met"
         print(f"{name:<30} {first:9.2f}s {warm:7.2f}s {warm / baseline:13.1f}x  {verdict}")
     return 0
