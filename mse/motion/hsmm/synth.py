@@ -336,17 +336,18 @@ def _turned_along(
 
 def swings_span(model: HsmmModel, names: list[str], frames: int, seed: int | None) -> tuple[int, int] | None:
     """The frames of a hand cycle's swings as :func:`generate` lays them out for ``names``
-    over ``frames``: from the end of the rise (the first unit; and of the return from it, the
-    ``second`` unit) to the start of the fall (the last), an even number of swings (units
-    alternate sides; each ends at a turn of the sway); None when fewer than two swings.
+    over ``frames``: from the end of the rise (the first unit) to the start of the fall (the
+    last), an even number of swings (units alternate sides; each ends at a turn of the sway);
+    None when fewer than two swings. The return from the rise (``second``) is one of them: a
+    feminine wave has few, long swings (first, second, one inner, last), and without it the
+    loop had no whole swing to repeat.
 
     Left to :func:`mse.motion.base.loop.loop_span` (the two frames whose poses join best), a
     wave whose swings alternate with holds repeated a hold: a feminine one-hand wave made
     from Bandai dataset 2's waves held still for 13 s at twice its length (its takes hold at
     most 7.4 s) and swung 0.13 times per second (its takes 0.23-0.55)."""
     units = [model.unit(name) for name in names]
-    rise = 2 if len(names) > 2 and names[1].startswith("second-") else 1
-    swings = len(units) - rise - 1
+    swings = len(units) - 2
     swings -= swings % 2
     if swings < 2:
         return None
@@ -354,7 +355,7 @@ def swings_span(model: HsmmModel, names: list[str], frames: int, seed: int | Non
     durations = state_durations(units, frames, rng)  # as generate() draws them
     bounds = np.cumsum([0] + [u.states for u in units])
     ends = np.cumsum([int(durations[bounds[k] : bounds[k + 1]].sum()) for k in range(len(units))])
-    return int(ends[rise - 1]), int(ends[rise - 1 + swings])
+    return int(ends[0]), int(ends[swings])
 
 
 #: a cycle requested this much longer than its clips repeats, a one-shot action rests (base.loop)
