@@ -17,7 +17,9 @@ the starter) so that performers facing different ways compare:
 ``step_rate``          steps per second: alternating extrema of the feet's separation along
                        its main horizontal axis (heel strikes), over the time they span
 ``backward``           largest distance the root moves in one frame against the clip's
-                       direction of travel (start to end)
+                       direction of travel (start to end; on a turning path, the mean
+                       direction in the path's heading frame, which turns with it)
+``turn_rate``          degrees per second the hips' facing turns (least-squares slope)
 ``foot_slip``          median horizontal speed of the lowest foot point while it is on the
                        floor (within 2 cm of its lowest height): the stance foot
 ``jerk``               RMS jerk of head and wrists (third differences of positions)
@@ -25,6 +27,12 @@ the starter) so that performers facing different ways compare:
                        than 90 degrees from one frame to the next (jitter)
 ``bone_error``         largest relative change of a bone length over the clip
 =====================  ================================================================
+
+A clip that turns (at least :data:`mse.motion.base.heading.TURN_DEG_PER_S`) is measured along
+its path: speeds, steps and the direction of travel in the path's heading frame
+(:func:`mse.motion.base.heading.heading_track`), frame by frame; a straight line from start to
+end, or the first frame's axes, would count a turning walk's steps as slower, its speed as
+lower and its hips as going backwards on the far side of the turn.
 
 Which measures say that a clip *performs* an action, and their admitted spread, come from
 the real clips of that action (:func:`reference`): :data:`ACTION_SIGNATURES` names them
@@ -46,6 +54,7 @@ import numpy as np
 from mse.motion.base.body_frame import body_of
 from mse.motion.base.bvh import Motion
 from mse.motion.base.cycles import TRAVEL_LEG_LENGTHS_PER_S, action_shape, step_boundaries, travel_rate
+from mse.motion.base.heading import TURN_DEG_PER_S, facing_yaws, in_heading_frame, smoothed_yaws
 from mse.motion.base.kinematics import FloatArray
 from mse.motion.base.loop import EDGE_SHARE, held, looped
 
@@ -61,6 +70,7 @@ MEASURES: tuple[str, ...] = (
     "side_speed",
     "step_rate",
     "backward",
+    "turn_rate",
     "foot_slip",
     "jerk",
     "reversals",
@@ -148,6 +158,14 @@ def _step_rate(separation: FloatArray, frame_time: float) -> float:
     return (len(strikes) - 1) / ((strikes[-1] - strikes[0]) * frame_time)
 
 
+def step_rate_along_path(separation: FloatArray, yaws: FloatArray, frame_time: float) -> float:
+    """:func:`_step_rate` of (F, 2) foot-to-foot vectors expressed in each frame's heading
+    frame (``yaws``: the path's heading, :func:`mse.motion.base.heading.smoothed_yaws`): on a
+    turning path the separation turns with the walker, and along one fixed axis the strikes
+    of the steps across it were lost."""
+    return _step_rate(in_heading_frame(separation, yaws), frame_time)
+
+
 def _bones(motion: Motion) -> float:
     """Largest relative change of a bone length; the bones to joints whose position channels
     move (the root's translation, e.g. Bandai's joint_Root -> Hips) are no bones."""
@@ -191,12 +209,23 @@ def measure(motion: Motion, path: str = "<motion>") -> dict[str, float]:
     values["wave_amplitude"] = float(np.mean([w[1] for w in waves]))
     root = 0.5 * (p[:, body.left_hip] + p[:, body.right_hip])
     span = max(motion.duration - dt, dt)
-    values["forward_speed"] = float((root[-1, 2] - root[0, 2]) / span)
-    values["side_speed"] = float((root[-1, 0] - root[0, 0]) / span)
-    values["step_rate"] = _step_rate(feet[:, 0, [0, 2]] - feet[:, len(data.feet) // 2, [0, 2]], dt)
-    travel = root[-1, [0, 2]] - root[0, [0, 2]]
+    facing = facing_yaws(p, body.left_hip, body.right_hip)
+    times = np.arange(len(facing)) * dt
+    turn = float(np.degrees(np.polyfit(times, facing, 1)[0])) if len(facing) >= 3 else 0.0
+    values["turn_rate"] = turn
+    separation = feet[:, 0, [0, 2]] - feet[:, len(data.feet) // 2, [0, 2]]
+    moves = np.diff(root[:, [0, 2]], axis=0)  # (F-1, 2) as (x, z)
+    if abs(turn) >= TURN_DEG_PER_S:  # along the path (see the module)
+        path = smoothed_yaws(facing, dt)
+        moves = in_heading_frame(moves, 0.5 * (path[1:] + path[:-1]))
+        values["step_rate"] = step_rate_along_path(separation, path, dt)
+    else:
+        values["step_rate"] = _step_rate(separation, dt)
+    travel = moves.sum(axis=0)
+    values["forward_speed"] = float(travel[1] / span)
+    values["side_speed"] = float(travel[0] / span)
     norm = float(np.linalg.norm(travel))
-    along = np.diff(root[:, [0, 2]], axis=0) @ (travel / norm) if norm > 1e-9 else np.zeros(1)
+    along = moves @ (travel / norm) if norm > 1e-9 else np.zeros(1)
     values["backward"] = float(max(0.0, -float(np.min(along)))) if along.size else 0.0
     lowest = np.argmin(feet[:, :, 1], axis=1)
     floor = feet[:, :, 1].min(axis=0)  # each foot point's lowest height
@@ -235,12 +264,22 @@ class Reference:
 
     @property
     def signature(self) -> tuple[str, ...]:
+        turning = (("turn_rate",) if self.turns else ())
         named = ACTION_SIGNATURES.get(self.action)
         if named is not None:
-            return named + (("step_rate",) if self.travels else ())
+            return named + (("step_rate",) if self.travels else ()) + turning
+        if self.travels:  # a travelling action of the user's own: its main direction of travel
+            speeds = ("forward_speed", "side_speed")
+            main = max(speeds, key=lambda name: abs(self.median(name)))
+            return (main, "step_rate", *turning)
         lows = {name: min(self.values[name]) for name in DEFAULT_CANDIDATES}
         telling = tuple(name for name in DEFAULT_CANDIDATES if lows[name] >= TELLING_SHARE * self.scale)
         return telling or (max(lows, key=lambda name: lows[name]),)
+
+    @property
+    def turns(self) -> bool:
+        """The real clips turn as they travel (:data:`mse.motion.base.heading.TURN_DEG_PER_S`)."""
+        return self.travels and abs(self.median("turn_rate")) >= TURN_DEG_PER_S
 
     def spread(self, name: str) -> tuple[float, float]:
         """The admitted range of an action measure: the real range, each end moved out by

@@ -74,15 +74,17 @@ def looped(
     edge: float = EDGE_SHARE,
     period_s: float = 0.0,
     ending: bool = True,
+    stretch: tuple[int, int] | None = None,
 ) -> FloatArray:
-    """``values`` (T, D) lasting ``frames`` frames: its loop (:func:`loop_span`) repeated
-    as often as fits, then resampled to exactly ``frames``. Unchanged when ``frames`` is not
-    longer than the clip by at least half a loop. ``ending=False`` (a travelling cycle, which
-    has no rise and fall to keep): the loop repeats until ``frames`` are filled, the last
-    repetition cut, at the clip's own tempo (no resampling: a Bandai dataset 1 run of 24
-    frames at 3x was played 12 % faster to fit, its jerk 1.4x)."""
+    """``values`` (T, D) lasting ``frames`` frames: its loop (:func:`loop_span`, or ``stretch``
+    when the caller knows where its cycles are) repeated as often as fits, then resampled to
+    exactly ``frames``. Unchanged when ``frames`` is not longer than the clip by at least half
+    a loop. ``ending=False`` (a travelling cycle, which has no rise and fall to keep): the loop
+    repeats until ``frames`` are filled, the last repetition cut, at the clip's own tempo (no
+    resampling: a Bandai dataset 1 run of 24 frames at 3x was played 12 % faster to fit, its
+    jerk 1.4x)."""
     total = len(values)
-    start, end = loop_span(values, edge, period_s / frame_time)
+    start, end = stretch if stretch is not None else loop_span(values, edge, period_s / frame_time)
     span = end - start
     if not ending and span > 0 and frames > total:
         repeats = -(-(frames - end) // span)  # whole loops and the last one cut

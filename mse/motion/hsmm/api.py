@@ -20,6 +20,7 @@ import numpy as np
 
 from mse.motion.base.bvh import Motion
 from mse.motion.base.cycles import ActionShape, action_shape
+from mse.motion.base.heading import turn_rate, turning_rate
 from mse.motion.hsmm.adapt import adapt_units, adaptive_training, auto_blocks, blocks_for
 from mse.motion.hsmm.carried import carried_profiles
 from mse.motion.hsmm.features import FloatArray
@@ -157,10 +158,13 @@ def _prepare(
     """What both trainings start from: which limbs cycle (measured from the clips, never
     from the action's name), skeleton template, unit instances, static features, the
     variance floor and the options with the states per unit."""
-    shape = action_shape([m for m, _ in clips])
+    motions = [m for m, _ in clips]
+    shape = action_shape(motions)
     if template is None:
-        # Standing actions may spin a full turn: the root as swing-twist (prep.twist_features)
-        template = replace(build_template([m for m, _ in clips]), twisted_root=not shape.travels)
+        # Locomotion whose heading changes is aligned to its path frame by frame (turning);
+        # standing actions may spin a full turn: the root as swing-twist (prep.twist_features)
+        turning = shape.travels and turning_rate(motions) != 0.0
+        template = replace(build_template(motions, turning=turning), twisted_root=not shape.travels)
     if segmentation is not None:
         lengths = [s.length for segments in segmentation if segments for s in segments]
     else:
@@ -206,10 +210,20 @@ def train_average(
             "styles": sorted({s for _, s in clips}),
             "frames": int(np.median([m.frame_count for m, _ in clips])),
             "period_s": shape.period_s,
+            **_turn_info(template, [m for m, _ in clips]),
             **asdict(options),
         },
         carried=carried_profiles(units, instances) if cycle == "steps" else {},
     )
+
+
+def _turn_info(template: Template, motions: Sequence[Motion]) -> dict[str, float]:
+    """``{"turn_rate": radians per second}`` of turning locomotion (the clips' median
+    :func:`mse.motion.base.heading.turn_rate`; the turn per cycle follows from the data);
+    nothing for other actions (their model files stay as they were)."""
+    if not template.turning:
+        return {}
+    return {"turn_rate": float(np.median([turn_rate(m) for m in motions]))}
 
 
 @one_blas_thread
@@ -247,6 +261,7 @@ def train_scratch(
             "trained_on": "style data only",
             "frames": int(np.median([m.frame_count for m, _ in clips])),
             "period_s": shape.period_s,
+            **_turn_info(template, [m for m, _ in clips]),
             **asdict(options),
         },
         carried=carried_profiles(units, instances) if cycle == "steps" else {},
@@ -321,6 +336,7 @@ def adapt_model(
             "takes": len(motions),
             "frames": int(np.median([m.frame_count for m in motions])),
             "adapt_blocks": kind,
+            **_turn_info(template, motions),  # the style's own turn
         },
         carried=carried_profiles(units, instances, prior=average.carried) if average.carried else {},
     )

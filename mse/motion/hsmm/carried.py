@@ -28,7 +28,7 @@ from mse.motion.base.contacts import support
 from mse.motion.base.filters import zero_phase_lowpass
 from mse.motion.hsmm.features import FloatArray, yaw_matrix
 from mse.motion.hsmm.model import Instance, UnitModel, align, frame_loglik
-from mse.motion.hsmm.prep import Template, headings
+from mse.motion.hsmm.prep import Template, alignment_yaws
 
 #: columns: root velocity X, Z (file units per second, aligned frame), lift, support
 CARRIED_COLUMNS = 4
@@ -41,14 +41,13 @@ STANCE_SHARE = 0.9
 
 def clip_carried(motion: Motion, template: Template) -> FloatArray:
     """(T, 4) :func:`support` of a real clip, its velocity turned as the features are
-    (the clip's mean heading along +Z, :func:`mse.motion.hsmm.prep.aligned_rotations`)."""
+    (the clip's mean heading along +Z, or turning locomotion's path heading frame by frame:
+    :func:`mse.motion.hsmm.prep.alignment_yaws`)."""
     values = support(motion)
-    yaw = headings(motion.positions(), template.legs)
-    mean_yaw = float(np.arctan2(np.mean(np.sin(yaw)), np.mean(np.cos(yaw))))
-    turn = yaw_matrix(np.array(-mean_yaw))
+    turn = yaw_matrix(-alignment_yaws(motion.positions(), template))  # (T, 3, 3)
     velocity_x, velocity_z = values[:, 0].copy(), values[:, 1].copy()
-    values[:, 0] = turn[0, 0] * velocity_x + turn[0, 2] * velocity_z
-    values[:, 1] = turn[2, 0] * velocity_x + turn[2, 2] * velocity_z
+    values[:, 0] = turn[:, 0, 0] * velocity_x + turn[:, 0, 2] * velocity_z
+    values[:, 1] = turn[:, 2, 0] * velocity_x + turn[:, 2, 2] * velocity_z
     return values
 
 

@@ -1,6 +1,8 @@
 """Model files: one ``.npz`` archive (no pickle) with a JSON header under the key ``meta``.
 
-Format ``mse-hsmm/8`` (``meta`` names which limbs carry the cycle, ``cycle``: steps, hands or
+Format ``mse-hsmm/9`` (the template says whether the action is turning locomotion,
+``turning``, aligned to its path frame by frame, and ``info`` holds its ``turn_rate``; ``/8``
+files load as not turning). ``/8``: ``meta`` names which limbs carry the cycle, ``cycle``: steps, hands or
 none, measured from the clips; ``/7`` and before held ``cyclic`` only, and their cyclic models
 with flight profiles are steps, the others hands). ``/7``: the layout of ``/4``; wave models have a ``second`` unit, the
 return from the rise, whose adapted duration has a tempo of its own; ``/6`` adapted waves
@@ -38,13 +40,16 @@ from mse.motion.base.cycles import CycleKind
 from mse.motion.hsmm.model import HsmmModel, UnitModel
 from mse.motion.hsmm.prep import Template
 
-FORMAT = "mse-hsmm/8"
+FORMAT = "mse-hsmm/9"
 #: formats this version reads (``/2``: no flight profiles, feet always pinned; ``/2`` and
 #: ``/3``: no feet lift of the training clips, standing legs always stilled; ``/4`` and
 #: ``/5``: the same layout as ``/6``; ``/4`` trained with at most 60 states per unit and
 #: adapted with the root joint inside the stream-wide CMLLR blocks; ``/5`` adapted waves
-#: with leg classes; ``/6`` waves have no ``second`` unit and play ``inner`` there)
-READABLE_FORMATS = ("mse-hsmm/2", "mse-hsmm/3", "mse-hsmm/4", "mse-hsmm/5", "mse-hsmm/6", "mse-hsmm/7", FORMAT)
+#: with leg classes; ``/6`` waves have no ``second`` unit and play ``inner`` there; ``/8``: no
+#: turning locomotion)
+READABLE_FORMATS = (
+    "mse-hsmm/2", "mse-hsmm/3", "mse-hsmm/4", "mse-hsmm/5", "mse-hsmm/6", "mse-hsmm/7", "mse-hsmm/8", FORMAT,
+)
 _UNIT_FIELDS = ("means", "variances", "duration_means", "duration_variances")
 
 
@@ -75,6 +80,7 @@ def model_bytes(model: HsmmModel) -> bytes:
             "contact_height": template.contact_height,
             "twisted_root": template.twisted_root,
             "feet_lift": template.feet_lift,
+            "turning": template.turning,
         },
     }
     arrays: dict[str, Any] = {
@@ -220,6 +226,7 @@ def load_model(path: str | os.PathLike[str]) -> HsmmModel:
             contact_height=float(tp["contact_height"]),
             twisted_root=bool(tp.get("twisted_root", False)),
             feet_lift=float(tp.get("feet_lift", 0.0)),
+            turning=bool(tp.get("turning", False)),
         )
         units = {
             unit: UnitModel(

@@ -4,7 +4,10 @@
   ``Hips``; CMU: the BVH root).  Its position is dropped and recomputed at synthesis time; its ancestors are
   assumed static (Bandai's ``joint_Root`` is, but for a few seconds of one take).
 * Directions are aligned: each clip is turned about the vertical (Y) axis so that its mean
-  heading (forward = up × the vector between the two leg roots) points along +Z.
+  heading (forward = up × the vector between the two leg roots) points along +Z; turning
+  locomotion (``Template.turning``) is turned frame by frame by the heading of its path
+  (:func:`mse.motion.base.heading.smoothed_yaws`), so that its steps are steps of a straight
+  walk and the turn is a rate of its own (``synth``).
 * Every joint with rotation channels is a feature: the exponential map of its local
   rotation relative to a reference rotation (the chordal mean over the training clips),
   three values per joint.
@@ -20,6 +23,7 @@ import numpy as np
 
 from mse.motion.base.bvh import Motion, Skeleton
 from mse.motion.base.contacts import find_root_joint
+from mse.motion.base.heading import smoothed_yaws
 from mse.motion.base.kinematics import forward_kinematics
 from mse.motion.hsmm.features import (
     FloatArray,
@@ -51,6 +55,12 @@ class Template:
     #: over the clips, share of the leg length): standing actions whose real legs act (a
     #: kick, a punch's step) are not stilled at synthesis (``synth.still_legs``)
     feet_lift: float = 0.0
+    #: turning locomotion (:func:`mse.motion.base.heading.turning_rate`): clips are aligned
+    #: frame by frame to their path's heading, and synthesis turns the root at the model's
+    #: ``info["turn_rate"]``. Aligned to their mean heading alone, a turning walk's steps
+    #: faced anywhere from -50 to +50 deg, each unit's states averaged them, and the
+    #: generated walk turned only in its first and last steps
+    turning: bool = False
 
     @property
     def feature_count(self) -> int:
@@ -113,20 +123,36 @@ def headings(positions: FloatArray, legs: tuple[int, int]) -> FloatArray:
     return result
 
 
+def alignment_yaws(positions: FloatArray, template: Template) -> FloatArray:
+    """(T,) the yaw each frame of a clip is turned back by: the clip's mean heading, or for
+    turning locomotion its path's heading frame by frame."""
+    yaw = headings(positions, template.legs)
+    if template.turning:
+        return smoothed_yaws(np.unwrap(yaw), template.frame_time)
+    mean_yaw = float(np.arctan2(np.mean(np.sin(yaw)), np.mean(np.cos(yaw))))
+    return np.full(yaw.shape, mean_yaw)
+
+
 def aligned_rotations(motion: Motion, template: Template) -> FloatArray:
-    """(T, J, 3, 3) local rotations with the clip turned to face +Z on average."""
+    """(T, J, 3, 3) local rotations with the clip turned to face +Z on average (turning
+    locomotion: frame by frame, :func:`alignment_yaws`)."""
     local = motion.local_rotations()
     positions = motion.positions()
+    ancestors = _ancestor_rotation(motion, template.root_joint)
+    if template.turning:
+        turns = ancestors.T[None] @ yaw_matrix(-alignment_yaws(positions, template)) @ ancestors[None]
+        local[:, template.root_joint] = turns @ local[:, template.root_joint]
+        return local
     yaw = headings(positions, template.legs)
     mean_yaw = float(np.arctan2(np.mean(np.sin(yaw)), np.mean(np.cos(yaw))))
-    ancestors = _ancestor_rotation(motion, template.root_joint)
     turn = ancestors.T @ yaw_matrix(np.array(-mean_yaw)) @ ancestors
     local[:, template.root_joint] = turn @ local[:, template.root_joint]
     return local
 
 
-def build_template(motions: list[Motion]) -> Template:
-    """The template of a training set: skeleton of the first clip, references from all."""
+def build_template(motions: list[Motion], turning: bool = False) -> Template:
+    """The template of a training set: skeleton of the first clip, references from all
+    (``turning``: aligned frame by frame, see :attr:`Template.turning`)."""
     first = motions[0]
     skeleton = first.skeleton
     root = find_root_joint(first)
@@ -146,6 +172,7 @@ def build_template(motions: list[Motion]) -> Template:
         legs=legs,
         contacts=contacts,
         contact_height=float(np.median(heights)),
+        turning=turning,
     )
     stacked = np.concatenate([aligned_rotations(m, provisional)[:, list(rotated)] for m in motions])
     references = np.stack([mean_rotation(stacked[:, k]) for k in range(len(rotated))])
@@ -161,6 +188,7 @@ def build_template(motions: list[Motion]) -> Template:
         contacts=contacts,
         contact_height=provisional.contact_height,
         feet_lift=float(np.median(lifts)),
+        turning=turning,
     )
 
 

@@ -23,7 +23,7 @@ from mse.motion.base.filters import zero_phase_lowpass
 from mse.motion.base.kinematics import forward_kinematics, matrix_to_euler
 from mse.motion.base.loop import held, looped
 from mse.motion.hsmm.carried import carried_track, smooth_carried
-from mse.motion.hsmm.features import FloatArray
+from mse.motion.hsmm.features import FloatArray, yaw_matrix
 from mse.motion.hsmm.mlpg import generate_with_gv, mlpg
 from mse.motion.hsmm.model import HsmmModel, UnitModel
 from mse.motion.hsmm.prep import Template, local_rotations_from_features
@@ -233,11 +233,19 @@ def statics_to_motion(statics: FloatArray, model: HsmmModel, carried: FloatArray
     translations = np.broadcast_to(template.translations, (frames, skeleton.joint_count, 3)).copy()
     translations[:, template.root_joint] = 0.0
     positions, world = forward_kinematics(skeleton.parents, translations, rotations)
-    root_world = positions[:, template.root_joint]
-    relative = positions - root_world[:, None, :]
     if carried is not None:
         carried = smooth_carried(carried, template.frame_time, OUTPUT_CUTOFF_HZ)
+    path = path_yaws(model, frames)
+    if path is not None:
+        # turning locomotion: the features face the path; the path turns at the model's rate
+        rotations, carried = _turned_along(path, rotations, world, carried, template)
+        positions, world = forward_kinematics(skeleton.parents, translations, rotations)
+    root_world = positions[:, template.root_joint]
+    relative = positions - root_world[:, None, :]
     target = root_positions(relative, template, carried, standing=standing)
+    if model.travels:  # the hips never go back (forward_only)
+        hips = relative[:, list(template.legs)].mean(axis=1)  # the hips' midpoint from the root
+        target = forward_only(target, hips, path)
     parent = skeleton.parents[template.root_joint]
     local = (
         np.einsum("fba,fb->fa", world[:, parent], target - root_world) if parent >= 0 else target
@@ -254,6 +262,100 @@ def statics_to_motion(statics: FloatArray, model: HsmmModel, carried: FloatArray
                 rotations[:, joint], order
             )
     return Motion(skeleton, template.frame_time, values)
+
+
+def forward_only(target: FloatArray, hips: FloatArray, path: FloatArray | None = None) -> FloatArray:
+    """``target`` (T, 3) root positions moved so that the hips' midpoint (``target + hips``)
+    never goes back along the clip's direction of travel (the mean of its horizontal moves,
+    in the path's heading frame ``path`` when it turns): the progress along that direction
+    becomes its nearest non-decreasing sequence (isotonic regression), the rest of each move
+    is kept.
+
+    Real Bandai locomotion never moves its hips backwards in a frame; generated steps did, by
+    pinning the stance foot through a stance change (dataset 1 walk-back feminine: 5 frames of
+    every step, up to 2.0 cm per frame), at the clip's first and last frames (the filters'
+    edges: a dash's first frame 1.0 cm) and in the last step's close at 2x and 3x length
+    (walk-right tired: 8 frames, 2.6 cm). Where the progress is flattened the stance foot
+    slides by what the hips would have gone back."""
+    from scipy.optimize import isotonic_regression
+
+    from mse.motion.base.heading import in_heading_frame
+
+    if len(target) < 3:
+        return target
+    centre = target + hips
+    moves = np.diff(centre[:, [0, 2]], axis=0)
+    yaws = 0.5 * (path[1:] + path[:-1]) if path is not None else np.zeros(len(moves))
+    local = in_heading_frame(moves, yaws)
+    travel = local.sum(axis=0)
+    norm = float(np.linalg.norm(travel))
+    if norm < 1e-9:
+        return target
+    direction = travel / norm
+    along = local @ direction
+    if along.min() >= 0.0:
+        return target
+    progress = np.concatenate([[0.0], np.cumsum(along)])
+    monotone = isotonic_regression(progress).x
+    corrected = local + (np.diff(monotone) - along)[:, None] * direction[None, :]
+    world_moves = in_heading_frame(corrected, -yaws)
+    shift = np.zeros_like(target)
+    shift[1:, [0, 2]] = np.cumsum(world_moves - moves, axis=0)
+    result: FloatArray = target + shift
+    return result
+
+
+def path_yaws(model: HsmmModel, frames: int) -> FloatArray | None:
+    """(frames,) the heading of a turning model's path (``info["turn_rate"]`` radians per
+    second, centred on the clip as the training clips' alignment is), or None."""
+    rate = model.info.get("turn_rate")
+    if not model.template.turning or not isinstance(rate, int | float):
+        return None
+    times = (np.arange(frames, dtype=np.float64) - 0.5 * (frames - 1)) * model.template.frame_time
+    return np.asarray(float(rate) * times, dtype=np.float64)
+
+
+def _turned_along(
+    path: FloatArray, rotations: FloatArray, world: FloatArray, carried: FloatArray | None, template: Template
+) -> tuple[FloatArray, FloatArray | None]:
+    """The root's local rotations (and the carried velocities) turned by ``path`` frame by
+    frame about the vertical (in the frame of the root's static parent, as the alignment)."""
+    root = template.root_joint
+    parent = template.skeleton.parents[root]
+    frame = world[0, parent] if parent >= 0 else np.eye(3)
+    turns = yaw_matrix(path)
+    rotations = rotations.copy()
+    rotations[:, root] = frame.T[None] @ turns @ frame[None] @ rotations[:, root]
+    if carried is not None:
+        carried = carried.copy()
+        x, z = carried[:, 0].copy(), carried[:, 1].copy()
+        carried[:, 0] = turns[:, 0, 0] * x + turns[:, 0, 2] * z
+        carried[:, 1] = turns[:, 2, 0] * x + turns[:, 2, 2] * z
+    return rotations, carried
+
+
+def swings_span(model: HsmmModel, names: list[str], frames: int, seed: int | None) -> tuple[int, int] | None:
+    """The frames of a hand cycle's swings as :func:`generate` lays them out for ``names``
+    over ``frames``: from the end of the rise (the first unit) to the start of the fall (the
+    last), an even number of swings (units alternate sides; each ends at a turn of the sway);
+    None when fewer than two swings. The return from the rise (``second``) is one of them: a
+    feminine wave has few, long swings (first, second, one inner, last), and without it the
+    loop had no whole swing to repeat.
+
+    Left to :func:`mse.motion.base.loop.loop_span` (the two frames whose poses join best), a
+    wave whose swings alternate with holds repeated a hold: a feminine one-hand wave made
+    from Bandai dataset 2's waves held still for 13 s at twice its length (its takes hold at
+    most 7.4 s) and swung 0.13 times per second (its takes 0.23-0.55)."""
+    units = [model.unit(name) for name in names]
+    swings = len(units) - 2
+    swings -= swings % 2
+    if swings < 2:
+        return None
+    rng = np.random.default_rng(seed) if seed is not None else None
+    durations = state_durations(units, frames, rng)  # as generate() draws them
+    bounds = np.cumsum([0] + [u.states for u in units])
+    ends = np.cumsum([int(durations[bounds[k] : bounds[k + 1]].sum()) for k in range(len(units))])
+    return int(ends[0]), int(ends[swings])
 
 
 #: a cycle requested this much longer than its clips repeats, a one-shot action rests (base.loop)
@@ -301,7 +403,8 @@ def synthesize(
         statics, _ = generate(model, names, natural, gv=False, seed=seed)
         period = model.info.get("period_s", 0.0)
         period_s = float(period) if isinstance(period, int | float) else 0.0
-        return statics_to_motion(looped(statics, frames, frame_time, period_s=period_s), model)
+        span = swings_span(model, names, natural, seed)
+        return statics_to_motion(looped(statics, frames, frame_time, period_s=period_s, stretch=span), model)
     if not model.cyclic and natural and frames >= LOOP_RATIO * natural:
         # a one-shot action longer than its clips: at their tempo, then at rest (base.loop)
         statics, _ = generate(model, names, natural, gv=gv, seed=seed)
