@@ -256,7 +256,7 @@ class Attempt(Obligations):
                         self.owing = set(self.owing)  # copy on write: commit() keeps the old one
                         changed = True
                     (self.owing.add if owes else self.owing.discard)(cid)
-        if changed or (self.latest and self.narrows_debts(signal)):
+        if changed or (self.latest and self.narrows_debts(signal)) or self.bounds_must_occur(signal):
             self.refresh_latest(sid)
 
     def truncate(self, kept: int, frontier: int, owing: frozenset[str]) -> None:

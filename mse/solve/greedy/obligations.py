@@ -62,6 +62,16 @@ class Obligations(State):
         influence = self.plan.influence[signal.id]
         return any(name in influence for name in self.latest)
 
+    def bounds_must_occur(self, signal: SignalPlan) -> bool:
+        """Whether ``signal`` bounds the start of a signal that must still occur but owes
+        nothing yet (an implies chain's later link: placing ``signal`` may have closed the
+        chain's room, which only :meth:`check_room` sees)."""
+        partners = self.plan.partners_of.get(signal.id)
+        if not partners or not (self.owing or self.require):
+            return False
+        must = self.must_occur()
+        return any(name in must for name in partners)
+
     def owed_signals(self) -> set[str]:
         owed = {s for s in self.require if not self.env.get(s)}
         owing = self.owing
