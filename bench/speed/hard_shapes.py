@@ -5,6 +5,7 @@ bench/generators/hard_shapes.py).  Prints numbers; asserts nothing.
     python -m bench.speed.hard_shapes                          # 150 sets x 5 seeds
     python -m bench.speed.hard_shapes --sets 40 --seeds 3      # quicker
     python -m bench.speed.hard_shapes --baseline main          # the same sets, another version
+    python -m bench.speed.hard_shapes --sizes 100,200,400      # only the sets of these sizes
     python -m bench.speed.hard_shapes --markdown bench/results/hard_shapes.md
 
 CP-SAT is the ground truth (only sets it proves feasible count) and the baseline measured in
@@ -21,7 +22,7 @@ import argparse
 import statistics
 import time
 from collections import defaultdict
-from collections.abc import Sequence
+from collections.abc import Collection, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -35,13 +36,18 @@ from mse.solve.protocol import NoSolution, SolveRequest, get_solver
 Feasible = tuple[str, int, ir.Model, float, float]
 
 
-def feasible_sets(count: int, seed: int, time_limit: float) -> tuple[list[Feasible], int]:
+def feasible_sets(
+    count: int, seed: int, time_limit: float, sizes: Collection[int] | None = None
+) -> tuple[list[Feasible], int]:
     """The sets CP-SAT proves feasible, each with (shape, size, model, duration, CP-SAT time
-    of one timeline); and how many it did not."""
+    of one timeline); and how many it did not.  ``sizes``: only the corpus' sets of these
+    numbers of signals (the same sets as in the whole corpus)."""
     cpsat = get_solver("cpsat")
     found: list[Feasible] = []
     other = 0
     for model_seed, size, shape, duration in corpus(count, seed):
+        if sizes is not None and size not in sizes:
+            continue
         model = hard_model(model_seed, size, shape, duration)
         began = time.perf_counter()
         try:
@@ -101,13 +107,16 @@ def main(argv: Sequence[str] | None = None) -> None:
     parser.add_argument("--seed", type=int, default=32, help="seed of the corpus")
     parser.add_argument("--time-limit", type=float, default=30.0, help="CP-SAT's limit per set, seconds")
     parser.add_argument("--markdown", type=Path, help="also write the tables to this file")
+    parser.add_argument("--sizes", type=lambda text: {int(size) for size in text.split(",")},
+                        help="only the corpus' sets of these sizes (signals), comma-separated: 100,200,400")
     add_argument(parser)
     args = parser.parse_args(argv)
     print(f"== hard shapes (bench/generators/hard_shapes.py, corpus seed {args.seed}); {load_line()}", flush=True)
     began = time.perf_counter()
-    sets, other = feasible_sets(args.sets, args.seed, args.time_limit)
-    print(f"CP-SAT ({args.time_limit:g} s per set): {len(sets)} of {args.sets} sets feasible, {other} not proved "
-          f"({time.perf_counter() - began:.0f} s)", flush=True)
+    sets, other = feasible_sets(args.sets, args.seed, args.time_limit, args.sizes)
+    sizes = f" of {', '.join(map(str, sorted(args.sizes)))} signals" if args.sizes else ""
+    print(f"CP-SAT ({args.time_limit:g} s per set): {len(sets)} sets{sizes} of {args.sets} feasible, "
+          f"{other} not proved ({time.perf_counter() - began:.0f} s)", flush=True)
     job = [item(model.name, model, duration, range(args.seeds), warm=0) for _, _, model, duration, _ in sets]
     sides = [run_job(None, job)]
     labels = ["this tree"]

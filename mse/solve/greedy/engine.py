@@ -193,6 +193,7 @@ class Attempt(Obligations):
         last_stop, free, frontier, owing, latest, needs, stuck = saved
         self.frontier, self.owing, self.latest, self.needs, self.stuck = frontier, owing, latest, needs, stuck
         self.env[signal.id].pop()
+        self.partners_moved(signal.id)
         self.count[signal.id] -= 1
         if signal.id not in self.forbid:
             self.dead.discard(signal.id)  # it was alive: try_place checked its window
@@ -218,6 +219,7 @@ class Attempt(Obligations):
             self.env[sid] = [box]
         else:
             boxes.append(box)
+        self.partners_moved(sid)
         count = self.count[sid] = self.count.get(sid, 0) + 1
         if count >= signal.limit:
             self.dead.add(sid)
@@ -254,7 +256,7 @@ class Attempt(Obligations):
                         self.owing = set(self.owing)  # copy on write: commit() keeps the old one
                         changed = True
                     (self.owing.add if owes else self.owing.discard)(cid)
-        if changed or (self.latest and self.narrows_debts(signal)):
+        if changed or (self.latest and self.narrows_debts(signal)) or self.bounds_must_occur(signal):
             self.refresh_latest(sid)
 
     def truncate(self, kept: int, frontier: int, owing: frozenset[str]) -> None:
@@ -290,5 +292,5 @@ class Attempt(Obligations):
         self.frontier = frontier
         self.owing = set(owing)
         self.latest, self.needs, self.checked, self.stuck = {}, {}, None, frozenset()
-        self.memo = {}
+        self.memo, self.narrowing = {}, {}
         self.dead = set(self.forbid) | {s.id for s in self.plan.signals if self.count.get(s.id, 0) >= s.limit}

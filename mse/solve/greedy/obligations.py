@@ -62,6 +62,16 @@ class Obligations(State):
         influence = self.plan.influence[signal.id]
         return any(name in influence for name in self.latest)
 
+    def bounds_must_occur(self, signal: SignalPlan) -> bool:
+        """Whether ``signal`` bounds the start of a signal that must still occur but owes
+        nothing yet (an implies chain's later link: placing ``signal`` may have closed the
+        chain's room, which only :meth:`check_room` sees)."""
+        partners = self.plan.partners_of.get(signal.id)
+        if not partners or not (self.owing or self.require):
+            return False
+        must = self.must_occur()
+        return any(name in must for name in partners)
+
     def owed_signals(self) -> set[str]:
         owed = {s for s in self.require if not self.env.get(s)}
         owing = self.owing
@@ -198,17 +208,19 @@ class Obligations(State):
         occurrence implies (``exists(x) implies exists(y)``: an implies chain)."""
         env, plan = self.env, self.plan
         found: dict[str, str] = {name: f"require {name}" for name in sorted(self.require) if not env.get(name)}
-        for cid in sorted(self.owing):
-            for name in plan.must_exist[cid]:
+        must_exist, needs_before, implied = plan.must_exist, plan.needs_before, plan.implied
+        for cid in sorted(cid for cid in self.owing if must_exist[cid]):
+            for name in must_exist[cid]:
                 if name not in found and not env.get(name):
                     found[name] = cid
         pending = list(found)
         while pending:
             name = pending.pop()
-            for before in (*plan.needs_before[name], *plan.implied.get(name, ())):
-                if before not in found and not env.get(before):
-                    found[before] = found[name]
-                    pending.append(before)
+            for group in (needs_before[name], implied.get(name, ())):
+                for before in group:
+                    if before not in found and not env.get(before):
+                        found[before] = found[name]
+                        pending.append(before)
         return found
 
     def check_room(self) -> None:
@@ -247,23 +259,26 @@ class Obligations(State):
             if low > high:
                 raise Doomed(must[name])
             windows[name] = [low, high]
-        links = []  # (my window, partner's window, partner's shortest and longest, rules)
+        # (my name, my window, partner's window, ((bound is upper, offset), ...)): a rule on
+        # the partner's stop (index 2) adds its longest length to an upper bound, its shortest
+        # to a lower one
+        links = []
+        order_free_offsets = plan.order_free_offsets
         for name, window in windows.items():
-            for other, rules in plan.order_free_bounds[name]:
+            for other, rules in order_free_offsets[name]:
                 theirs = windows.get(other)
                 if theirs is not None and not env.get(other):  # placed ones: in start_window
-                    partner = by_id[other]
-                    links.append((name, window, theirs, partner.shortest, partner.longest, rules))
+                    links.append((name, window, theirs, rules))
         for _ in range(PROPAGATION_ROUNDS if links else 0):
             moved = False
-            for name, window, theirs, shortest, longest, rules in links:
-                for index, delta, upper in rules:
+            for name, window, theirs, rules in links:
+                for upper, offset in rules:
                     if upper:
-                        value = theirs[1] + delta + (longest if index == 2 else 0)
+                        value = theirs[1] + offset
                         if value < window[1]:
                             window[1], moved = value, True
                     else:
-                        value = theirs[0] + delta + (shortest if index == 2 else 0)
+                        value = theirs[0] + offset
                         if value > window[0]:
                             window[0], moved = value, True
                 if window[0] > window[1]:

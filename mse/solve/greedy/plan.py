@@ -95,7 +95,9 @@ class Plan:
         "must_exist",
         "needs_before",
         "order_free_bounds",
+        "order_free_offsets",
         "partner_bounds",
+        "partners_of",
         "related",
         "signals",
         "stamps",
@@ -193,10 +195,27 @@ class Plan:
         # the bounds that name another signal, grouped by it, as (other, ((box index, delta,
         # upper), ...)) for speed: one lookup of the other's occurrences per partner
         self.partner_bounds = {s.id: _by_partner(bounds[s.id]) for s in signals}
+        # the signals whose partner_bounds name each signal: their start windows may move
+        # when its occurrences change (State.narrowing)
+        partners_of: dict[str, list[str]] = {s.id: [] for s in signals}
+        for s in signals:
+            for other, _ in self.partner_bounds[s.id]:
+                partners_of.setdefault(other, []).append(s.id)
+        self.partners_of = {name: tuple(found) for name, found in partners_of.items()}
         # the same, holding whichever of the two starts first (Obligations.check_room
         # propagates them between signals not placed yet)
         self.order_free_bounds = {
             s.id: _by_partner(start_bounds_of(s, by_signal[s.id], duration, placed_first=False)) for s in signals
+        }
+        # the same as (other, ((upper, offset), ...)): a bound on the other's stop counts its
+        # longest length in an upper bound, its shortest in a lower one
+        self.order_free_offsets = {
+            name: tuple(
+                (other, tuple((upper, delta + (lengths[other][1 if upper else 0] if index == 2 else 0))
+                              for index, delta, upper in rules))
+                for other, rules in found
+            )
+            for name, found in self.order_free_bounds.items()
         }
 
     def stamp_of(self, tick: int) -> int:

@@ -16,14 +16,17 @@ from mse.solve.greedy.masks import Box
 from mse.solve.greedy.plan import PartnerBounds, Plan, SignalPlan
 from mse.solve.greedy.windows import Intervals, critical_rules, critical_values, feasible
 
+#: Larger than any tick: the unbounded window that State.narrowing narrows.
+_UNBOUNDED = 1 << 62
+
 
 class State:
     """The mutable state of one walk: placed occurrences, frontier, obligations."""
 
     __slots__ = (
         "buckets", "checked", "count", "dead", "env", "forbid", "frontier", "last_stop", "latest",
-        "memo", "modality_free", "needs", "occurrences", "owing", "placements", "plan", "require", "rng", "stamp_low",
-        "stuck", "work",
+        "memo", "modality_free", "narrowing", "needs", "occurrences", "owing", "placements", "plan", "require", "rng",
+        "stamp_low", "stuck", "work",
     )
 
     def __init__(self, plan: Plan, rng: random.Random, forbid: frozenset[str], require: frozenset[str]) -> None:
@@ -50,6 +53,10 @@ class State:
         # current state: emptied by every change of the placed occurrences (place, truncate)
         # and put back when a placement is taken back (_undo restores the state before it).
         self.memo: dict[tuple[str, Box], list[str] | None] = {}
+        # signal -> (lowest, highest) start its placed partners allow (partner_narrowed of
+        # an unbounded window): kept across placements, an entry dropped when a partner's
+        # occurrences change (:meth:`partners_moved`)
+        self.narrowing: dict[str, tuple[int, int]] = {}
         self.dead: set[str] = set(forbid)  # signals that can no longer be placed in this walk
         # buckets[j]: signals whose next candidacy is at stamp j (see Plan.cumulative)
         self.buckets: list[list[SignalPlan]] = [[] for _ in range(len(plan.stamps) - 1)]
@@ -204,12 +211,27 @@ class State:
             free = self.modality_free.get(signal.exclusive)
             if free is not None and free > first_start:
                 first_start = free
-        bounds = self.plan.partner_bounds[sid]
-        if not bounds or first_start > last_start:
+        if first_start > last_start:
             # Already empty: the partners could only narrow it more (both callers only ask
             # whether it is empty then), so they are not looked at.
             return first_start, last_start
-        return self.partner_narrowed(bounds, first_start, last_start)
+        narrowing = self.narrowing.get(sid)
+        if narrowing is None:
+            bounds = self.plan.partner_bounds[sid]
+            if not bounds:
+                return first_start, last_start
+            # partner_narrowed only takes maxima and minima: narrowing the unbounded window
+            # once and clipping gives the same window
+            narrowing = self.narrowing[sid] = self.partner_narrowed(bounds, -_UNBOUNDED, _UNBOUNDED)
+        low, high = narrowing
+        return (low if low > first_start else first_start), (high if high < last_start else last_start)
+
+    def partners_moved(self, sid: str) -> None:
+        """The occurrences of ``sid`` changed: forget the narrowing of the signals it bounds."""
+        narrowing = self.narrowing
+        if narrowing:
+            for name in self.plan.partners_of.get(sid, ()):
+                narrowing.pop(name, None)
 
     def partner_narrowed(self, bounds: PartnerBounds, low: int, high: int) -> tuple[int, int]:
         """[low, high] narrowed by the necessary start bounds ``bounds`` of a signal's
