@@ -95,7 +95,9 @@ def test_generated_runs_fly_and_the_profiles_survive_a_file(run_library: MotionL
         root = motion.positions()[:, model.template.root_joint]
         real.append(float(np.linalg.norm(root[-1, [0, 2]] - root[0, [0, 2]]) / motion.duration))
     flying, pinned = speed(model), speed(replace(model, carried={}))
-    assert flying > 1.2 * pinned
+    # flight carries the hips further than stance-pinning alone (1.17x since pinned hips no
+    # longer step back at stance changes: base/contacts.root_track forward=True)
+    assert flying > 1.1 * pinned
     assert 0.7 * min(real) < flying < 1.3 * max(real)
     path = tmp_path / "run.npz"
     save_model(path, model)

@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from mse.extras import require
 from mse.limits import MAX_MOTION_SECONDS, MAX_STEPS
 from mse.motion.base.bvh import Motion
 from mse.motion.base.contacts import root_track
@@ -277,9 +278,10 @@ def forward_only(target: FloatArray, hips: FloatArray, path: FloatArray | None =
     edges: a dash's first frame 1.0 cm) and in the last step's close at 2x and 3x length
     (walk-right tired: 8 frames, 2.6 cm). Where the progress is flattened the stance foot
     slides by what the hips would have gone back."""
-    from scipy.optimize import isotonic_regression
-
     from mse.motion.base.heading import in_heading_frame
+
+    with require("motion"):
+        from scipy.optimize import isotonic_regression
 
     if len(target) < 3:
         return target
