@@ -75,6 +75,9 @@ class Attempt(Obligations):
         if low > high:
             return False
         rng = self.rng
+        # What a placement of an optional candidate (one nothing owes) is weighed against:
+        # the owed signals before it (prior_pays).
+        owed, saved = (None, None) if sid in self.latest or sid in self.require else (self.latest, self._saved(signal))
         start = low + int(rng.random() * (high - low + 1))
         # draw_stop(signal, start), inlined (the same draw): once per candidate
         first, last = start + signal.shortest, start + signal.longest
@@ -111,7 +114,10 @@ class Attempt(Obligations):
                     return False
                 stop, window = found, None
         if self.commit(signal, start, stop):
-            return True
+            if owed is None or saved is None or self.latest.keys() <= owed.keys() or self.prior_pays(signal, owed):
+                return True
+            self.take_back(signal, saved)
+            return False
         if window is None:  # the state is as it was before commit(): the same window
             window = feasible(stop_allowed, first, last, points)
         # Placing it would leave a debt that nothing can pay any more (one-step lookahead):
@@ -125,6 +131,58 @@ class Attempt(Obligations):
         if len(others) > 1 and not self.open_stop_may_pay(signal, start, min(others), max(others)):
             return False
         return any(self.commit(signal, start, y) for y in others)
+
+    def prior_pays(self, signal: SignalPlan, before: dict[str, int]) -> bool:
+        """Whether to keep the placement of an optional candidate that made new signals owed
+        (``before``: the owed signals and deadlines before it): with the probability that the
+        prior alone starts one of them where it pays (its allowed starts up to its deadline).
+
+        Without this weight, every such placement was kept and its debt paid by the owed
+        signals' forced candidacies and exact inference (obligations.py): a signal whose
+        constraint needs a partner at a precise time (``includes(frown, lean_forward)`` with
+        no frown running: a frown starting at the same millisecond) occurred at its own prior
+        rate, where the target (the prior conditioned on consistency) makes it rare, and its
+        partner came with it: the walk was busier than the target (docs/sampler.md, "Debts
+        weighed by the prior")."""
+        plan, duration = self.plan, self.plan.duration
+        low = max(self.frontier, self.stamp_low)
+        missed = 1.0
+        for name, deadline in self.latest.items():
+            if name in before or name == signal.id:
+                continue
+            payer = plan.by_id[name]
+            a, b = payer.probability_start, payer.probability_end
+
+            def mass(x0: int, x1: int, a: float = a, b: float = b) -> float:
+                """Integral of p(u) du over ticks [x0, x1)."""
+                u0, u1 = x0 / duration, x1 / duration
+                return a * (u1 - u0) + (b - a) * (u1 * u1 - u0 * u0) / 2
+
+            starts = self.feasible_starts(payer, low, deadline) if low <= deadline else []
+            if payer.limit > 1:
+                # starts with probability p(u) per free second: intensity -ln(1 - p) per second
+                seconds = duration / 1000
+                hazard = sum(
+                    -math.log1p(-min(0.999999, mass(lo, hi + 1) / max(1e-12, (hi + 1 - lo) / duration)))
+                    * (hi + 1 - lo) / duration * seconds
+                    for lo, hi in starts
+                )
+                pays = 1.0 - math.exp(-hazard)
+            else:
+                total = mass(0, duration - payer.shortest + 1)
+                occurs = min(1.0, (a + b) / 2)
+                if total <= 0:
+                    pays = 0.0
+                else:
+                    left = 1.0 - occurs * mass(0, low) / total
+                    pays = occurs * sum(mass(lo, hi + 1) for lo, hi in starts) / total / max(1e-12, left)
+            missed *= 1.0 - min(1.0, max(0.0, pays))
+        return self.rng.random() >= missed
+
+    def take_back(self, signal: SignalPlan, saved: _Saved) -> None:
+        """Undo the placement :meth:`commit` just made (``saved``: :meth:`_saved` before it)."""
+        self._undo(signal, saved)
+        self.memo, self.checked = {}, None
 
     # -- placing and taking back -----------------------------------------------------------------
     def commit(self, signal: SignalPlan, start: int, stop: int) -> bool:
