@@ -68,11 +68,16 @@ def every_set(directory: Path) -> dict[str, ir.Model]:
     return found
 
 
-def sampled(model: ir.Model, solver: str, duration: float, seeds: Sequence[int]) -> tuple[list[Schedule], int]:
-    """Timelines of ``solver`` for ``seeds`` (each re-checked), and how many found none."""
+def sampled(model: ir.Model, solver: str, duration: float, seeds: Sequence[int],
+            budget: float | None = None) -> tuple[list[Schedule], int]:
+    """Timelines of ``solver`` for ``seeds`` (each re-checked), and how many found none; with
+    ``budget``, the seeds in order until that many seconds have passed (at least one)."""
     backend = get_solver(solver)
     schedules, failed = [], 0
+    began = time.monotonic()
     for seed in seeds:
+        if budget is not None and seed != seeds[0] and time.monotonic() - began > budget:
+            break
         try:
             result = backend.solve(model, SolveRequest(duration=duration, seed=seed))
         except NoSolution:
@@ -114,7 +119,8 @@ class Row:
 
 
 def measure(name: str, model: ir.Model, durations: Sequence[float], counts: dict[float, int], draws: int,
-            wanted: int, seconds: float, minimum: int, solvers: Sequence[str]) -> list[Row]:
+            wanted: int, seconds: float, minimum: int, solvers: Sequence[str],
+            budget: float | None = None) -> list[Row]:
     rows: list[Row] = []
     fallback: tuple[float, Statistics] | None = None
     for duration in durations:
@@ -132,8 +138,8 @@ def measure(name: str, model: ir.Model, durations: Sequence[float], counts: dict
         found: dict[str, Statistics] = {}
         for solver in solvers:
             began = time.monotonic()
-            schedules, failed = sampled(model, solver, duration, range(counts[duration]))
-            took[solver] = (time.monotonic() - began) / max(1, counts[duration])
+            schedules, failed = sampled(model, solver, duration, range(counts[duration]), budget)
+            took[solver] = (time.monotonic() - began) / max(1, len(schedules) + failed)
             found[solver] = statistics(model, schedules, duration)
             if failed:
                 print(f"   {name} {duration:g} s {solver}: {failed} seeds without a timeline")
@@ -146,13 +152,14 @@ def _fmt(value: float | None) -> str:
 
 
 def summary_table(rows: Sequence[Row], models: dict[str, ir.Model], solvers: Sequence[str]) -> list[str]:
-    head = ["set", "s", "reference (acceptance)", "once-only / timeline: ref"]
+    head = ["set", "s", "reference (acceptance)", "timelines " + "/".join(solvers), "once-only / timeline: ref"]
     head += [f"{s}" for s in solvers]
     head += [f"max rate error {s}" for s in solvers]
     lines = ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
     for row in rows:
         model = models[row.name]
         cells = [row.name, f"{row.duration:g}", f"{row.how} ({row.acceptance:.1%})",
+                 "/".join(str(row.solvers[s].count) for s in solvers),
                  _fmt(row.reference.once_per_timeline if row.reference else None)]
         for solver in solvers:
             got = row.solvers[solver].once_per_timeline
@@ -200,6 +207,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser.add_argument("--wanted", type=int, default=2000, help="consistent draws wanted")
     parser.add_argument("--seconds", type=float, default=60.0, help="wall time of rejection per set and duration")
     parser.add_argument("--min-accepted", type=int, default=200)
+    parser.add_argument("--budget", type=float, default=None,
+                        help="seconds per set, duration and sampler: fewer timelines past it (the table says how many)")
     parser.add_argument("--markdown", type=Path, default=None, help="also write the tables to this file")
     args = parser.parse_args(argv)
     counts = {d: (args.count if d <= 60 else args.long_count) for d in args.durations}
@@ -214,14 +223,16 @@ def main(argv: Sequence[str] | None = None) -> int:
               f"(the prior's once-only rates do not depend on the duration; the conditioning may: an "
               f"approximation), or `none`.  Timelines per sampler: "
               + ", ".join(f"{counts[d]} at {d:g} s" for d in args.durations)
-              + f" (seeds 0..N-1).  Rate: once-only signals, fraction of timelines; repetitive, occurrences "
+              + (f" (seeds 0..N-1, fewer past {args.budget:g} s per set, duration and sampler)" if args.budget
+                 else " (seeds 0..N-1)")
+              + ".  Rate: once-only signals, fraction of timelines; repetitive, occurrences "
               f"per 10 s.  ✗: off target (once-only signals per timeline within {ONCE_TOLERANCE}, every rate "
               f"within {RATE_TOLERANCE}).  Load average {load:.1f}.")
     print(header, flush=True)
     rows: list[Row] = []
     for name, model in models.items():
         found = measure(name, model, args.durations, counts, args.draws, args.wanted, args.seconds,
-                        args.min_accepted, args.solvers)
+                        args.min_accepted, args.solvers, args.budget)
         for line in summary_table(found, models, args.solvers)[2:]:
             print(line, flush=True)
         rows.extend(found)
