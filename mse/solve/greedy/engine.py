@@ -37,6 +37,33 @@ _Saved = tuple[
 ]
 
 
+def _mass(payer: SignalPlan, x0: int, x1: int, duration: int) -> float:
+    """Integral of the profile p(u) du over the ticks [x0, x1)."""
+    a, b = payer.probability_start, payer.probability_end
+    u0, u1 = x0 / duration, x1 / duration
+    return a * (u1 - u0) + (b - a) * (u1 * u1 - u0 * u0) / 2
+
+
+def _pays(payer: SignalPlan, starts: Intervals, low: int, duration: int) -> float:
+    """Probability that the prior alone starts ``payer`` in ``starts`` (intervals of ticks,
+    inclusive), given that it is free from ``low`` (a once-only one: not started before)."""
+    if payer.limit > 1:
+        # a start within a free second with probability p: intensity -ln(1 - p) per second
+        hazard = 0.0
+        for lo, hi in starts:
+            span = (hi + 1 - lo) / duration
+            mean = _mass(payer, lo, hi + 1, duration) / span
+            hazard -= math.log1p(-min(0.999999, mean)) * span * duration / 1000
+        return 1.0 - math.exp(-hazard)
+    total = _mass(payer, 0, duration - payer.shortest + 1, duration)
+    if total <= 0:
+        return 0.0
+    occurs = min(1.0, (payer.probability_start + payer.probability_end) / 2)
+    left = 1.0 - occurs * _mass(payer, 0, low, duration) / total
+    pays = occurs * sum(_mass(payer, lo, hi + 1, duration) for lo, hi in starts) / total / max(1e-12, left)
+    return min(1.0, max(0.0, pays))
+
+
 class Attempt(Obligations):
     """One walk's state and its moves: trying, placing and taking back occurrences."""
 
@@ -146,38 +173,23 @@ class Attempt(Obligations):
         weighed by the prior")."""
         plan, duration = self.plan, self.plan.duration
         low = max(self.frontier, self.stamp_low)
+        payers = [(plan.by_id[name], deadline) for name, deadline in self.latest.items()
+                  if name not in before and name != signal.id]
+        if not payers:
+            return True  # only the placed signal itself owes another occurrence of it
+        draw = self.rng.random()  # kept iff draw >= the probability that none pays
+        # First with every start up to each deadline allowed (no probing): an upper bound of
+        # each payment, so a lower bound of "none pays"; usually enough to reject at once.
+        bound = 1.0
+        for payer, deadline in payers:
+            bound *= 1.0 - _pays(payer, [(low, deadline)] if low <= deadline else [], low, duration)
+        if draw < bound:
+            return False
         missed = 1.0
-        for name, deadline in self.latest.items():
-            if name in before or name == signal.id:
-                continue
-            payer = plan.by_id[name]
-            a, b = payer.probability_start, payer.probability_end
-
-            def mass(x0: int, x1: int, a: float = a, b: float = b) -> float:
-                """Integral of p(u) du over ticks [x0, x1)."""
-                u0, u1 = x0 / duration, x1 / duration
-                return a * (u1 - u0) + (b - a) * (u1 * u1 - u0 * u0) / 2
-
+        for payer, deadline in payers:
             starts = self.feasible_starts(payer, low, deadline) if low <= deadline else []
-            if payer.limit > 1:
-                # starts with probability p(u) per free second: intensity -ln(1 - p) per second
-                seconds = duration / 1000
-                hazard = sum(
-                    -math.log1p(-min(0.999999, mass(lo, hi + 1) / max(1e-12, (hi + 1 - lo) / duration)))
-                    * (hi + 1 - lo) / duration * seconds
-                    for lo, hi in starts
-                )
-                pays = 1.0 - math.exp(-hazard)
-            else:
-                total = mass(0, duration - payer.shortest + 1)
-                occurs = min(1.0, (a + b) / 2)
-                if total <= 0:
-                    pays = 0.0
-                else:
-                    left = 1.0 - occurs * mass(0, low) / total
-                    pays = occurs * sum(mass(lo, hi + 1) for lo, hi in starts) / total / max(1e-12, left)
-            missed *= 1.0 - min(1.0, max(0.0, pays))
-        return self.rng.random() >= missed
+            missed *= 1.0 - _pays(payer, starts, low, duration)
+        return draw >= missed
 
     def take_back(self, signal: SignalPlan, saved: _Saved) -> None:
         """Undo the placement :meth:`commit` just made (``saved``: :meth:`_saved` before it)."""
