@@ -231,7 +231,9 @@ def test_seeds_determine_output() -> None:
 def test_timelines_use_the_whole_span() -> None:
     model = bundled("embarrassment")
     schedules = solve(model, duration=10, seed=2, count=100)
-    assert sum(len(s.occurrences) for s in schedules) / 100 >= 4
+    # the target (the prior conditioned on consistency, bench/evaluation/reference.py) has
+    # 3.44 occurrences per timeline
+    assert sum(len(s.occurrences) for s in schedules) / 100 >= 3
     assert sum(max(o.start for o in s.occurrences) >= 5000 for s in schedules) / 100 > 0.8
 
 

@@ -468,7 +468,8 @@ def bench_infeasible(compare: Compare, count: int, seed: int, time_limit: float,
 
 # -- --fidelity -------------------------------------------------------------------------------------
 def bench_fidelity(count: int, cp_count: int, duration: float, draws: int, names: Sequence[str] | None) -> None:
-    from bench.evaluation.sampler_fidelity import marginals, target
+    from bench.evaluation.reference import prior_statistics, sample_reference
+    from bench.evaluation.reference import statistics as signal_statistics
 
     sets = all_sets()
     if names:
@@ -476,11 +477,16 @@ def bench_fidelity(count: int, cp_count: int, duration: float, draws: int, names
     print(f"== probability fidelity at {duration:g} s: target = prior (mse/ir/profile.py) conditioned on "
           f"consistency, by rejection from {draws} prior draws when >= 200 are consistent, else the prior's own "
           f"prediction; walk: {count} timelines; CP-SAT (on this tree): {cp_count} timelines; {load_line()}")
-    print("rate: once-only signals, fraction of timelines; repetitive (*): occurrences per timeline.  start: mean, s.")
+    print("rate: once-only signals, fraction of timelines; repetitive (*): occurrences per 10 s.  start: mean, s.")
     worst: dict[str, list[float]] = {"walk rate": [], "cpsat rate": [], "walk start": [], "cpsat start": []}
     agreement: list[float] = []
     for name, model in sets.items():
-        wanted, how, acceptance = target(model, duration, draws, 1, 200)
+        reference = sample_reference(model, duration, wanted=draws, seed=1, max_draws=draws)
+        acceptance = reference.acceptance
+        if len(reference.accepted) >= 200:
+            wanted, how = signal_statistics(model, reference.accepted, duration), "rejection"
+        else:
+            wanted, how = prior_statistics(model, duration), "prior"
         sampled = {}
         for solver_name, number in (("greedy", count), ("cpsat", cp_count)):
             solver = get_solver(solver_name)
@@ -488,7 +494,7 @@ def bench_fidelity(count: int, cp_count: int, duration: float, draws: int, names
             for seed in range(number):
                 with contextlib.suppress(NoSolution):
                     schedules.extend(solver.solve(model, SolveRequest(duration=duration, seed=seed)).schedules)
-            sampled[solver_name] = marginals(model, schedules)
+            sampled[solver_name] = signal_statistics(model, schedules, duration)
         print(f"-- {name}: target by {how} (acceptance {acceptance:.1%})")
         print(f"   {'signal':24s} {'target':>7s} {'walk':>6s} {'cpsat':>6s}   {'start':>6s} {'walk':>6s} {'cpsat':>6s}")
         for signal in model.signals:

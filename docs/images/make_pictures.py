@@ -18,7 +18,7 @@ import tempfile
 from pathlib import Path
 
 SEED = "224"
-AT = "6.6"
+AT = "8.05"
 IMAGES = Path(__file__).resolve().parent
 
 

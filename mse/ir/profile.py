@@ -15,8 +15,9 @@ expression to ``probability_end`` at its end, over the expression's *relative ti
   mostly early; ``0``/``0`` never.  Neither the timeline's duration nor the time step changes
   any of this.
 * **A repetitive signal** starts, at each moment it is free (not running, and below
-  ``max_occurrences``), at the rate of ``p(u)`` starts per second: the probability that it
-  starts within a free second around ``t``.  A long timeline is as dense as a short one.
+  ``max_occurrences``), with probability ``p(u)`` within the next free second: a rate of
+  ``-ln(1 - p(u))`` starts per second (:func:`start_rate`).  A long timeline is as dense as
+  a short one.
 * **Durations** are drawn from the triangular distribution on ``[min_duration, max]`` with the
   mode at the midpoint; ``max`` is ``max_duration`` capped by the end of the timeline (an
   unbounded ``max_duration`` reaches the end).
@@ -31,8 +32,13 @@ approximates it too; ``bench/speed/sample.py`` measures both against it.  The co
 
 from __future__ import annotations
 
+import math
+
 from mse.ir.model import Signal
 
+#: A free second's start probability above which the rate is capped (p = 1: about 14 starts
+#: per free second, the signal restarts as soon as it is free).
+MAX_PROBABILITY = 1.0 - 1e-6
 #: Length (seconds) of the "free second" in which a repetitive signal starts with probability p(u).
 RATE_UNIT = 1.0
 
@@ -65,8 +71,9 @@ def mean_relative_start(signal: Signal) -> float:
 
 
 def start_rate(signal: Signal, u: float) -> float:
-    """Starts per second of a free repetitive signal at relative time ``u``."""
-    return profile_at(signal, u) / RATE_UNIT
+    """Starts per second of a free repetitive signal at relative time ``u``: the rate at which
+    a free second holds a start with probability ``p(u)`` (``p = 1``: a start at once, capped)."""
+    return -math.log1p(-min(profile_at(signal, u), MAX_PROBABILITY)) / RATE_UNIT
 
 
 def never_occurs(signal: Signal) -> bool:

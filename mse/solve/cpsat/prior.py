@@ -137,13 +137,17 @@ class _OnceProfile:
         return rng.randrange(lo, top)
 
 
-def _pick(log_probabilities: list[float], rng: random.Random, mode: str) -> int:
-    """Index drawn in proportion to exp(log p) (``likely``: the largest; ``random``: uniform)."""
+def _pick(probabilities: list[float], rng: random.Random, mode: str) -> int:
+    """Index drawn in proportion to ``probabilities`` (``likely``: the largest; ``random``:
+    uniform).  The probabilities themselves, not their logarithms floored at IMPOSSIBLE: at
+    3,600 s a once-only signal starts in a given 0.5 s bin with probability p / 7,200, below
+    that floor, and weighing such bins as impossible left no bin to draw (Greta's panic_fear:
+    no once-only signal at all in an hour)."""
     if mode == "likely":
-        return max(range(len(log_probabilities)), key=lambda i: log_probabilities[i])
+        return max(range(len(probabilities)), key=lambda i: probabilities[i])
     if mode == "random":
-        return rng.randrange(len(log_probabilities))
-    weights = [math.exp(v) if v > IMPOSSIBLE else 0.0 for v in log_probabilities]
+        return rng.randrange(len(probabilities))
+    weights = [max(0.0, v) for v in probabilities]
     total = sum(weights)
     if total <= 0:
         return 0
@@ -169,7 +173,7 @@ def once_prior(signal: ir.Signal, duration: int, begin: int, end: int, rng: rand
     absent = max(0.0, 1.0 - sum(bin_probabilities) - (later or 0.0))
     log_bins = [_log(x) for x in bin_probabilities]
     log_later = None if later is None else _log(later)
-    options = [_log(absent), *log_bins] + ([] if log_later is None else [log_later])
+    options = [absent, *bin_probabilities] + ([] if later is None else [later])
     picked = ABSENT if never else _pick(options, rng, mode) - 1
     targets = tuple(profile.sample(lo, hi, rng, mode=mode) for lo, hi in bins)
     start = targets[picked] if 0 <= picked < len(bins) else targets[0]
@@ -195,12 +199,13 @@ def _mean_length(signal: ir.Signal, duration: int) -> float:
 def renewal_starts(signal: ir.Signal, duration: int, free_from: int, end: int, room: int | None,
                    rng: random.Random, *, mode: str = "sample") -> list[tuple[int, int]]:
     """Occurrences (start, stop) of the profile's renewal process starting in [free_from, end):
-    while free, starts at p(u) per second."""
+    while free, starts at :func:`~mse.ir.profile.start_rate` per second (a start within a free
+    second with probability p(u))."""
     low, _ = length_bounds(signal, duration)
     last = duration - low
-    peak = max(signal.probability_start, signal.probability_end)
+    peak = max(start_rate(signal, 0.0), start_rate(signal, 1.0))
     found: list[tuple[int, int]] = []
-    if peak <= 0 or (mode == "likely" and peak < 0.5):
+    if peak <= 0 or (mode == "likely" and max(signal.probability_start, signal.probability_end) < 0.5):
         return found
     t = float(free_from)
     while room is None or len(found) < room:

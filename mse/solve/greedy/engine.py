@@ -37,6 +37,33 @@ _Saved = tuple[
 ]
 
 
+def _mass(payer: SignalPlan, x0: int, x1: int, duration: int) -> float:
+    """Integral of the profile p(u) du over the ticks [x0, x1)."""
+    a, b = payer.probability_start, payer.probability_end
+    u0, u1 = x0 / duration, x1 / duration
+    return a * (u1 - u0) + (b - a) * (u1 * u1 - u0 * u0) / 2
+
+
+def _pays(payer: SignalPlan, starts: Intervals, low: int, duration: int) -> float:
+    """Probability that the prior alone starts ``payer`` in ``starts`` (intervals of ticks,
+    inclusive), given that it is free from ``low`` (a once-only one: not started before)."""
+    if payer.limit > 1:
+        # a start within a free second with probability p: intensity -ln(1 - p) per second
+        hazard = 0.0
+        for lo, hi in starts:
+            span = (hi + 1 - lo) / duration
+            mean = _mass(payer, lo, hi + 1, duration) / span
+            hazard -= math.log1p(-min(0.999999, mean)) * span * duration / 1000
+        return 1.0 - math.exp(-hazard)
+    total = _mass(payer, 0, duration - payer.shortest + 1, duration)
+    if total <= 0:
+        return 0.0
+    occurs = min(1.0, (payer.probability_start + payer.probability_end) / 2)
+    left = 1.0 - occurs * _mass(payer, 0, low, duration) / total
+    pays = occurs * sum(_mass(payer, lo, hi + 1, duration) for lo, hi in starts) / total / max(1e-12, left)
+    return min(1.0, max(0.0, pays))
+
+
 class Attempt(Obligations):
     """One walk's state and its moves: trying, placing and taking back occurrences."""
 
@@ -75,6 +102,9 @@ class Attempt(Obligations):
         if low > high:
             return False
         rng = self.rng
+        # What a placement of an optional candidate (one nothing owes) is weighed against:
+        # the owed signals before it (prior_pays).
+        owed, saved = (None, None) if sid in self.latest or sid in self.require else (self.latest, self._saved(signal))
         start = low + int(rng.random() * (high - low + 1))
         # draw_stop(signal, start), inlined (the same draw): once per candidate
         first, last = start + signal.shortest, start + signal.longest
@@ -111,7 +141,10 @@ class Attempt(Obligations):
                     return False
                 stop, window = found, None
         if self.commit(signal, start, stop):
-            return True
+            if owed is None or saved is None or self.latest.keys() <= owed.keys() or self.prior_pays(signal, owed):
+                return True
+            self.take_back(signal, saved)
+            return False
         if window is None:  # the state is as it was before commit(): the same window
             window = feasible(stop_allowed, first, last, points)
         # Placing it would leave a debt that nothing can pay any more (one-step lookahead):
@@ -146,6 +179,43 @@ class Attempt(Obligations):
         window = feasible(lambda y: self.allows(signal, (start, start, y, y)), first, last,
                           self.critical(signal, "stop", start))
         return bool(window) and window[0][0] != stop and self.commit(signal, start, window[0][0])
+
+    def prior_pays(self, signal: SignalPlan, before: dict[str, int]) -> bool:
+        """Whether to keep the placement of an optional candidate that made new signals owed
+        (``before``: the owed signals and deadlines before it): with the probability that the
+        prior alone starts one of them where it pays (its allowed starts up to its deadline).
+
+        Without this weight, every such placement was kept and its debt paid by the owed
+        signals' forced candidacies and exact inference (obligations.py): a signal whose
+        constraint needs a partner at a precise time (``includes(frown, lean_forward)`` with
+        no frown running: a frown starting at the same millisecond) occurred at its own prior
+        rate, where the target (the prior conditioned on consistency) makes it rare, and its
+        partner came with it: the walk was busier than the target (docs/sampler.md, "Debts
+        weighed by the prior")."""
+        plan, duration = self.plan, self.plan.duration
+        low = max(self.frontier, self.stamp_low)
+        payers = [(plan.by_id[name], deadline) for name, deadline in self.latest.items()
+                  if name not in before and name != signal.id]
+        if not payers:
+            return True  # only the placed signal itself owes another occurrence of it
+        draw = self.rng.random()  # kept iff draw >= the probability that none pays
+        # First with every start up to each deadline allowed (no probing): an upper bound of
+        # each payment, so a lower bound of "none pays"; usually enough to reject at once.
+        bound = 1.0
+        for payer, deadline in payers:
+            bound *= 1.0 - _pays(payer, [(low, deadline)] if low <= deadline else [], low, duration)
+        if draw < bound:
+            return False
+        missed = 1.0
+        for payer, deadline in payers:
+            starts = self.feasible_starts(payer, low, deadline) if low <= deadline else []
+            missed *= 1.0 - _pays(payer, starts, low, duration)
+        return draw >= missed
+
+    def take_back(self, signal: SignalPlan, saved: _Saved) -> None:
+        """Undo the placement :meth:`commit` just made (``saved``: :meth:`_saved` before it)."""
+        self._undo(signal, saved)
+        self.memo, self.checked = {}, None
 
     # -- placing and taking back -----------------------------------------------------------------
     def commit(self, signal: SignalPlan, start: int, stop: int) -> bool:

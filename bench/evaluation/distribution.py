@@ -1,0 +1,253 @@
+"""Do the samplers draw the distribution the author wrote?  (issue 32)
+
+    python -m bench.evaluation.distribution                      # every set, 10 s, 60 s, 3,600 s
+    python -m bench.evaluation.distribution --sets panic_fear greta:panic_fear --durations 3600
+    python -m bench.evaluation.distribution --markdown bench/results/distribution.md
+
+For every bundled set and every Greta set (imported from ``$MSE_SHARED/greta`` with
+``mse import-greta`` into a temporary directory) and every duration, it samples timelines with
+the default sampler (``greedy``: the walk, CP-SAT when it gives up) and with CP-SAT, and
+compares them with the *reference*: the prior conditioned on consistency, by rejection
+(bench/evaluation/reference.py).  Per set and duration: the mean number of once-only signals
+per timeline, and per signal its rate (once-only: fraction of timelines; repetitive:
+occurrences per 10 s).  Targets: mean once-only signals within 0.2 of the reference, every
+rate within 0.1.  Every timeline is re-checked by the one evaluator (an inconsistent one is an
+error, not a statistic).
+
+Where rejection is impractical (fewer than ``--min-accepted`` consistent draws within the
+budget), the reference of that duration is replaced, and the table says which:
+
+* ``short``: the rates of once-only signals and the repetitive signals' rates per 10 s from the
+  reference at the longest shorter duration where rejection worked (the prior's once-only
+  rates do not depend on the duration, docs/semantics.md; the consistency conditioning may,
+  so this is an approximation, marked as such);
+* ``none``: no duration worked; the sampler columns are shown, no error is computed.
+"""
+
+from __future__ import annotations
+
+import argparse
+import contextlib
+import math
+import os
+import subprocess
+import sys
+import tempfile
+import time
+from collections.abc import Sequence
+from dataclasses import dataclass
+from pathlib import Path
+
+from bench.evaluation.reference import Statistics, sample_reference, statistics
+from mse.api import load
+from mse.ir import model as ir
+from mse.ir.evaluate import check_schedule
+from mse.ir.schedule import Schedule
+from mse.resources import bundled_names
+from mse.solve.protocol import NoSolution, SolveRequest, get_solver
+
+REPO = Path(__file__).resolve().parent.parent.parent
+ONCE_TOLERANCE = 0.2
+RATE_TOLERANCE = 0.1
+
+
+def greta_sets(directory: Path) -> dict[str, ir.Model]:
+    """Every Greta set, imported with ``mse import-greta`` into ``directory``."""
+    shared = Path(os.environ.get("MSE_SHARED", REPO.parent / "shared")) / "greta"
+    if not (shared / "lexicon.xml").exists():
+        print(f"(Greta's data not found under {shared}: Greta sets skipped)")
+        return {}
+    subprocess.run([sys.executable, "-m", "mse", "import-greta", str(shared / "lexicon.xml"),
+                    str(shared / "constraint.xml"), "-o", str(directory)], check=True, capture_output=True)
+    return {f"greta:{path.stem}": load(str(path)) for path in sorted(directory.glob("*.xml"))}
+
+
+def every_set(directory: Path) -> dict[str, ir.Model]:
+    found = {name: load(name) for name in bundled_names()}
+    found.update(greta_sets(directory))
+    return found
+
+
+def sampled(model: ir.Model, solver: str, duration: float, seeds: Sequence[int],
+            budget: float | None = None) -> tuple[list[Schedule], int]:
+    """Timelines of ``solver`` for ``seeds`` (each re-checked), and how many found none; with
+    ``budget``, the seeds in order until that many seconds have passed (at least one)."""
+    backend = get_solver(solver)
+    schedules, failed = [], 0
+    began = time.monotonic()
+    for seed in seeds:
+        if budget is not None and seed != seeds[0] and time.monotonic() - began > budget:
+            break
+        try:
+            result = backend.solve(model, SolveRequest(duration=duration, seed=seed))
+        except NoSolution:
+            failed += 1
+            continue
+        for schedule in result.schedules:
+            problems = check_schedule(model, schedule)
+            if problems:
+                raise RuntimeError(f"{model.name} {solver} seed {seed}: inconsistent timeline: {problems[0].message}")
+            schedules.append(schedule)
+    return schedules, failed
+
+
+@dataclass
+class Row:
+    name: str
+    duration: float
+    how: str  # "rejection", "short (60 s)", "none"
+    acceptance: float
+    reference: Statistics | None
+    solvers: dict[str, Statistics]
+    seconds: dict[str, float]
+
+    def errors(self, solver: str, model: ir.Model) -> tuple[float, float, str] | None:
+        """|mean once-only signals - reference|, max |rate - reference| and its signal."""
+        if self.reference is None:
+            return None
+        mine = self.solvers[solver]
+        once = abs(mine.once_per_timeline - self.reference.once_per_timeline)
+        worst, which = 0.0, "-"
+        for signal in model.signals:
+            wanted = self.reference.rate[signal.id]
+            if math.isnan(wanted):
+                continue
+            error = abs(mine.rate[signal.id] - wanted)
+            if error > worst:
+                worst, which = error, signal.id
+        return once, worst, which
+
+
+def measure(name: str, model: ir.Model, durations: Sequence[float], counts: dict[float, int], draws: int,
+            wanted: int, seconds: float, minimum: int, solvers: Sequence[str],
+            budget: float | None = None) -> list[Row]:
+    rows: list[Row] = []
+    fallback: tuple[float, Statistics] | None = None
+    for duration in durations:
+        began = time.monotonic()
+        reference = sample_reference(model, duration, wanted=wanted, seed=1, max_draws=draws, max_seconds=seconds)
+        took = {"reference": time.monotonic() - began}
+        if len(reference.accepted) >= minimum:
+            wanted_stats: Statistics | None = statistics(model, reference.accepted, duration)
+            how = "rejection"
+            fallback = (duration, wanted_stats)  # type: ignore[assignment]
+        elif fallback is not None:
+            wanted_stats, how = fallback[1], f"short ({fallback[0]:g} s)"
+        else:
+            wanted_stats, how = None, "none"
+        found: dict[str, Statistics] = {}
+        for solver in solvers:
+            began = time.monotonic()
+            schedules, failed = sampled(model, solver, duration, range(counts[duration]), budget)
+            took[solver] = (time.monotonic() - began) / max(1, len(schedules) + failed)
+            found[solver] = statistics(model, schedules, duration)
+            if failed:
+                print(f"   {name} {duration:g} s {solver}: {failed} seeds without a timeline")
+        rows.append(Row(name, duration, how, reference.acceptance, wanted_stats, found, took))
+    return rows
+
+
+def _fmt(value: float | None) -> str:
+    return "-" if value is None or value != value else f"{value:.2f}"
+
+
+def summary_table(rows: Sequence[Row], models: dict[str, ir.Model], solvers: Sequence[str]) -> list[str]:
+    head = ["set", "s", "reference (acceptance)", "timelines " + "/".join(solvers), "once-only / timeline: ref"]
+    head += [f"{s}" for s in solvers]
+    head += [f"max rate error {s}" for s in solvers]
+    lines = ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
+    for row in rows:
+        model = models[row.name]
+        cells = [row.name, f"{row.duration:g}", f"{row.how} ({row.acceptance:.1%})",
+                 "/".join(str(row.solvers[s].count) for s in solvers),
+                 _fmt(row.reference.once_per_timeline if row.reference else None)]
+        for solver in solvers:
+            got = row.solvers[solver].once_per_timeline
+            errors = row.errors(solver, model)
+            mark = "" if errors is None or errors[0] <= ONCE_TOLERANCE else " ✗"
+            cells.append(f"{got:.2f}{mark}")
+        for solver in solvers:
+            errors = row.errors(solver, model)
+            if errors is None:
+                cells.append("-")
+            else:
+                mark = "" if errors[1] <= RATE_TOLERANCE else " ✗"
+                cells.append(f"{errors[1]:.2f} ({errors[2]}){mark}")
+        lines.append("| " + " | ".join(cells) + " |")
+    return lines
+
+
+def signal_table(rows: Sequence[Row], models: dict[str, ir.Model], solvers: Sequence[str]) -> list[str]:
+    lines = []
+    for row in rows:
+        model = models[row.name]
+        lines.append(f"**{row.name}, {row.duration:g} s** (reference: {row.how}, acceptance "
+                     f"{row.acceptance:.1%}; timelines: " + ", ".join(
+                         f"{s} {row.solvers[s].count}" for s in solvers) + ")")
+        lines.append("")
+        lines.append("| signal | reference | " + " | ".join(solvers) + " |")
+        lines.append("|---|---|" + "---|" * len(solvers))
+        for signal in model.signals:
+            mark = " (per 10 s)" if signal.repetitive else ""
+            wanted = row.reference.rate[signal.id] if row.reference else None
+            lines.append(f"| {signal.id}{mark} | {_fmt(wanted)} | "
+                         + " | ".join(_fmt(row.solvers[s].rate[signal.id]) for s in solvers) + " |")
+        lines.append("")
+    return lines
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("--sets", nargs="*", default=None, help="these sets only (greta:NAME for Greta's)")
+    parser.add_argument("--durations", nargs="*", type=float, default=[10.0, 60.0, 3600.0])
+    parser.add_argument("--count", type=int, default=200, help="timelines per sampler at 10 s and 60 s")
+    parser.add_argument("--long-count", type=int, default=40, help="timelines per sampler past 60 s")
+    parser.add_argument("--solvers", nargs="*", default=["greedy", "cpsat"])
+    parser.add_argument("--draws", type=int, default=200_000, help="prior draws at most per set and duration")
+    parser.add_argument("--wanted", type=int, default=2000, help="consistent draws wanted")
+    parser.add_argument("--seconds", type=float, default=60.0, help="wall time of rejection per set and duration")
+    parser.add_argument("--min-accepted", type=int, default=200)
+    parser.add_argument("--budget", type=float, default=None,
+                        help="seconds per set, duration and sampler: fewer timelines past it (the table says how many)")
+    parser.add_argument("--markdown", type=Path, default=None, help="also write the tables to this file")
+    args = parser.parse_args(argv)
+    counts = {d: (args.count if d <= 60 else args.long_count) for d in args.durations}
+    with tempfile.TemporaryDirectory() as directory:
+        models = every_set(Path(directory))
+    if args.sets:
+        models = {k: v for k, v in models.items() if k in args.sets}
+    load = os.getloadavg()[0]
+    header = (f"Reference: the prior (mse/ir/profile.py) conditioned on consistency, by rejection from at most "
+              f"{args.draws} prior draws (or {args.seconds:g} s) until {args.wanted} are consistent, used when "
+              f">= {args.min_accepted} are; otherwise `short (D s)`: the reference at the shorter duration D "
+              f"(the prior's once-only rates do not depend on the duration; the conditioning may: an "
+              f"approximation), or `none`.  Timelines per sampler: "
+              + ", ".join(f"{counts[d]} at {d:g} s" for d in args.durations)
+              + (f" (seeds 0..N-1, fewer past {args.budget:g} s per set, duration and sampler)" if args.budget
+                 else " (seeds 0..N-1)")
+              + ".  Rate: once-only signals, fraction of timelines; repetitive, occurrences "
+              f"per 10 s.  ✗: off target (once-only signals per timeline within {ONCE_TOLERANCE}, every rate "
+              f"within {RATE_TOLERANCE}).  Load average {load:.1f}.")
+    print(header, flush=True)
+    rows: list[Row] = []
+    for name, model in models.items():
+        found = measure(name, model, args.durations, counts, args.draws, args.wanted, args.seconds,
+                        args.min_accepted, args.solvers, args.budget)
+        for line in summary_table(found, models, args.solvers)[2:]:
+            print(line, flush=True)
+        rows.extend(found)
+    summary = summary_table(rows, models, args.solvers)
+    details = signal_table(rows, models, args.solvers)
+    print("\n".join(["", *summary]))
+    if args.markdown is not None:
+        text = ["# Recorded results: the samplers' distribution against the reference (issue 32)", "",
+                "`python -m bench.evaluation.distribution` (bench/evaluation/distribution.py).", "", header, "",
+                *summary, "", "## Per signal", "", *details]
+        with contextlib.suppress(FileNotFoundError):
+            args.markdown.unlink()
+        args.markdown.write_text("\n".join(text) + "\n", encoding="utf-8")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
