@@ -18,7 +18,7 @@ import tempfile
 from pathlib import Path
 
 SEED = "224"
-AT = "8.05"
+AT = "8.4"
 IMAGES = Path(__file__).resolve().parent
 
 
