@@ -219,7 +219,10 @@ class Export:
             bid = node.get("id") if isinstance(node.tag, str) else None
             if bid is None or node.get("start") is None:
                 continue
-            signal = by_id.get(bid) or by_id[re.sub(r"_au\d+$", "", bid)]
+            signal = by_id.get(bid) or by_id.get(re.sub(r"_au\d+$", "", bid))
+            if signal is None and etree.QName(node).localname == "wait":
+                continue  # the placeholder of a block with nothing this realizer can play
+            assert signal is not None, f"{self.path.name}: {bid} plays no signal of the timeline"
             found[bid] = (etree.QName(node).localname, signal)
         return found
 
