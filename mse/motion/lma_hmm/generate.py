@@ -134,9 +134,9 @@ def _modulate(
     start_yaw = float(heading_track(library.motion(desired_clip))[0]) if turning else 0.0
     if style == desired_clip.style and original == style:
         shape = action_shape_of(library, action)
-        own = _own_style(desired_clip.id, desired, pose_of(library, desired_clip, turning), params, timings, shape)
+        as_is = _own_style(desired_clip.id, desired, pose_of(library, desired_clip, turning), params, timings, shape)
         rate = turn_rate(library.motion(desired_clip)) if turning else 0.0
-        return replace(own, turn_rate=rate, start_yaw=start_yaw)
+        return replace(as_is, turn_rate=rate, start_yaw=start_yaw)
     neighbours, components = find_neighbours(library, action, style, desired_clip, original, params, exclude, timings)
     # the neighbours turned to face the desired path's way (their room directions differ)
     facing = heading(desired)
@@ -403,7 +403,7 @@ def generate_motion(
     if modulated.turn_rate != 0.0:
         # turning locomotion was generated straight (its steps): its heading turns at the
         # clips' rate, from the desired path's first heading; so do the carried velocities
-        yaws = modulated.start_yaw + modulated.turn_rate * frame_time * np.arange(len(path))
+        yaws = modulated.start_yaw + modulated.turn_rate * frame_time * np.arange(len(path), dtype=np.float64)
         motion = turned_along(motion, yaws)
         if carried.shape[1] == CARRIED:
             carried[:, :2] = in_heading_frame(carried[:, :2], -yaws)
