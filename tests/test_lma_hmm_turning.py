@@ -68,3 +68,16 @@ def test_lma_hmm_turns_a_turning_walk_at_its_rate_and_pace(walks: MotionLibrary,
         assert 0.9 * low["steps_per_s"] <= generated["steps_per_s"] <= 1.1 * high["steps_per_s"], factor
         assert 0.9 * low["speed"] <= generated["speed"] <= 1.1 * high["speed"], factor
         assert generated["backward_max"] <= max(r["backward_max"] for r in real) + 0.01, factor  # cm
+
+
+def test_a_turning_path_keeps_its_turn_on_disk(walks: MotionLibrary, tmp_path: Path) -> None:
+    from mse.motion.base import cache
+
+    library = turning_library(walks, "walk", RATE)
+    cache.forget("modulated")
+    first = generate_motion(library, TURN_ACTION, "normal", duration=4.0, cache_dir=tmp_path)
+    cache.forget("modulated")
+    again = generate_motion(library, TURN_ACTION, "normal", duration=4.0, cache_dir=tmp_path)
+    assert again.cached and not first.cached
+    np.testing.assert_allclose(again.motion.values, first.motion.values, atol=1e-9)
+    assert turning_measures(again.motion)["turn_deg_per_s"] == pytest.approx(20.0, rel=0.15)
