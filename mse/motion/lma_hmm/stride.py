@@ -151,7 +151,7 @@ def restore_stride(
     means walked short: dataset 2 walks at 1x, active 125 cm/s (its takes 135-158),
     exhausted 91 (93-123), youthful 117 (125-141); the same walks bent along a 20 deg/s arc
     (bench/evaluation/turning.py) 134, 96, 123. Widened: 141, 110, 125 straight; jerk at most
-    0.8x its limit, fidelity 21 / 21 at 1x, 2x, 3x; Samadani fold 1 unchanged (41 of 42
+    0.8x its limit, fidelity 21 / 21 at 1x, 2x, 3x; Samadani folds 1, 2 unchanged (41 of 42
     recognised, fidelity 42 / 42)."""
     if which == "off" or not labels:
         return means
