@@ -28,46 +28,21 @@ import numpy as np
 from mse.motion.base.bodyparts import body_map
 from mse.motion.base.bvh import Motion
 from mse.motion.base.contacts import find_root_joint
-from mse.motion.base.heading import facing_yaws, heading_track, in_heading_frame
-from mse.motion.base.kinematics import forward_kinematics, matrix_to_euler
+from mse.motion.base.heading import facing_yaws, heading_track, in_heading_frame, turned_along
 from mse.motion.base.library import Clip, MotionLibrary, load_library
 
 TURN_ACTION = "turn"
-
-
-def _yaws(angles: np.ndarray) -> np.ndarray:
-    c, s = np.cos(angles), np.sin(angles)
-    out = np.zeros((angles.size, 3, 3))
-    out[:, 0, 0], out[:, 0, 2], out[:, 1, 1], out[:, 2, 0], out[:, 2, 2] = c, s, 1.0, -s, c
-    return out
 
 
 def curved(motion: Motion, rate: float) -> Motion:
     """``motion`` turning about the vertical as it goes, ``rate`` radians per second over the
     clip, each frame by the distance its root covers (a steady curve: a walker who stands at
     the start does not pivot in place)."""
-    skeleton = motion.skeleton
     root = find_root_joint(motion)
-    parent = skeleton.parents[root]
     covered = np.linalg.norm(np.diff(motion.positions()[:, root][:, [0, 2]], axis=0), axis=1)
     distance = np.concatenate([[0.0], np.cumsum(covered)])
     total = rate * (motion.frame_count - 1) * motion.frame_time
-    angles = total * distance / max(float(distance[-1]), 1e-9)
-    _, world = forward_kinematics(skeleton.parents, motion.translations()[:1], motion.local_rotations()[:1])
-    frame = world[0, parent] if parent >= 0 else np.eye(3)
-    local_turns = frame.T[None] @ _yaws(angles) @ frame[None]
-    values = motion.values.copy()
-    order = skeleton.rotation_order(root)
-    if len(order) == 3:
-        rotations = local_turns @ motion.local_rotations()[:, root]
-        values[:, list(skeleton.rotation_columns(root))] = matrix_to_euler(rotations, order)
-    columns = list(skeleton.position_columns(root))
-    if columns:
-        local = values[:, columns]
-        steps = np.diff(local, axis=0)
-        turned_steps = np.einsum("fij,fj->fi", local_turns[1:], steps)
-        values[:, columns] = np.vstack([local[:1], local[:1] + np.cumsum(turned_steps, axis=0)])
-    return motion.with_values(values)
+    return turned_along(motion, total * distance / max(float(distance[-1]), 1e-9))
 
 
 def turning_library(

@@ -78,3 +78,37 @@ def filmstrip(rows: Sequence[tuple[str, Motion]], path: str | Path, frames: int 
             draw.line([(0, top), (image.width, top)], fill=(220, 220, 220))
     Path(path).parent.mkdir(parents=True, exist_ok=True)
     image.save(path, optimize=True)
+
+
+#: colours of the rows' paths in :func:`top_view`
+PATH_COLOURS = ((38, 50, 56), (224, 122, 95), (61, 133, 198), (106, 168, 79), (153, 102, 204))
+
+
+def top_view(rows: Sequence[tuple[str, Motion]], path: str | Path, size: int = 420) -> None:
+    """Write a PNG of the hips' paths seen from above (X right, Z up), one colour per
+    (label, motion), all on one scale, each starting at the centre (a dot marks the start, a
+    tick every second): a turning walk's arc, and where it stops or goes back."""
+    from PIL import Image, ImageDraw
+
+    tracks = []
+    for _, motion in rows:
+        body = body_of(motion)
+        hips = 0.5 * (motion.positions()[:, body.body.left_hip] + motion.positions()[:, body.body.right_hip])
+        tracks.append(hips[:, [0, 2]] - hips[:1, [0, 2]])
+    reach = max(max(float(np.abs(t).max()) for t in tracks), 1e-6)
+    label_height = 16 * len(rows) + 8
+    image = Image.new("RGB", (size, size + label_height), "white")
+    draw = ImageDraw.Draw(image)
+    scale = (size / 2 - 2 * MARGIN) / reach
+    # the first rows drawn last, on top (a clip at twice the length covers its start)
+    for k, ((label, motion), track) in reversed(list(enumerate(zip(rows, tracks, strict=True)))):
+        colour = PATH_COLOURS[k % len(PATH_COLOURS)]
+        pixels = [(size / 2 + x * scale, size / 2 - z * scale) for x, z in track]
+        draw.line(pixels, fill=colour, width=2)
+        draw.ellipse([pixels[0][0] - 4, pixels[0][1] - 4, pixels[0][0] + 4, pixels[0][1] + 4], fill=colour)
+        every = max(1, round(1.0 / motion.frame_time))
+        for x, y in pixels[every::every]:
+            draw.ellipse([x - 1.5, y - 1.5, x + 1.5, y + 1.5], fill=colour)
+        draw.text((8, size + 4 + 16 * k), label, fill=colour)
+    Path(path).parent.mkdir(parents=True, exist_ok=True)
+    image.save(path, optimize=True)

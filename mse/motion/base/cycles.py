@@ -33,6 +33,7 @@ from mse.extras import require
 from mse.motion.base.bodyparts import body_map, limb_groups
 from mse.motion.base.bvh import Motion, Skeleton
 from mse.motion.base.contacts import find_root_joint
+from mse.motion.base.heading import heading_track, in_heading_frame
 from mse.motion.base.kinematics import FloatArray
 
 __all__ = [
@@ -146,12 +147,16 @@ def _side_axis(positions: FloatArray, left_hip: int, right_hip: int) -> FloatArr
 
 def step_period(motion: Motion, positions: FloatArray | None = None) -> float:
     """Seconds per cycle of two steps: twice the median interval between the alternating
-    extrema of the feet's separation along its main horizontal axis (0: fewer than two)."""
+    extrema of the feet's separation along its main horizontal axis, the separation taken in
+    the path's heading frame (:func:`mse.motion.base.heading.heading_track`): on a turning
+    path the separation turns with the walker, and along one fixed axis the strikes of the
+    steps across it were lost (0: fewer than two)."""
     body = body_map(motion.skeleton)
     positions = motion.positions() if positions is None else positions
     separation = positions[:, body.left_foot][:, [0, 2]] - positions[:, body.right_foot][:, [0, 2]]
     if len(separation) < 4:
         return 0.0
+    separation = in_heading_frame(separation, heading_track(motion, positions))
     centred = separation - separation.mean(axis=0)
     _, _, axes = np.linalg.svd(centred, full_matrices=False)
     strikes = step_boundaries(centred @ axes[0], max(2, round(0.15 / motion.frame_time)))

@@ -131,3 +131,46 @@ def turning_rate(motions: list[Motion]) -> float:
         return 0.0
     rate = float(np.median([turn_rate(m) for m in motions]))
     return rate if abs(np.degrees(rate)) >= TURN_DEG_PER_S else 0.0
+
+
+def _yaws(angles: FloatArray) -> FloatArray:
+    """(T, 3, 3) rotations about +Y by ``angles`` (the convention of :func:`_yaw`)."""
+    c, s = np.cos(angles), np.sin(angles)
+    out = np.zeros((angles.size, 3, 3))
+    out[:, 0, 0], out[:, 0, 2], out[:, 1, 1], out[:, 2, 0], out[:, 2, 2] = c, s, 1.0, -s, c
+    return out
+
+
+def turned_along(motion: Motion, angles: FloatArray) -> Motion:
+    """``motion`` with frame t turned by ``angles[t]`` radians about the vertical: the root's
+    rotation, and each horizontal step of its position by the turn of the frame it ends in
+    (a path that bends as the angle changes; the first frame stays where it is)."""
+    angles = np.asarray(angles, dtype=np.float64)
+    if motion.frame_count == 0 or not np.any(angles):
+        return motion
+    skeleton = motion.skeleton
+    root = find_root_joint(motion)
+    parent = skeleton.parents[root]
+    _, world = forward_kinematics(skeleton.parents, motion.translations()[:1], motion.local_rotations()[:1])
+    # the root's parent (Bandai's joint_Root) is static: turn in its frame
+    frame = world[0, parent] if parent >= 0 else np.eye(3)
+    local_turns = frame.T[None] @ _yaws(angles) @ frame[None]
+    values = motion.values.copy()
+    order = skeleton.rotation_order(root)
+    if len(order) == 3:
+        rotations = local_turns @ motion.local_rotations()[:, root]
+        values[:, list(skeleton.rotation_columns(root))] = matrix_to_euler(rotations, order)
+    columns = list(skeleton.position_columns(root))
+    if columns:
+        local = values[:, columns]
+        steps = np.diff(local, axis=0)
+        turned_steps = np.einsum("fij,fj->fi", local_turns[1:], steps)
+        values[:, columns] = np.vstack([local[:1], local[:1] + np.cumsum(turned_steps, axis=0)])
+    return motion.with_values(values)
+
+
+def straightened(motion: Motion) -> Motion:
+    """``motion`` turned back frame by frame by its path's heading (:func:`heading_track`):
+    a turning walk becomes a straight walk facing +Z, its steps unchanged (the pelvis' sway
+    about the path stays)."""
+    return turned_along(motion, -heading_track(motion))

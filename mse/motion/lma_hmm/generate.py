@@ -52,7 +52,7 @@ import json
 import os
 import time
 from collections.abc import Sequence
-from dataclasses import asdict, dataclass, field
+from dataclasses import asdict, dataclass, field, replace
 
 import numpy as np
 
@@ -60,7 +60,7 @@ from mse.motion.base import cache
 from mse.motion.base.bvh import Motion
 from mse.motion.base.contacts import STANCE_HYSTERESIS, contact_height, ground, support
 from mse.motion.base.cycles import ActionShape, action_shape, leg_length
-from mse.motion.base.heading import heading
+from mse.motion.base.heading import heading, heading_track, in_heading_frame, turn_rate, turned_along, turning_rate
 from mse.motion.base.kinematics import FloatArray
 from mse.motion.base.library import Clip, MotionLibrary, MotionUnavailable
 from mse.motion.base.loop import EDGE_SHARE, held, looped, rested
@@ -84,7 +84,7 @@ from mse.motion.lma_hmm.modulated import (
     save,
     time_warp,
 )
-from mse.motion.lma_hmm.neighbours import facing_motion, find_neighbours, pick_desired, pose_of
+from mse.motion.lma_hmm.neighbours import clip_motion, facing_motion, find_neighbours, pick_desired, pose_of
 from mse.motion.lma_hmm.params import GenerationParams
 from mse.motion.lma_hmm.pose import PhaseSpace, phase_space, with_velocity
 from mse.motion.lma_hmm.standing import (
@@ -127,21 +127,27 @@ def _modulate(
     exclude: set[str],
 ) -> Modulated:
     timings: dict[str, float] = {"lma": 0.0, "rmlr": 0.0, "nn_search": 0.0}
-    desired = library.motion(desired_clip)
+    # turning locomotion (measured from the clips): every clip straightened, frame by frame,
+    # to its path's heading; the generated path is turned at the clips' rate (generate_motion)
+    turning = action_turn_of(library, action) != 0.0
+    desired = clip_motion(library, desired_clip, turning)
+    start_yaw = float(heading_track(library.motion(desired_clip))[0]) if turning else 0.0
     if style == desired_clip.style and original == style:
         shape = action_shape_of(library, action)
-        return _own_style(desired_clip.id, desired, pose_of(library, desired_clip), params, timings, shape)
+        as_is = _own_style(desired_clip.id, desired, pose_of(library, desired_clip, turning), params, timings, shape)
+        rate = turn_rate(library.motion(desired_clip)) if turning else 0.0
+        return replace(as_is, turn_rate=rate, start_yaw=start_yaw)
     neighbours, components = find_neighbours(library, action, style, desired_clip, original, params, exclude, timings)
     # the neighbours turned to face the desired path's way (their room directions differ)
     facing = heading(desired)
-    motions = [facing_motion(library, c, facing) for c in neighbours]
+    motions = [facing_motion(library, c, facing, turning) for c in neighbours]
 
     clock = time.perf_counter()
     encoding = encoding_for(desired)
-    poses = [pose_of(library, c) for c in neighbours]
+    poses = [pose_of(library, c, turning) for c in neighbours]
     space: PhaseSpace = phase_space(poses)
     phases = [space.observe(p) for p in poses]
-    desired_phase = space.observe(pose_of(library, desired_clip))
+    desired_phase = space.observe(pose_of(library, desired_clip, turning))
     # rotations (faced as the desired path) and, in the last 4 columns, how the neighbours are
     # carried: root velocity, foot lift, support (flight phases of runs, base.contacts.support)
     carried = [support(m) for m in motions]
@@ -227,6 +233,9 @@ def _modulate(
         tuple(labels),
         params.cutoff_hz,
         action_shape_of(library, action),
+        # the target style's own turn: the neighbours' median rate
+        float(np.median([turn_rate(library.motion(c)) for c in neighbours])) if turning else 0.0,
+        start_yaw,
     )
 
 
@@ -234,14 +243,31 @@ def _modulate(
 SHAPE_CLIPS = 12
 
 
+def _shape_clips(library: MotionLibrary, action: str) -> list[Clip]:
+    clips = library.select(action)
+    return clips[:: max(1, len(clips) // SHAPE_CLIPS)][:SHAPE_CLIPS]
+
+
 def action_shape_of(library: MotionLibrary, action: str) -> ActionShape:
     """What ``action``'s clips do (:func:`mse.motion.base.cycles.action_shape`, on at most
     :data:`SHAPE_CLIPS` of them, spread evenly; cached)."""
-    clips = library.select(action)
-    chosen = clips[:: max(1, len(clips) // SHAPE_CLIPS)][:SHAPE_CLIPS]
+    chosen = _shape_clips(library, action)
     return cache.remembered(
         ("shape", library.content_hash, tuple(c.id for c in chosen)),
         lambda: action_shape([library.motion(c) for c in chosen]),
+    )
+
+
+def action_turn_of(library: MotionLibrary, action: str) -> float:
+    """Radians per second ``action``'s locomotion turns
+    (:func:`mse.motion.base.heading.turning_rate` of the clips of :func:`action_shape_of`;
+    0: it goes straight, or does not travel; cached)."""
+    if not action_shape_of(library, action).travels:
+        return 0.0
+    chosen = _shape_clips(library, action)
+    return cache.remembered(
+        ("turn", library.content_hash, tuple(c.id for c in chosen)),
+        lambda: turning_rate([library.motion(c) for c in chosen]),
     )
 
 
@@ -374,6 +400,13 @@ def generate_motion(
     if carried.shape[1] == CARRIED and duration is not None:
         # the path was played slower or faster than its neighbours: so is the carried speed
         carried[:, :2] *= played / max(duration, 1e-9)
+    if modulated.turn_rate != 0.0:
+        # turning locomotion was generated straight (its steps): its heading turns at the
+        # clips' rate, from the desired path's first heading; so do the carried velocities
+        yaws = modulated.start_yaw + modulated.turn_rate * frame_time * np.arange(len(path), dtype=np.float64)
+        motion = turned_along(motion, yaws)
+        if carried.shape[1] == CARRIED:
+            carried[:, :2] = in_heading_frame(carried[:, :2], -yaws)
     # a standing body pins whichever foot point is lowest, without the walks' hysteresis (as
     # the HSMM method does): with both feet on the floor, the hysteresis kept the left toes
     # pinned while the right ones, 0.04 cm lower, slid with the legs' state means (dataset 2

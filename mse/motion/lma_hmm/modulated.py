@@ -30,7 +30,7 @@ from mse.motion.lma_hmm.timing import resample
 CARRIED = 4
 #: a cyclic path is continued rather than slowed when the clip is this much longer than it
 LOOP_RATIO = 1.3
-DISK_FORMAT = "mse-lma-hmm-path/12"
+DISK_FORMAT = "mse-lma-hmm-path/13"
 
 
 @dataclass(frozen=True, eq=False)
@@ -52,6 +52,11 @@ class Modulated:
     #: what the action's clips do (:func:`mse.motion.lma_hmm.generate.action_shape_of`): a
     #: cycling action requested longer than its path repeats its cycles (base.loop)
     shape: ActionShape
+    #: turning locomotion (:func:`mse.motion.lma_hmm.generate.action_turn_of`): the path is
+    #: straight (its clips straightened to their paths' heading) and the generated clip turns
+    #: at this many radians per second from ``start_yaw``; 0: it goes straight as it is
+    turn_rate: float = 0.0
+    start_yaw: float = 0.0
 
 
 def _cycling_end(labels: npt.NDArray[np.int_]) -> int:
@@ -162,6 +167,7 @@ def save(path: Path, modulated: Modulated) -> None:
         "timings": modulated.timings,
         "cutoff_hz": modulated.cutoff_hz,
         "shape": [modulated.shape.travels, modulated.shape.cycle, modulated.shape.period_s],
+        "turn": [modulated.turn_rate, modulated.start_yaw],
     }
     buffer = io.BytesIO()
     np.savez_compressed(
@@ -219,6 +225,8 @@ def load(path: Path) -> Modulated | None:
                 else (),
                 float(meta["cutoff_hz"]),
                 _shape(meta["shape"]),
+                float(meta["turn"][0]),
+                float(meta["turn"][1]),
             )
     except (OSError, ValueError, KeyError, TypeError, IndexError):
         return None  # a stale or broken cache entry: regenerate

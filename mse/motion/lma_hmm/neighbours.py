@@ -8,7 +8,7 @@ import time
 from mse.diagnostics import Diagnostic, MseError, Span
 from mse.motion.base import cache
 from mse.motion.base.bvh import Motion
-from mse.motion.base.heading import heading, turned
+from mse.motion.base.heading import heading, straightened, turned
 from mse.motion.base.kinematics import FloatArray
 from mse.motion.base.library import Clip, MotionLibrary, MotionUnavailable
 from mse.motion.base.lma import FEATURE_NAMES
@@ -37,13 +37,28 @@ def rmlr_clips(library: MotionLibrary, action: str, exclude: set[str]) -> list[C
     return [c for c in library.clips if c.id not in exclude]
 
 
-def facing_motion(library: MotionLibrary, clip: Clip, facing: float) -> Motion:
-    motion = library.motion(clip)
+def clip_motion(library: MotionLibrary, clip: Clip, turning: bool = False) -> Motion:
+    """The clip; of turning locomotion, :func:`~mse.motion.base.heading.straightened` (its
+    steps those of a straight walk: the heading is turned back frame by frame, cached)."""
+    if not turning:
+        return library.motion(clip)
+    return cache.remembered(
+        ("straightened", library.content_hash, clip.id), lambda: straightened(library.motion(clip))
+    )
+
+
+def facing_motion(library: MotionLibrary, clip: Clip, facing: float, turning: bool = False) -> Motion:
+    motion = clip_motion(library, clip, turning)
     return turned(motion, facing - heading(motion))
 
 
-def pose_of(library: MotionLibrary, clip: Clip) -> FloatArray:
-    return cache.remembered(("pose", library.content_hash, clip.id), lambda: pose_features(library.motion(clip)))
+def pose_of(library: MotionLibrary, clip: Clip, turning: bool = False) -> FloatArray:
+    """:func:`~mse.motion.lma_hmm.pose.pose_features` of :func:`clip_motion` (cached): the
+    body frame is the first frame's, so a turning clip's poses turned with its path."""
+    return cache.remembered(
+        ("pose", library.content_hash, clip.id, turning),
+        lambda: pose_features(clip_motion(library, clip, turning)),
+    )
 
 
 def find_neighbours(

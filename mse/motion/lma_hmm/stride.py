@@ -110,16 +110,6 @@ def travels(carried: Sequence[FloatArray], leg_length: float) -> bool:
     return bool(np.linalg.norm(velocity) >= TRAVEL_LEG_LENGTHS_PER_S * leg_length)
 
 
-#: the swing is restored for at most this many neighbours. With one, the means average
-#: that clip's own frames (Bandai dataset 1: one clip per style of runs, dashes, backwards and
-#: sideways walks); with two, two takes (its forward walks: the musical walk, left alone, went
-#: 2.7 cm/s; widened, 121 cm/s, jerk within 2x real once the changes of stance foot were
-#: smoothed, base.contacts). With more, the gains (1.1-2) mix in the takes' differences, and
-#: the faster stride jolted the pinned root: Samadani, dataset 2 walks, ten folds, 8
-#: neighbours each: new jerk failures over 2x real, e.g. elderly -> normal 18,400 -> 24,400
-#: cm/s^3, limit 20,900 (docs/motion.md, "Generation", step 12; measured before the
-#: changes of stance foot were smoothed)
-MAX_NEIGHBOURS = 2
 
 
 #: which joints :func:`restore_stride` widens: "legs" (thighs and shins), "all" (every
@@ -147,12 +137,23 @@ def restore_stride(
     encoding: Encoding,
     which: Stride,
 ) -> FloatArray:
-    """``means`` widened by :func:`stride_gains` measured on the neighbours (at most
-    :data:`MAX_NEIGHBOURS`; ``rotations``
+    """``means`` widened by :func:`stride_gains` measured on the neighbours (``rotations``
     and their own Viterbi ``labels``, drawn with the low-pass of
     :func:`~mse.motion.lma_hmm.modulated.cutoff` from ``base_hz``); ``which``: "legs"
-    (:func:`swing_joints`) or "all" of the encoding's rotated joints."""
-    if which == "off" or not labels or len(labels) > MAX_NEIGHBOURS:
+    (:func:`swing_joints`) or "all" of the encoding's rotated joints.
+
+    For any number of neighbours. With one, the means average that clip's own frames (Bandai
+    dataset 1: one clip per style of runs, dashes, backwards and sideways walks); with two,
+    two takes (its forward walks: the musical walk, left alone, went 2.7 cm/s; widened, 121).
+    It was at most two: with dataset 2's eight, the faster stride jolted the pinned root
+    (Samadani, dataset 2 walks, elderly -> normal jerk 18,400 -> 24,400 cm/s^3, limit 20,900),
+    before the changes of stance foot were smoothed (base.contacts). Left alone, eight takes'
+    means walked short: dataset 2 walks at 1x, active 125 cm/s (its takes 135-158),
+    exhausted 91 (93-123), youthful 117 (125-141); the same walks bent along a 20 deg/s arc
+    (bench/evaluation/turning.py) 134, 96, 123. Widened: 141, 110, 125 straight; jerk at most
+    0.8x its limit, fidelity 21 / 21 at 1x, 2x, 3x; Samadani folds 1, 2 unchanged (41 of 42
+    recognised, fidelity 42 / 42)."""
+    if which == "off" or not labels:
         return means
     hz = [cutoff(base_hz, len(lab), 1 + int(np.count_nonzero(np.diff(lab))), frame_time) for lab in labels]
     rotated = encoding.rotated
