@@ -6,9 +6,10 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from bench.evaluation.fidelity import ACTION_SIGNATURES, check, measure, reference
+from bench.evaluation.fidelity import ACTION_SIGNATURES, _diameter, check, measure, reference
 from mse.motion.base.contacts import contact_height, ground, root_track
 from mse.motion.base.heading import heading, turned
+from mse.motion.base.loop import held
 from mse.motion.base.retarget import retarget
 from mse.motion.base.starter import STYLE_EFFORT, generate_clip, rest_motion, starter_library
 from mse.motion.generator import GenerationRequest, generator_for
@@ -54,6 +55,25 @@ def test_jitter_is_measured_as_reversals_and_jerk() -> None:
     clean, shaky = measure(clip), measure(clip.with_values(noisy))
     assert shaky["jerk"] > 5 * clean["jerk"]
     assert shaky["reversals"] > clean["reversals"] + 0.1
+
+
+def test_hand_range_is_the_widest_reach_and_ignores_a_held_rest_pose() -> None:
+    # issue 35: measured from the wrist's mean position, the range grew as a longer request
+    # held the rest pose (Bandai bye musical at 2x: 72.2 where the real take held the same
+    # way gives 58.7); the largest distance between two positions does not change
+    clip = generate_clip("arms_raised", "normal", 0)
+    once = measure(clip)["hand_range"]
+    assert once > 20.0  # cm: the arms go up
+    for factor in (2, 3):
+        longer = clip.with_values(held(clip.values, factor * clip.frame_count))
+        assert measure(longer)["hand_range"] == pytest.approx(once, abs=1e-9)
+
+
+def test_diameter_in_chunks_is_the_largest_pairwise_distance() -> None:
+    points = np.random.default_rng(1).normal(0.0, 10.0, (53, 3))
+    pairwise = np.linalg.norm(points[:, None] - points[None], axis=-1).max()
+    assert _diameter(points, chunk=7) == pytest.approx(pairwise)
+    assert _diameter(points[:1]) == 0.0
 
 
 def test_ground_puts_the_lowest_foot_on_the_floor_and_keeps_it_still() -> None:

@@ -9,7 +9,11 @@ the starter) so that performers facing different ways compare:
 ``head_forward``       head travel forward of the feet: maximum minus 5th percentile
 ``hand_to_head``       closest approach of a wrist to the head over the clip
 ``wrists_over_head``   highest frame of the *lower* wrist, relative to the head top
-``hand_range``         largest range of motion of a wrist relative to the chest
+``hand_range``         largest range of motion of a wrist relative to the chest: the
+                       largest distance between two of its positions (holding a pose it
+                       has been in, e.g. the rest pose after a longer request, leaves it
+                       unchanged; the distance from the mean position did not: it grew with
+                       the share of the clip spent at rest)
 ``wave_frequency``     side-to-side cycles per second of the wrists (relative to the chest)
 ``wave_amplitude``     their peak-to-peak amplitude
 ``forward_speed``      root travel along the first-frame forward axis per second
@@ -166,6 +170,16 @@ def step_rate_along_path(separation: FloatArray, yaws: FloatArray, frame_time: f
     return _step_rate(in_heading_frame(separation, yaws), frame_time)
 
 
+def _diameter(points: FloatArray, chunk: int = 512) -> float:
+    """The largest distance between two of ``points`` (N, 3), in chunks of rows (a one-minute
+    clip at 60 fps would otherwise need a 3,600 x 3,600 x 3 array)."""
+    widest = 0.0
+    for start in range(0, len(points), chunk):
+        block = points[start : start + chunk]
+        widest = max(widest, float(np.max(np.linalg.norm(block[:, None] - points[None], axis=-1))))
+    return widest
+
+
 def _bones(motion: Motion) -> float:
     """Largest relative change of a bone length; the bones to joints whose position channels
     move (the root's translation, e.g. Bandai's joint_Root -> Hips) are no bones."""
@@ -201,9 +215,7 @@ def measure(motion: Motion, path: str = "<motion>") -> dict[str, float]:
     values["hand_to_head"] = float(np.min(np.linalg.norm(hands - head[:, None], axis=-1)))
     values["wrists_over_head"] = float(np.max(hands[:, :, 1].min(axis=1) - head[:, 1]))
     relative = hands - chest[:, None]
-    values["hand_range"] = float(
-        max(np.max(np.linalg.norm(relative[:, k] - relative[:, k].mean(axis=0), axis=-1)) for k in (0, 1))
-    )
+    values["hand_range"] = float(max(_diameter(relative[:, k]) for k in (0, 1)))
     waves = [_wave(relative[:, k, 0], dt) for k in (0, 1)]
     values["wave_frequency"] = float(np.mean([w[0] for w in waves]))
     values["wave_amplitude"] = float(np.mean([w[1] for w in waves]))
