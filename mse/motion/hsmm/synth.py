@@ -46,6 +46,7 @@ def plan_units(model: HsmmModel, steps: int | None = None, frames: int | None = 
         last = float(model.unit("last-a").duration_means.sum())
         inner = float(model.unit("inner-a").duration_means.sum())
         steps = 2 + max(0, round((total - first - last) / max(inner, 1.0)))
+        steps = _ending_as_clips(model, steps, total, first, inner)
     steps = max(2, steps)
     names = [f"first-{leg}"]
     # Hand cycles' unit after the first has a context of its own (see segment.ONE_SHOT_UNIT).
@@ -55,6 +56,36 @@ def plan_units(model: HsmmModel, steps: int | None = None, frames: int | None = 
         names.append(f"{'second' if second and index == 0 else 'inner'}-{leg}")
     names.append(f"last-{_other(leg)}")
     return names
+
+
+def _last_leg(first_leg: str, steps: int) -> str:
+    """The leg of the last unit of a plan of ``steps`` steps starting on ``first_leg``."""
+    return _other(first_leg) if steps % 2 == 0 else first_leg
+
+
+def _ending_as_clips(model: HsmmModel, steps: int, total: int, first: float, inner: float) -> int:
+    """``steps``, or one step more or fewer (whichever lasts closer to ``total`` frames) when
+    the plan would end on a unit none of the model's clips end on (``info["last_units"]``).
+
+    The plan's last unit follows from the first leg and the count; a unit the clips never
+    end on is the average model's, adapted only through the transforms its style shares:
+    Bandai dataset 1 walk musical (its take ends on ``last-b``) at twice its length ended on
+    ``last-a``, and GV's variance scaling, fitting the take's variance over a trajectory of
+    that foreign ending, widened the arms up to 18x (jerk 30,566 cm/s^3, limit 23,415)."""
+    ends = model.info.get("last_units")
+    if not isinstance(ends, list) or not ends or steps < 2:
+        return steps
+    if f"last-{_last_leg(model.first_leg, steps)}" in ends:
+        return steps
+    options = [s for s in (steps - 1, steps + 1) if s >= 2 and f"last-{_last_leg(model.first_leg, s)}" in ends]
+    if not options:
+        return steps
+
+    def length(count: int) -> float:
+        last = float(model.unit(f"last-{_last_leg(model.first_leg, count)}").duration_means.sum())
+        return first + last + (count - 2) * inner
+
+    return min(options, key=lambda count: (abs(length(count) - total), count))
 
 
 def state_durations(
