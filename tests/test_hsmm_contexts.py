@@ -91,9 +91,8 @@ def test_a_plan_for_a_length_ends_on_a_unit_its_clips_end_on() -> None:
 
 
 def test_models_record_the_units_their_clips_end_on() -> None:
-    instances = [
-        Instance(name, "x", np.zeros((4, 3)), (0, 2, 4)) for name in ("first-a", "inner-b", "last-a", "first-b", "last-a")
-    ]
+    names = ("first-a", "inner-b", "last-a", "first-b", "last-a")
+    instances = [Instance(name, "x", np.zeros((4, 3)), (0, 2, 4)) for name in names]
     assert api._last_units(instances) == {"last_units": ["last-a"]}
     assert api._last_units(instances[:2]) == {}
 
