@@ -80,7 +80,7 @@ def test_a_plan_for_a_length_ends_on_a_unit_its_clips_end_on() -> None:
     # Each unit lasts 6 frames: 33 frames are 5.5 units, rounded to 6 (first, 4 inner, last),
     # which from leg a ends on last-b; a model whose clips end on last-a plays 5 or 7 instead
     # (5: 30 frames, the nearer), one whose clips end on last-b keeps its 6.
-    free = _model(("first-a", "inner-a", "inner-b", "last-a", "last-b"))
+    free = replace(_model(("first-a", "inner-a", "inner-b", "last-a", "last-b")), cycle="steps")
     ends_a = replace(free, info={"last_units": ["last-a"]})
     ends_b = replace(free, info={"last_units": ["last-b"]})
     assert plan_units(free, frames=33)[-1] == "last-b" and len(plan_units(free, frames=33)) == 6
@@ -88,6 +88,8 @@ def test_a_plan_for_a_length_ends_on_a_unit_its_clips_end_on() -> None:
     assert plan_units(ends_a, frames=33) == ["first-a", "inner-b", "inner-a", "inner-b", "last-a"]
     assert plan_units(ends_a, frames=12) == ["first-a", "inner-b", "last-a"]  # never fewer than 2
     assert plan_units(ends_a, steps=4)[-1] == "last-b"  # a count asked for is kept
+    wave = replace(ends_a, cycle="hands")  # a hand cycle's ending is its fall: kept
+    assert plan_units(wave, frames=33) == plan_units(free, frames=33)
 
 
 def test_models_record_the_units_their_clips_end_on() -> None:

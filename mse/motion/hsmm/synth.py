@@ -71,9 +71,14 @@ def _ending_as_clips(model: HsmmModel, steps: int, total: int, first: float, inn
     end on is the average model's, adapted only through the transforms its style shares:
     Bandai dataset 1 walk musical (its take ends on ``last-b``) at twice its length ended on
     ``last-a``, and GV's variance scaling, fitting the take's variance over a trajectory of
-    that foreign ending, widened the arms up to 18x (jerk 30,566 cm/s^3, limit 23,415)."""
+    that foreign ending, widened the arms up to 18x (jerk 30,566 cm/s^3, limit 23,415).
+
+    Locomotion only: a hand cycle's last unit is its fall to rest, and ending it on the
+    takes' side changed the swings' tempo (one-hand waves made from Bandai dataset 2, youthful
+    at 2x: 1.34 -> 1.48 swings/s, its takes 1.15-1.35; exhausted at 1x: 0.78 -> 0.63, its
+    takes 0.66-1.03)."""
     ends = model.info.get("last_units")
-    if not isinstance(ends, list) or not ends or steps < 2:
+    if not model.travels or not isinstance(ends, list) or not ends or steps < 2:
         return steps
     if f"last-{_last_leg(model.first_leg, steps)}" in ends:
         return steps
