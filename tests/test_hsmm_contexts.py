@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import io
 import json
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -73,6 +74,29 @@ def test_plans_play_second_after_the_first_only_in_models_that_have_it() -> None
     assert plan_units(without, steps=5) == ["first-a", "inner-b", "inner-a", "inner-b", "last-a"]
     assert plan_units(with_second, steps=2) == ["first-a", "last-b"]
     assert without.resolve("second-b") == "inner-b"  # a wave model of format /6
+
+
+def test_a_plan_for_a_length_ends_on_a_unit_its_clips_end_on() -> None:
+    # Each unit lasts 6 frames: 33 frames are 5.5 units, rounded to 6 (first, 4 inner, last),
+    # which from leg a ends on last-b; a model whose clips end on last-a plays 5 or 7 instead
+    # (5: 30 frames, the nearer), one whose clips end on last-b keeps its 6.
+    free = replace(_model(("first-a", "inner-a", "inner-b", "last-a", "last-b")), cycle="steps")
+    ends_a = replace(free, info={"last_units": ["last-a"]})
+    ends_b = replace(free, info={"last_units": ["last-b"]})
+    assert plan_units(free, frames=33)[-1] == "last-b" and len(plan_units(free, frames=33)) == 6
+    assert plan_units(ends_b, frames=33) == plan_units(free, frames=33)
+    assert plan_units(ends_a, frames=33) == ["first-a", "inner-b", "inner-a", "inner-b", "last-a"]
+    assert plan_units(ends_a, frames=12) == ["first-a", "inner-b", "last-a"]  # never fewer than 2
+    assert plan_units(ends_a, steps=4)[-1] == "last-b"  # a count asked for is kept
+    wave = replace(ends_a, cycle="hands")  # a hand cycle's ending is its fall: kept
+    assert plan_units(wave, frames=33) == plan_units(free, frames=33)
+
+
+def test_models_record_the_units_their_clips_end_on() -> None:
+    names = ("first-a", "inner-b", "last-a", "first-b", "last-a")
+    instances = [Instance(name, "x", np.zeros((4, 3)), (0, 2, 4)) for name in names]
+    assert api._last_units(instances) == {"last_units": ["last-a"]}
+    assert api._last_units(instances[:2]) == {}
 
 
 @pytest.fixture(scope="module")

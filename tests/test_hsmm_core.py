@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 import pytest
 
@@ -22,7 +24,7 @@ from mse.motion.hsmm.features import (
     window_matrix,
 )
 from mse.motion.hsmm.mlpg import generate_with_gv, global_variance, mlpg, mlpg_dense
-from mse.motion.hsmm.model import Instance, UnitModel, align, frame_loglik
+from mse.motion.hsmm.model import DURATION_VARIANCE_FLOOR, Instance, UnitModel, align, frame_loglik
 from mse.motion.hsmm.synth import state_durations
 
 
@@ -134,6 +136,20 @@ def test_state_durations_sum_exactly_and_stay_positive() -> None:
     assert int(seeded.sum()) == 90
     with pytest.raises(ValueError):
         state_durations(units, 10)
+
+
+def test_a_seed_draws_only_durations_the_clips_vary() -> None:
+    # States at the duration variance floor (seen once) keep their means whatever the seed;
+    # states whose durations vary are drawn.
+    zeros = np.zeros((4, 3))
+    floor = UnitModel(zeros, np.ones((4, 3)), np.array([4.0, 6.0, 4.0, 6.0]), np.full(4, DURATION_VARIANCE_FLOOR))
+    varied = replace(floor, duration_variances=np.full(4, 9.0))
+    plain = state_durations([floor], 20)
+    assert [state_durations([floor], 20, np.random.default_rng(seed)).tolist() for seed in range(5)] == [
+        plain.tolist()
+    ] * 5
+    drawn = {tuple(state_durations([varied], 20, np.random.default_rng(seed)).tolist()) for seed in range(5)}
+    assert len(drawn) > 1
 
 
 def test_hsmm_alignment_finds_the_true_state_boundaries() -> None:

@@ -118,6 +118,13 @@ def _first_leg(instances: Sequence[Instance]) -> str:
     return max(("a", "b"), key=legs.count) if legs else "a"
 
 
+def _last_units(instances: Sequence[Instance]) -> dict[str, list[str]]:
+    """``{"last_units": [...]}``: the units the clips end on (a cyclic action's ``last-*``),
+    so that a plan ends as the clips do (:func:`mse.motion.hsmm.synth.plan_units`)."""
+    ends = sorted({i.unit for i in instances if i.unit.startswith("last-")})
+    return {"last_units": ends} if ends else {}
+
+
 def _gv_stats(statics: Sequence[FloatArray]) -> tuple[FloatArray, FloatArray]:
     values = np.array([global_variance(s) for s in statics])
     mean = values.mean(axis=0)
@@ -211,6 +218,7 @@ def train_average(
             "frames": int(np.median([m.frame_count for m, _ in clips])),
             "period_s": shape.period_s,
             **_turn_info(template, [m for m, _ in clips]),
+            **_last_units(instances),
             **asdict(options),
         },
         carried=carried_profiles(units, instances) if cycle == "steps" else {},
@@ -262,6 +270,7 @@ def train_scratch(
             "frames": int(np.median([m.frame_count for m, _ in clips])),
             "period_s": shape.period_s,
             **_turn_info(template, [m for m, _ in clips]),
+            **_last_units(instances),
             **asdict(options),
         },
         carried=carried_profiles(units, instances) if cycle == "steps" else {},
@@ -337,6 +346,7 @@ def adapt_model(
             "frames": int(np.median([m.frame_count for m in motions])),
             "adapt_blocks": kind,
             **_turn_info(template, motions),  # the style's own turn
+            **_last_units(instances),  # the style's own ends
         },
         carried=carried_profiles(units, instances, prior=average.carried) if average.carried else {},
     )

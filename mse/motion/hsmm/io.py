@@ -1,6 +1,7 @@
 """Model files: one ``.npz`` archive (no pickle) with a JSON header under the key ``meta``.
 
-Format ``mse-hsmm/9`` (the template says whether the action is turning locomotion,
+Format ``mse-hsmm/10`` (``info`` lists ``last_units``, the units the clips end on, which a plan
+for a length ends on; ``/9`` files plan as before). ``/9``: the template says whether the action is turning locomotion,
 ``turning``, aligned to its path frame by frame, and ``info`` holds its ``turn_rate``; ``/8``
 files load as not turning). ``/8``: ``meta`` names which limbs carry the cycle, ``cycle``: steps, hands or
 none, measured from the clips; ``/7`` and before held ``cyclic`` only, and their cyclic models
@@ -40,15 +41,16 @@ from mse.motion.base.cycles import CycleKind
 from mse.motion.hsmm.model import HsmmModel, UnitModel
 from mse.motion.hsmm.prep import Template
 
-FORMAT = "mse-hsmm/9"
+FORMAT = "mse-hsmm/10"
 #: formats this version reads (``/2``: no flight profiles, feet always pinned; ``/2`` and
 #: ``/3``: no feet lift of the training clips, standing legs always stilled; ``/4`` and
 #: ``/5``: the same layout as ``/6``; ``/4`` trained with at most 60 states per unit and
 #: adapted with the root joint inside the stream-wide CMLLR blocks; ``/5`` adapted waves
 #: with leg classes; ``/6`` waves have no ``second`` unit and play ``inner`` there; ``/8``: no
-#: turning locomotion)
+#: turning locomotion; ``/9``: no ``last_units``, a plan for a length ends where it falls)
 READABLE_FORMATS = (
-    "mse-hsmm/2", "mse-hsmm/3", "mse-hsmm/4", "mse-hsmm/5", "mse-hsmm/6", "mse-hsmm/7", "mse-hsmm/8", FORMAT,
+    "mse-hsmm/2", "mse-hsmm/3", "mse-hsmm/4", "mse-hsmm/5", "mse-hsmm/6", "mse-hsmm/7", "mse-hsmm/8",
+    "mse-hsmm/9", FORMAT,
 )
 _UNIT_FIELDS = ("means", "variances", "duration_means", "duration_variances")
 

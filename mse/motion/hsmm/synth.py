@@ -5,7 +5,8 @@
 * Durations: per-state duration Gaussians scaled to the requested length the HTS way,
   ``d = m + ρ σ²`` with ``ρ = (T - Σm) / Σσ²`` (states clipped at one frame are held and ρ
   recomputed), then rounded keeping the total exact.  With a seed, the means are first drawn
-  from the duration Gaussians so that repeated leaves differ slightly.
+  from the duration Gaussians (states above the variance floor) so that repeated leaves
+  differ slightly.
 * Parameters: MLPG with global variance (option off), exponential maps → local rotations.
 * Root: :func:`mse.motion.base.contacts.root_track`: the lowest contact point (foot/toes)
   sits at the training contact height and is pinned while it is the lowest (the stance foot
@@ -26,7 +27,7 @@ from mse.motion.base.loop import held, looped
 from mse.motion.hsmm.carried import carried_track, smooth_carried
 from mse.motion.hsmm.features import FloatArray, yaw_matrix
 from mse.motion.hsmm.mlpg import generate_with_gv, mlpg
-from mse.motion.hsmm.model import HsmmModel, UnitModel
+from mse.motion.hsmm.model import DURATION_VARIANCE_FLOOR, HsmmModel, UnitModel
 from mse.motion.hsmm.prep import Template, local_rotations_from_features
 from mse.motion.hsmm.segment import ONE_SHOT_UNIT
 
@@ -46,6 +47,7 @@ def plan_units(model: HsmmModel, steps: int | None = None, frames: int | None = 
         last = float(model.unit("last-a").duration_means.sum())
         inner = float(model.unit("inner-a").duration_means.sum())
         steps = 2 + max(0, round((total - first - last) / max(inner, 1.0)))
+        steps = _ending_as_clips(model, steps, total, first, inner)
     steps = max(2, steps)
     names = [f"first-{leg}"]
     # Hand cycles' unit after the first has a context of its own (see segment.ONE_SHOT_UNIT).
@@ -57,6 +59,41 @@ def plan_units(model: HsmmModel, steps: int | None = None, frames: int | None = 
     return names
 
 
+def _last_leg(first_leg: str, steps: int) -> str:
+    """The leg of the last unit of a plan of ``steps`` steps starting on ``first_leg``."""
+    return _other(first_leg) if steps % 2 == 0 else first_leg
+
+
+def _ending_as_clips(model: HsmmModel, steps: int, total: int, first: float, inner: float) -> int:
+    """``steps``, or one step more or fewer (whichever lasts closer to ``total`` frames) when
+    the plan would end on a unit none of the model's clips end on (``info["last_units"]``).
+
+    The plan's last unit follows from the first leg and the count; a unit the clips never
+    end on is the average model's, adapted only through the transforms its style shares:
+    Bandai dataset 1 walk musical (its take ends on ``last-b``) at twice its length ended on
+    ``last-a``, and GV's variance scaling, fitting the take's variance over a trajectory of
+    that foreign ending, widened the arms up to 18x (jerk 30,566 cm/s^3, limit 23,415).
+
+    Locomotion only: a hand cycle's last unit is its fall to rest, and ending it on the
+    takes' side changed the swings' tempo (one-hand waves made from Bandai dataset 2, youthful
+    at 2x: 1.34 -> 1.48 swings/s, its takes 1.15-1.35; exhausted at 1x: 0.78 -> 0.63, its
+    takes 0.66-1.03)."""
+    ends = model.info.get("last_units")
+    if not model.travels or not isinstance(ends, list) or not ends or steps < 2:
+        return steps
+    if f"last-{_last_leg(model.first_leg, steps)}" in ends:
+        return steps
+    options = [s for s in (steps - 1, steps + 1) if s >= 2 and f"last-{_last_leg(model.first_leg, s)}" in ends]
+    if not options:
+        return steps
+
+    def length(count: int) -> float:
+        last = float(model.unit(f"last-{_last_leg(model.first_leg, count)}").duration_means.sum())
+        return first + last + (count - 2) * inner
+
+    return min(options, key=lambda count: (abs(length(count) - total), count))
+
+
 def state_durations(
     units: list[UnitModel], frames: int, rng: np.random.Generator | None = None
 ) -> np.ndarray:
@@ -66,7 +103,13 @@ def state_durations(
     if frames < means.size:
         raise ValueError(f"{frames} frames cannot hold {means.size} states")
     if rng is not None:
-        means = np.maximum(means + rng.normal(size=means.size) * np.sqrt(variances) * 0.5, 1.0)
+        # Only variation the clips show is drawn: a state whose duration variance is at the
+        # floor was seen once (or always as long) and keeps its mean. Drawn from the floor,
+        # the one-take Bandai dataset 1 kick (90 states of 4 frames) recovered from its second
+        # kick with the head 28.5 cm in front of the feet where the take has 22.7 (at 3x,
+        # head forward 33.4 cm against 23.6-31.9); now 24.6 (29.0).
+        spread = np.sqrt(variances) * (variances > DURATION_VARIANCE_FLOOR)
+        means = np.maximum(means + rng.normal(size=means.size) * spread * 0.5, 1.0)
     free = np.ones(means.size, dtype=bool)
     durations = means.copy()
     for _ in range(means.size):
