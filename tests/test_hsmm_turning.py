@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 
 from bench.evaluation.fidelity import measure
-from bench.evaluation.turning import TURN_ACTION, curved, turning_library, turning_measures
+from bench.evaluation.turning import TURN_ACTION, curved, turning_library, turning_measures, walk_takes
 from mse.motion.base.heading import TURN_DEG_PER_S, smoothed_yaws, turn_rate, turning_rate
 from mse.motion.base.library import MotionLibrary, load_library
 
@@ -25,12 +25,8 @@ def walks(shared_dir: Path) -> MotionLibrary:
     path = shared_dir / "motion" / "bandai-ds2"
     if not path.is_dir():
         pytest.skip("Bandai dataset 2 not found")
-    source = load_library(path)
     # four takes of three styles: enough for an average model and an adaptation
-    keep = []
-    for style in ("normal", "feminine", "active"):
-        keep.extend(sorted(source.select("walk", style), key=lambda c: c.id)[:4])
-    return MotionLibrary("walks", tuple(keep))
+    return walk_takes(load_library(path), ("normal", "feminine", "active"))
 
 
 def test_smoothed_yaws_keep_a_steady_turn_to_the_ends() -> None:

@@ -13,7 +13,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from bench.evaluation.turning import TURN_ACTION, turning_library, turning_measures
+from bench.evaluation.turning import TURN_ACTION, turning_library, turning_measures, walk_takes
 from mse.motion.base.heading import heading_track, straightened, turn_rate
 from mse.motion.base.library import MotionLibrary, load_library
 from mse.motion.lma_hmm.generate import action_turn_of, generate_motion
@@ -26,11 +26,8 @@ def walks(shared_dir: Path) -> MotionLibrary:
     path = shared_dir / "motion" / "bandai-ds2"
     if not path.is_dir():
         pytest.skip("Bandai dataset 2 not found")
-    source = load_library(path)
-    keep = []
-    for style in ("normal", "elderly", "active"):
-        keep.extend(sorted(source.select("walk", style), key=lambda c: c.id)[:4])
-    return MotionLibrary("walks", tuple(keep))
+    # four takes of three styles: enough for an average model and an adaptation
+    return walk_takes(load_library(path), ("normal", "elderly", "active"))
 
 
 def test_a_straightened_turning_walk_goes_straight(walks: MotionLibrary) -> None:

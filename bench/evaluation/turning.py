@@ -132,3 +132,10 @@ def main(argv: Sequence[str] | None = None) -> int:
 
 if __name__ == "__main__":
     raise SystemExit(main())
+
+
+def walk_takes(source: MotionLibrary, styles: Sequence[str], per_style: int = 4) -> MotionLibrary:
+    """The first ``per_style`` walk takes (by id) of each style: the straight walks the turning
+    benches and tests bend."""
+    keep = [c for style in styles for c in sorted(source.select("walk", style), key=lambda c: c.id)[:per_style]]
+    return MotionLibrary("walks", tuple(keep))

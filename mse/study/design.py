@@ -21,6 +21,7 @@ from collections.abc import Iterator, Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
+from mse.study.analysis.results import OPTIONAL, REQUIRED
 from mse.study.latin import balanced_latin_square
 
 #: Every condition, in the order the manifest lists them.
@@ -32,8 +33,7 @@ SEED_TRIES = 50
 #: Signals a face-only stimulus keeps: what the face picture itself shows.
 FACE_MODALITIES: tuple[str, ...] = ("face", "gaze", "head")
 #: The results CSV (one row per answer), shared with ``mse study analyze``.
-RESULT_COLUMNS: tuple[str, ...] = ("participant", "task", "emotion", "condition", "response", "stimulus",
-                                   "trial", "seconds")
+RESULT_COLUMNS: tuple[str, ...] = (*REQUIRED, *OPTIONAL)
 
 
 @dataclass(frozen=True)
