@@ -1,15 +1,15 @@
-"""The results CSV: one row per answer, the columns of :data:`RESULT_COLUMNS`
-(docs/study.md).  The server checks every upload against the study's manifest before
-keeping it, so that a results folder holds only well-formed answers."""
+"""The server's check of an uploaded results CSV (docs/study.md): the one reader of results
+tables (:func:`mse.study.analysis.results.parse_results`, what ``mse study analyze`` reads)
+plus what only the study's manifest can say: the page's exact header, this participant,
+known stimuli of the right emotion and condition, labels of the study.  A results folder
+so holds only answers ``mse study analyze`` reads."""
 
 from __future__ import annotations
 
-import csv
-import io
-import math
 import re
 from typing import Any
 
+from mse.study.analysis.results import Answer, parse_results
 from mse.study.design import RESULT_COLUMNS
 
 #: A participant id as a file name: letters, digits, ``-`` and ``_``.
@@ -23,54 +23,37 @@ class BadResults(ValueError):
 def check_results(text: str, participant: str, manifest: dict[str, Any]) -> int:
     """The number of answers in ``text``; BadResults when it is not this participant's
     results CSV of this study."""
+    first = text.split("\n", 1)[0].removesuffix("\r")
+    if first != ",".join(RESULT_COLUMNS):
+        raise BadResults(f"the first line must be the header {','.join(RESULT_COLUMNS)}")
+    answers, problems = parse_results(text, "upload")
+    if problems:
+        problem = problems[0]
+        raise BadResults(f"line {problem.span.line}: {problem.message}" if problem.span.line else problem.message)
     stimuli = {s["id"]: s for s in manifest["stimuli"]}
     labels = set(manifest["labels"])
-    reader = csv.reader(io.StringIO(text, newline=""))
-    try:
-        header = next(reader, None)
-        if header is None or tuple(header) != RESULT_COLUMNS:
-            raise BadResults(f"the first line must be the header {','.join(RESULT_COLUMNS)}")
-        count = 0
-        for number, row in enumerate(reader, start=2):
-            if not row:
-                continue
-            _check_row(row, number, participant, stimuli, labels)
-            count += 1
-    except csv.Error as error:
-        raise BadResults(f"not CSV: {error}") from None
-    return count
+    for answer in answers:
+        _check_answer(answer, participant, stimuli, labels)
+    return len(answers)
 
 
-def _check_row(row: list[str], number: int, participant: str, stimuli: dict[str, Any], labels: set[str]) -> None:
+def _check_answer(answer: Answer, participant: str, stimuli: dict[str, Any], labels: set[str]) -> None:
     def bad(message: str) -> BadResults:
-        return BadResults(f"line {number}: {message}")
+        return BadResults(f"line {answer.span.line}: {message}")
 
-    if len(row) != len(RESULT_COLUMNS):
-        raise bad(f"{len(row)} fields, expected {len(RESULT_COLUMNS)}")
-    values = dict(zip(RESULT_COLUMNS, row, strict=True))
-    if values["participant"] != participant:
-        raise bad(f"participant {values['participant']!r} is not {participant!r}")
-    ids = values["stimulus"].split("|")
+    if answer.participant != participant:
+        raise bad(f"participant {answer.participant!r} is not {participant!r}")
+    ids = answer.stimulus.split("|")
     if any(i not in stimuli for i in ids):
-        raise bad(f"unknown stimulus {values['stimulus']!r}")
+        raise bad(f"unknown stimulus {answer.stimulus!r}")
     shown = [stimuli[i] for i in ids]
-    if any(s["emotion"] != values["emotion"] for s in shown):
-        raise bad(f"emotion {values['emotion']!r} does not match stimulus {values['stimulus']!r}")
-    if values["condition"] != "|".join(s["condition"] for s in shown):
-        raise bad(f"condition {values['condition']!r} does not match stimulus {values['stimulus']!r}")
-    if values["task"] == "label":
-        if len(ids) != 1 or values["response"] not in labels:
-            raise bad(f"label answer {values['response']!r} is not one of {', '.join(sorted(labels))}")
-    elif values["task"] == "pair":
-        if len(ids) != 2 or values["response"] not in values["condition"].split("|"):
-            raise bad(f"pair answer {values['response']!r} is not one of the conditions shown")
-    else:
-        raise bad(f"task {values['task']!r} is not label or pair")
-    if not values["trial"].isdigit() or int(values["trial"]) < 1:
-        raise bad(f"trial {values['trial']!r} is not a positive whole number")
-    try:
-        seconds = float(values["seconds"])
-    except ValueError:
-        seconds = math.nan
-    if not (math.isfinite(seconds) and seconds >= 0):
-        raise bad(f"seconds {values['seconds']!r} is not a time")
+    if any(s["emotion"] != answer.emotion for s in shown):
+        raise bad(f"emotion {answer.emotion!r} does not match stimulus {answer.stimulus!r}")
+    if answer.conditions != tuple(s["condition"] for s in shown):
+        raise bad(f"condition {answer.condition!r} does not match stimulus {answer.stimulus!r}")
+    if answer.task == "label" and answer.response not in labels:
+        raise bad(f"label answer {answer.response!r} is not one of {', '.join(sorted(labels))}")
+    if answer.trial is None or answer.trial < 1:
+        raise bad("trial must be a positive whole number")
+    if answer.seconds is None:
+        raise bad("seconds must be a time")
