@@ -28,7 +28,7 @@ from mse.syntax.greta_expr import (
     GTime,
 )
 from mse.syntax.reader import parse_xml, read_bytes
-from mse.syntax.safexml import ElementPositions
+from mse.syntax.safexml import XmlDocument
 from mse.syntax.source import SourceText
 
 #: Greta's own ``equal`` accepts this difference (seconds).
@@ -47,21 +47,12 @@ _RELATIONS: dict[str, tuple[str, bool]] = {
 _COMPARISONS: dict[str, str] = {"morethan": ">", "lessthan": "<", "equal": "="}
 
 
-class GretaFile:
+class GretaFile(XmlDocument):
     """One parsed Greta file: the root element and positions of elements/attributes."""
 
     def __init__(self, path: str, root: etree._Element, source: SourceText) -> None:
-        self.path = path
+        super().__init__(path, root, source)
         self.name = Path(path).name
-        self.root = root
-        self.source = source
-        self._positions = ElementPositions(root, source)
-
-    def span(self, element: etree._Element) -> Span:
-        return self._positions.span(element)
-
-    def attribute_span(self, element: etree._Element, name: str) -> Span:
-        return self._positions.attribute_span(element, name)
 
 
 def load(path: str | Path) -> GretaFile:

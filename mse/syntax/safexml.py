@@ -153,3 +153,20 @@ class ElementPositions:
     def attribute_span(self, element: etree._Element, name: str) -> Span:
         found = self.attribute_spans(element).get(name)
         return found if found is not None else self.span(element)
+
+
+class XmlDocument:
+    """A safely parsed XML file (:func:`parse_xml`) and where each element and attribute of it
+    stands, for diagnostics at file:line:col."""
+
+    def __init__(self, path: str, root: etree._Element, source: SourceText) -> None:
+        self.path = path
+        self.root = root
+        self.source = source
+        self._positions = ElementPositions(root, source)
+
+    def span(self, element: etree._Element) -> Span:
+        return self._positions.span(element)
+
+    def attribute_span(self, element: etree._Element, name: str) -> Span:
+        return self._positions.attribute_span(element, name)

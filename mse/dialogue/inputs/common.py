@@ -23,8 +23,7 @@ from lxml import etree
 from mse.diagnostics import Diagnostic, MseError, Span
 from mse.input_files import read_input
 from mse.resources import bundled_names
-from mse.syntax.safexml import ElementPositions, parse_xml
-from mse.syntax.source import SourceText
+from mse.syntax.safexml import XmlDocument, parse_xml
 
 #: The mapping table shipped with mse (emotion names of each input vocabulary -> set names).
 EMOTION_NAMES = Path(__file__).resolve().parent / "emotion_names.toml"
@@ -252,30 +251,14 @@ def finish(fmt: str, events: list[InputEvent], warnings: list[Diagnostic], span:
 
 
 # -- XML with positions ----------------------------------------------------------------------------
-class XmlInput:
-    """A safely parsed XML input and the position of each element and attribute."""
-
-    def __init__(self, path: str, root: etree._Element, source: SourceText) -> None:
-        self.path = path
-        self.root = root
-        self.source = source
-        self._positions = ElementPositions(root, source)
-
-    def span(self, element: etree._Element) -> Span:
-        return self._positions.span(element)
-
-    def attribute_span(self, element: etree._Element, name: str) -> Span:
-        return self._positions.attribute_span(element, name)
-
-
-def load_xml(path: str | Path, what: str) -> XmlInput:
+def load_xml(path: str | Path, what: str) -> XmlDocument:
     """Parse ``path`` safely (no DTD, entities or network: mse.syntax.safexml); MseError when it cannot."""
     name = str(path)
     data = read_input(path, what=what)
     root, source, problems = parse_xml(data, name)
     if root is None:
         raise MseError(problems)
-    return XmlInput(name, root, source)
+    return XmlDocument(name, root, source)
 
 
 def localname(element: etree._Element) -> str:

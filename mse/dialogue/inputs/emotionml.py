@@ -29,7 +29,6 @@ from mse.dialogue.inputs.common import (
     EmotionInterval,
     EmotionNames,
     InputReading,
-    XmlInput,
     finish,
     known_emotion,
     load_emotion_names,
@@ -38,6 +37,7 @@ from mse.dialogue.inputs.common import (
     resolve_emotion,
     sequence_emotions,
 )
+from mse.syntax.safexml import XmlDocument
 
 FORMAT = "emotionml"
 NAMESPACE = "http://www.w3.org/2009/10/emotionml"
@@ -72,7 +72,7 @@ class Timing:
 
 
 class _Reader:
-    def __init__(self, doc: XmlInput, names: EmotionNames, known: Callable[[str, Span], bool]) -> None:
+    def __init__(self, doc: XmlDocument, names: EmotionNames, known: Callable[[str, Span], bool]) -> None:
         self.doc = doc
         self.names = names
         self.known = known
@@ -381,13 +381,13 @@ class _Reader:
 
 
 def read_emotionml(
-    source: str | Path | XmlInput,
+    source: str | Path | XmlDocument,
     *,
     names: EmotionNames | None = None,
     known: Callable[[str, Span], bool] = known_emotion,
 ) -> InputReading:
     """Dialogue events of an EmotionML document, and what mse does not use of it."""
-    doc = source if isinstance(source, XmlInput) else load_xml(source, what="EmotionML file")
+    doc = source if isinstance(source, XmlDocument) else load_xml(source, what="EmotionML file")
     return _Reader(doc, names or load_emotion_names(), known).read()
 
 

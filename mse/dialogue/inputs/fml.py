@@ -37,7 +37,6 @@ from mse.dialogue.inputs.common import (
     EmotionNames,
     InputEvent,
     InputReading,
-    XmlInput,
     finish,
     known_emotion,
     load_emotion_names,
@@ -48,6 +47,7 @@ from mse.dialogue.inputs.common import (
 )
 from mse.dialogue.script import CHARS_PER_SECOND
 from mse.limits import MAX_SECONDS
+from mse.syntax.safexml import XmlDocument
 
 FORMAT = "fml-apml"
 #: A token without a letter or digit (``.``, ``!``, ``...``) is a pause of this length.
@@ -173,7 +173,7 @@ def _time_ref(text: str, span: Span, errors: list[Diagnostic]) -> TimeRef | None
     return TimeRef(None, value, span)
 
 
-def _unused_attributes(doc: XmlInput, element: etree._Element, used: Iterable[str], label: str) -> list[Diagnostic]:
+def _unused_attributes(doc: XmlDocument, element: etree._Element, used: Iterable[str], label: str) -> list[Diagnostic]:
     names = [str(n) for n in element.attrib if str(n) not in set(used) | _ALWAYS_USED]
     if not names:
         return []
@@ -216,7 +216,7 @@ def _pin(tokens: list[Token], anchors: list[tuple[float, float]]) -> list[Token]
 
 
 def _read_speech(
-    doc: XmlInput, node: etree._Element, errors: list[Diagnostic], warnings: list[Diagnostic]
+    doc: XmlDocument, node: etree._Element, errors: list[Diagnostic], warnings: list[Diagnostic]
 ) -> FmlSpeech | None:
     span = doc.span(node)
     sid = (node.get("id") or "").strip()
@@ -309,7 +309,7 @@ def _read_speech(
 
 
 def _with_stress(
-    doc: XmlInput,
+    doc: XmlDocument,
     speech: FmlSpeech,
     accents: list[etree._Element],
     errors: list[Diagnostic],
@@ -348,7 +348,7 @@ def _with_stress(
 
 
 def _read_function(
-    doc: XmlInput, node: etree._Element, errors: list[Diagnostic], warnings: list[Diagnostic]
+    doc: XmlDocument, node: etree._Element, errors: list[Diagnostic], warnings: list[Diagnostic]
 ) -> FmlFunction | None:
     name = localname(node)
     span = doc.span(node)
@@ -391,9 +391,9 @@ def _read_function(
     return FmlFunction(name, fid, kind, refs[0], refs[1], importance, intensity, regulation, span)
 
 
-def read_fml_document(source: str | Path | XmlInput) -> FmlDocument:
+def read_fml_document(source: str | Path | XmlDocument) -> FmlDocument:
     """The file as Greta reads it; MseError (E1xx) for what cannot be read."""
-    doc = source if isinstance(source, XmlInput) else load_xml(source, what="FML-APML file")
+    doc = source if isinstance(source, XmlDocument) else load_xml(source, what="FML-APML file")
     root = doc.root
     errors: list[Diagnostic] = []
     warnings: list[Diagnostic] = []
@@ -459,7 +459,7 @@ def say_event(speech: FmlSpeech) -> InputEvent | None:
 
 
 def read_fml(
-    path: str | Path | XmlInput,
+    path: str | Path | XmlDocument,
     *,
     names: EmotionNames | None = None,
     known: Callable[[str, Span], bool] = known_emotion,
