@@ -1,3 +1,6 @@
+from mse.interrupts import install
+
+install()  # before anything heavy is imported (mse/interrupts.py says why)
 try:
     from mse.cli import console_main
 except KeyboardInterrupt:  # Ctrl-C while the command line loads

@@ -378,6 +378,27 @@ def test_ctrl_c_during_start_up_is_a_message_and_130(delay: float) -> None:
     assert code == -2 or (code == 130 and "mse: interrupted" in err), (code, err)
 
 
+def test_ctrl_c_inside_an_import_is_held_back_until_the_import_ends(tmp_path: Path) -> None:
+    """An interrupt that lands while a module is imported was mangled by the import machinery
+    (numpy's C-extension import turned it into an ImportError traceback; importlib's lock
+    callback printed "Exception ignored" and the command ran on to exit 0): mse.interrupts
+    delivers it once the import is over."""
+    import subprocess
+    import sys
+
+    (tmp_path / "slow_module.py").write_text(
+        "import os, signal, time\nos.kill(os.getpid(), signal.SIGINT)\ntime.sleep(0.2)\nprint('imported')\n",
+        encoding="utf-8")
+    script = ("import sys, time\nfrom mse import interrupts\ninterrupts.install()\n"
+              f"sys.path.insert(0, {str(tmp_path)!r})\n"
+              "try:\n    import slow_module\n    time.sleep(5)\n    print('not interrupted')\n"
+              "except KeyboardInterrupt:\n    print('interrupted')\n")
+    done = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True, timeout=60,
+                          cwd=Path(__file__).parent.parent)
+    assert done.stdout.split() == ["imported", "interrupted"], (done.stdout, done.stderr)
+    assert "Traceback" not in done.stderr and "Exception ignored" not in done.stderr
+
+
 def test_render_strip_width_is_bounded_for_signals_past_the_end(tmp_path: Path) -> None:
     """Found by the render fuzz target: a signal starting at 10^6 s in a 10 s timeline."""
     pytest.importorskip("PIL")

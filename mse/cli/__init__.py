@@ -168,8 +168,10 @@ def console_main() -> None:
     if sys.stderr is None:  # messages then go nowhere, never to stdout
         sys.stderr = open(os.devnull, "w")  # noqa: SIM115 - for the life of the process
     try:
+        from mse import interrupts
         from mse.fileio import install_termination_handler
 
+        interrupts.install()
         install_termination_handler()
         code = main()
     except KeyboardInterrupt:  # during start-up, before a command runs
