@@ -94,8 +94,10 @@ from mse.motion.lma_hmm.standing import (
     cycle_rate,
     cycles_by_velocity,
     expected_variance,
+    hand_jerk,
     landed_support,
     shared_stance,
+    spread_cap,
     stands,
 )
 from mse.motion.lma_hmm.stride import restore_stride, travels
@@ -217,7 +219,9 @@ def _modulate(
     path = smooth(raw, desired.frame_time, hz)
     if stands(carried, encoding.skeleton):
         target = expected_variance(trained, phases + [desired_phase] * copies, training_rotations, states)
-        path, means = arm_variance(path, means, encoding, target, ARM_SPREAD_CAP)
+        jerk = hand_jerk(Motion(encoding.skeleton, desired.frame_time, decode(encoding, path)))
+        room = spread_cap(jerk, [hand_jerk(m) for m in motions], ARM_SPREAD_CAP)
+        path, means = arm_variance(path, means, encoding, target, room)
     timings["filter"] = time.perf_counter() - clock
     return Modulated(
         encoding,
