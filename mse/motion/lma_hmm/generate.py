@@ -35,7 +35,8 @@ and a standing body pins its lowest foot point without the stance hysteresis
 standing neighbours that cycle by their velocity only (slow, small feminine waves) are
 judged so and treated as waves (``standing.CYCLE_VELOCITY_WEIGHT``).
 Any standing body (:mod:`mse.motion.lma_hmm.standing`) has its arms' spread widened towards
-the neighbours' (``standing.ARM_SPREAD_CAP``) and lands its hops on the floor, and its
+what its states hold, as far as the hands' jerk stays within the neighbours'
+(``standing.spread_cap``), and lands its hops on the floor, and its
 neighbours share one leg posture (``standing.shared_stance``).
 
 Steps 1-5 are cached per (library fingerprint, action, style, desired clip, parameters) in

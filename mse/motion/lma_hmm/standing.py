@@ -9,7 +9,9 @@ walks and runs by the neighbours' carried root speed; for them
   ones, must not let a foot that is still on the floor glide;
 - a cycling movement (a wave) has its cut-off bounded by the neighbours' cycle rate
   (:func:`cycle_rate`), and a slow, small wave whose positions alone do not cycle is
-  recognised as cycling by its velocity (:func:`cycles_by_velocity`).
+  recognised as cycling by its velocity (:func:`cycles_by_velocity`);
+- the arms' spread is widened towards what the path's states hold (:func:`arm_variance`),
+  as far as the hands' jerk stays within the neighbours' (:func:`spread_cap`).
 
 docs/motion.md, "Generation", steps 10 and 11.
 """
@@ -191,7 +193,7 @@ def arm_variance(
 ) -> tuple[FloatArray, FloatArray]:
     """``path`` and the state ``means`` with each arm rotation channel's spread over time
     widened to ``target`` (per channel: :func:`expected_variance`, what the path's states
-    hold), by at most ``cap``, never narrowed: the *global variance* remedy of HMM synthesis
+    hold), by at most ``cap`` (:func:`spread_cap`), never narrowed: the *global variance* remedy of HMM synthesis
     (Toda and Tokuda 2007, as a variance-scaling post-filter; the HSMM method uses the full
     form), with the variance the states visited give rather than the neighbours' whole
     clips (whose raising and lowering of the arms made a masculine wave drawn from a normal
