@@ -36,14 +36,7 @@ covers half of it, and the recognizer, trained on whole takes, rated it normal (
 ``--show-failures`` prints every conversion that fails a fidelity check (clip, target,
 values and admitted ranges) on stderr, and ``--only-conversions FOLD:CLIP:TARGET,...`` redoes
 exactly those (folds and desired paths are drawn over every clip whatever the filters, so
-``--actions``, ``--only-folds`` and ``--only-conversions`` redo a full run's conversions);
-``--no-standing-pin`` pins standing bodies with the
-walks' stance hysteresis, as before the fifth pass (docs/motion.md, "Generation", step 11);
-``--arm-spread-cap 1`` leaves a standing body's arms as the state means draw them (before the
-sixth pass), ``--no-shared-stance`` leaves a standing body's neighbours their own leg
-postures (before the seventh pass),
-``--cycle-velocity-weight 0`` leaves slow, small waves that do not cycle by their positions
-to a left-to-right chain (before the seventh pass).
+``--actions``, ``--only-folds`` and ``--only-conversions`` redo a full run's conversions).
 Note that ``--actions`` changes the folds (they are drawn over the clips kept).
 """
 

@@ -35,7 +35,8 @@ and a standing body pins its lowest foot point without the stance hysteresis
 standing neighbours that cycle by their velocity only (slow, small feminine waves) are
 judged so and treated as waves (``standing.CYCLE_VELOCITY_WEIGHT``).
 Any standing body (:mod:`mse.motion.lma_hmm.standing`) has its arms' spread widened towards
-the neighbours' (``standing.ARM_SPREAD_CAP``) and lands its hops on the floor, and its
+what its states hold, as far as the hands' jerk stays within the neighbours'
+(``standing.spread_cap``), and lands its hops on the floor, and its
 neighbours share one leg posture (``standing.shared_stance``).
 
 Steps 1-5 are cached per (library fingerprint, action, style, desired clip, parameters) in
@@ -94,8 +95,10 @@ from mse.motion.lma_hmm.standing import (
     cycle_rate,
     cycles_by_velocity,
     expected_variance,
+    hand_jerk,
     landed_support,
     shared_stance,
+    spread_cap,
     stands,
 )
 from mse.motion.lma_hmm.stride import restore_stride, travels
@@ -217,7 +220,9 @@ def _modulate(
     path = smooth(raw, desired.frame_time, hz)
     if stands(carried, encoding.skeleton):
         target = expected_variance(trained, phases + [desired_phase] * copies, training_rotations, states)
-        path, means = arm_variance(path, means, encoding, target, ARM_SPREAD_CAP)
+        jerk = hand_jerk(Motion(encoding.skeleton, desired.frame_time, decode(encoding, path)))
+        room = spread_cap(jerk, [hand_jerk(m) for m in motions], ARM_SPREAD_CAP)
+        path, means = arm_variance(path, means, encoding, target, room)
     timings["filter"] = time.perf_counter() - clock
     return Modulated(
         encoding,

@@ -30,7 +30,7 @@ from mse.motion.lma_hmm.timing import resample
 CARRIED = 4
 #: a cyclic path is continued rather than slowed when the clip is this much longer than it
 LOOP_RATIO = 1.3
-DISK_FORMAT = "mse-lma-hmm-path/13"
+DISK_FORMAT = "mse-lma-hmm-path/14"
 
 
 @dataclass(frozen=True, eq=False)

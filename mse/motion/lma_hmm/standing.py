@@ -9,7 +9,9 @@ walks and runs by the neighbours' carried root speed; for them
   ones, must not let a foot that is still on the floor glide;
 - a cycling movement (a wave) has its cut-off bounded by the neighbours' cycle rate
   (:func:`cycle_rate`), and a slow, small wave whose positions alone do not cycle is
-  recognised as cycling by its velocity (:func:`cycles_by_velocity`).
+  recognised as cycling by its velocity (:func:`cycles_by_velocity`);
+- the arms' spread is widened towards what the path's states hold (:func:`arm_variance`),
+  as far as the hands' jerk stays within the neighbours' (:func:`spread_cap`).
 
 docs/motion.md, "Generation", steps 10 and 11.
 """
@@ -21,8 +23,8 @@ from collections.abc import Sequence
 import numpy as np
 import numpy.typing as npt
 
-from mse.motion.base.bodyparts import limb_groups
-from mse.motion.base.bvh import Skeleton
+from mse.motion.base.bodyparts import body_map, limb_groups
+from mse.motion.base.bvh import Motion, Skeleton
 from mse.motion.base.contacts import supported_at
 from mse.motion.base.cycles import leg_length
 from mse.motion.base.kinematics import FloatArray
@@ -126,11 +128,39 @@ def landed_support(carried: FloatArray) -> FloatArray:
     return out
 
 
-#: the arms' rotations of a standing body are widened by at most this factor (per channel,
-#: standard deviation over time) towards what its states hold (:func:`arm_variance`): the
-#: hands' jerk grows with it (Samadani waves: at 1.5 two conversions went over 2x real, 1.34x
-#: and 1.08x the limit; at 1.1 both pass), and 1.1 is enough for dataset 1's bye and byebye
+#: the arms' rotations of a standing body are widened by at least up to this factor (per
+#: channel, standard deviation over time) towards what its states hold (:func:`arm_variance`),
+#: and further only as far as the hands' jerk stays within the neighbours' (:func:`spread_cap`):
+#: the hands' jerk grows with it (Samadani waves: at 1.5 two conversions went over 2x real,
+#: 1.34x and 1.08x the limit; at 1.1 both pass)
 ARM_SPREAD_CAP = 1.1
+
+
+def hand_jerk(motion: Motion) -> float:
+    """RMS jerk of the hands about the torso (file units per s^3; third differences of
+    positions, as the fidelity bench measures jerk, without the body's own sway)."""
+    if motion.frame_count < 4:
+        return 0.0
+    body = body_map(motion.skeleton)
+    positions = motion.positions()
+    hands = positions[:, [body.left_hand, body.right_hand]] - positions[:, [body.torso]]
+    jerk = np.diff(hands, n=3, axis=0) / motion.frame_time**3
+    return float(np.sqrt(np.mean(np.sum(jerk**2, axis=-1))))
+
+
+def spread_cap(path_jerk: float, neighbours_jerk: Sequence[float], floor: float = ARM_SPREAD_CAP) -> float:
+    """How far :func:`arm_variance` may widen the arms: at least ``floor``, and up to the factor
+    that brings the path's hand jerk (``path_jerk``, :func:`hand_jerk`) to the neighbours'
+    median. Widening the arms' rotations by a factor multiplies the hands' jerk by about as
+    much, so a slow movement keeps the room it has and a fast wave stays at ``floor``.
+
+    Dataset 1's not-confident byebye (one neighbour): its hands drift 4.8 cm over 4.7 s, each
+    of the 12 states holds a slice of the drift and its mean lies inside it; the states'
+    spread is 1.3-3.3x the path's per arm channel, and at 1.1 the hands reached 3.6 cm (the
+    spread's low end 4.1) with a jerk of 1,200 against the neighbour's 9,800."""
+    if path_jerk <= 0.0 or not neighbours_jerk:
+        return floor
+    return max(floor, float(np.median(neighbours_jerk)) / path_jerk)
 
 
 def expected_variance(
@@ -163,7 +193,7 @@ def arm_variance(
 ) -> tuple[FloatArray, FloatArray]:
     """``path`` and the state ``means`` with each arm rotation channel's spread over time
     widened to ``target`` (per channel: :func:`expected_variance`, what the path's states
-    hold), by at most ``cap``, never narrowed: the *global variance* remedy of HMM synthesis
+    hold), by at most ``cap`` (:func:`spread_cap`), never narrowed: the *global variance* remedy of HMM synthesis
     (Toda and Tokuda 2007, as a variance-scaling post-filter; the HSMM method uses the full
     form), with the variance the states visited give rather than the neighbours' whole
     clips (whose raising and lowering of the arms made a masculine wave drawn from a normal
