@@ -1,4 +1,5 @@
-"""Longer requests repeat an action's cycles at their tempo (issue 35, mse/motion/base/loop.py)."""
+"""Longer requests repeat an action's cycles at their tempo; shorter ones end still on the rest
+pose (issue 35, mse/motion/base/loop.py)."""
 
 from __future__ import annotations
 
@@ -14,8 +15,9 @@ from mse.motion.base.bvh import Motion
 from mse.motion.base.contacts import find_root_joint
 from mse.motion.base.cycles import action_shape
 from mse.motion.base.heading import facing_yaws
+from mse.motion.base.kinematics import rotation_exp, rotation_log
 from mse.motion.base.library import load_library
-from mse.motion.base.loop import loop_span, looped, rested
+from mse.motion.base.loop import loop_span, looped, rest_ease_frames, rested, rested_facing, shorter_than_a_cycle
 from mse.motion.generator import METHODS, GenerationRequest, generator_for
 
 
@@ -59,6 +61,32 @@ def test_a_request_shorter_than_a_cycle_ends_on_the_rest_pose() -> None:
     assert np.allclose(short[:4], values[:4], atol=0.02)  # started at its own tempo
     assert np.max(np.abs(np.diff(short, n=3, axis=0))) < 0.2  # eased, not snapped
     assert rested(values, 120, 1.0 / 30.0) is values
+
+
+def test_a_short_request_of_an_action_that_does_not_cycle_is_shorter_than_its_clip() -> None:
+    assert shorter_than_a_cycle(50, 100, 1.0 / 30.0, 0.0)  # no cycle: the clip is the cycle
+    assert not shorter_than_a_cycle(100, 100, 1.0 / 30.0, 0.0)
+    assert shorter_than_a_cycle(20, 100, 1.0 / 30.0, 1.0) and not shorter_than_a_cycle(40, 100, 1.0 / 30.0, 1.0)
+
+
+def test_a_spinning_root_rests_facing_where_it_faces() -> None:
+    # the root turns about +Y two full turns over the clip and ends leaning forward
+    frames, frame_time = 120, 1.0 / 30.0
+    yaw = np.linspace(0.0, 4.0 * np.pi, frames)
+    lean = np.linspace(0.0, 0.3, frames)
+    turns = np.stack([np.zeros(frames), yaw, np.zeros(frames)], axis=1)
+    vectors = rotation_log(rotation_exp(turns) @ rotation_exp(np.stack([lean, 0 * lean, 0 * lean], axis=1)))
+    values = np.hstack([vectors, np.ones((frames, 1))])
+    up = np.array([0.0, 1.0, 0.0])
+    short = rested_facing(values, 60, frame_time, slice(0, 3), up)
+    assert short.shape == (60, 4)
+    rotations = rotation_exp(short[:, :3])
+    headings = np.unwrap(np.arctan2(rotations[:, 0, 2], rotations[:, 2, 2]))
+    start = 60 - rest_ease_frames(60, frame_time) - 1
+    assert abs(headings[-1] - headings[start]) < 0.05  # facing as where the ease starts
+    assert np.max(np.abs(np.diff(headings))) < 0.25  # no turn back through the rotation vectors' shell
+    unturned = rotation_exp(np.array([0.0, -headings[-1], 0.0])) @ rotations[-1]
+    assert np.allclose(unturned, rotation_exp(np.array([0.3, 0.0, 0.0])), atol=0.02)  # the rest's lean
 
 
 def test_a_travelling_loop_keeps_the_tempo_without_resampling() -> None:
