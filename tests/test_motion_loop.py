@@ -10,11 +10,9 @@ import numpy as np
 import pytest
 
 from bench.evaluation.fidelity import measure
-from mse.motion.base.bodyparts import body_map
-from mse.motion.base.bvh import Motion
+from bench.evaluation.short_requests import aligned
 from mse.motion.base.contacts import find_root_joint
 from mse.motion.base.cycles import action_shape
-from mse.motion.base.heading import facing_yaws
 from mse.motion.base.kinematics import rotation_exp, rotation_log
 from mse.motion.base.library import load_library
 from mse.motion.base.loop import loop_span, looped, rest_ease_frames, rested, rested_facing, shorter_than_a_cycle
@@ -127,19 +125,6 @@ SHORT_CASES = {
 }
 
 
-def _aligned(motion: Motion, hips: int) -> np.ndarray:
-    """Joint positions from the hips, turned so that the hips face +Z (joint 0, Bandai's
-    ``joint_Root``, lies on the floor and is left out)."""
-    positions = motion.positions()
-    body = body_map(motion.skeleton)
-    yaws = facing_yaws(positions, body.left_hip, body.right_hip)
-    relative = positions - positions[:, hips : hips + 1]
-    c, s = np.cos(yaws)[:, None], np.sin(yaws)[:, None]
-    x, z = relative[..., 0].copy(), relative[..., 2].copy()
-    relative[..., 0], relative[..., 2] = c * x - s * z, s * x + c * z
-    return relative[:, 1:]
-
-
 @pytest.mark.slow
 @pytest.mark.parametrize("kind", list(SHORT_CASES))
 @pytest.mark.parametrize("method", METHODS)
@@ -165,13 +150,13 @@ def test_a_request_shorter_than_a_cycle_ends_still_on_the_rest_pose(
     assert shape.cyclic == (kind != "one-shot")
     cycle = shape.period_s if shape.cyclic else take.duration
     hips = find_root_joint(take)
-    rest = _aligned(take, hips)[-1]
+    rest = aligned(take, hips)[-1]
     real_jerk = measure(take)["jerk"]
     generator = generator_for(method, None)
     for factor in (0.3, 0.6):
         motion = generator.generate(library, GenerationRequest(action, library.clips[0].style, factor * cycle))
         assert abs(motion.duration - factor * cycle) <= motion.frame_time, (factor, motion.duration)
-        pose = _aligned(motion, hips)
+        pose = aligned(motion, hips)
         assert np.max(np.linalg.norm(pose[-1] - rest, axis=-1)) < 6.0, factor  # cm: the take's last pose
         assert np.max(np.linalg.norm(pose[-1] - pose[-2], axis=-1)) / motion.frame_time < 1.0, factor  # cm/s: still
         if kind == "one-shot":  # eased, facing where it faces: turned back in 0.1 s, jerk 6x
