@@ -243,6 +243,20 @@ def _root_up(template: Template) -> tuple[int, FloatArray] | None:
     return k, up / np.linalg.norm(up)
 
 
+def facing_as(pose: FloatArray, other: FloatArray, template: Template) -> FloatArray:
+    """``pose`` (D,) static features with the root joint's yaw about the vertical taken from
+    ``other`` (D,), when the template models the root as swing-twist (its swing, the lean or
+    the bow, stays ``pose``'s); otherwise ``pose``."""
+    root = _root_up(template)
+    if root is None:
+        return pose
+    k, up = root
+    columns = slice(3 * k, 3 * k + 3)
+    result = pose.copy()
+    result[columns] += (float(other[columns] @ up) - float(pose[columns] @ up)) * up
+    return result
+
+
 def static_features(motion: Motion, template: Template) -> FloatArray:
     """(T, 3·joints) exponential maps of the aligned rotations relative to the references
     (the root joint's as swing-twist when ``template.twisted_root``)."""

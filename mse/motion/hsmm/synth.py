@@ -23,12 +23,12 @@ from mse.motion.base.bvh import Motion
 from mse.motion.base.contacts import root_track
 from mse.motion.base.filters import zero_phase_lowpass
 from mse.motion.base.kinematics import forward_kinematics, matrix_to_euler
-from mse.motion.base.loop import held, looped
+from mse.motion.base.loop import held, looped, rest_ease_frames, rested, shorter_than_a_cycle
 from mse.motion.hsmm.carried import carried_track, smooth_carried
 from mse.motion.hsmm.features import FloatArray, yaw_matrix
 from mse.motion.hsmm.mlpg import generate_with_gv, mlpg
 from mse.motion.hsmm.model import DURATION_VARIANCE_FLOOR, HsmmModel, UnitModel
-from mse.motion.hsmm.prep import Template, local_rotations_from_features
+from mse.motion.hsmm.prep import Template, facing_as, local_rotations_from_features
 from mse.motion.hsmm.segment import ONE_SHOT_UNIT
 
 
@@ -260,25 +260,54 @@ def root_positions(
     return root_track(relative, contacts, template.contact_height, template.frame_time, carried, groups=feet)
 
 
-def statics_to_motion(statics: FloatArray, model: HsmmModel, carried: FloatArray | None = None) -> Motion:
-    """BVH motion from static features: rotations, template offsets, recomputed root
-    (``carried``: per-frame flight phases, :mod:`mse.motion.hsmm.carried`)."""
+def smoothed(
+    statics: FloatArray, model: HsmmModel, carried: FloatArray | None = None
+) -> tuple[FloatArray, FloatArray | None]:
+    """The generated trajectories low-passed (:data:`OUTPUT_CUTOFF_HZ`; a standing action's
+    legs more, :func:`still_legs`), as :func:`statics_to_motion` plays them."""
     template = model.template
-    skeleton = template.skeleton
-    frames = statics.shape[0]
     # MLPG + GV trajectories keep a little frame-to-frame ripple at the state boundaries;
     # through the pinned feet it reaches the whole body: Bandai dataset 2 walks had head and
     # wrist jerk 2.3-2.6x the real walks' (limit 2x); at 6 Hz 0.8-1.2x, speed and stride kept.
     statics = zero_phase_lowpass(statics, template.frame_time, OUTPUT_CUTOFF_HZ)
-    standing = not model.travels  # one-shot actions and hand cycles (waves)
-    if standing and template.feet_lift <= ACTING_LEGS_LIFT:
+    if not model.travels and template.feet_lift <= ACTING_LEGS_LIFT:  # standing, on both feet
         statics = still_legs(statics, template)
+    if carried is not None:
+        carried = smooth_carried(carried, template.frame_time, OUTPUT_CUTOFF_HZ)
+    return statics, carried
+
+
+def rested_statics(
+    statics: FloatArray, carried: FloatArray | None, model: HsmmModel, frames: int
+) -> tuple[FloatArray, FloatArray | None]:
+    """The first ``frames`` of a clip generated at its own length, smoothed and eased into its
+    last pose (:func:`mse.motion.base.loop.rested`), facing where the body faces when the
+    ease starts. Smoothed after the ease, the filters' odd padding carried the ease's speed
+    into the last frame (Bandai dataset 1 byebye at 0.3 of its take: 29 cm/s)."""
+    frame_time = model.template.frame_time
+    statics, carried = smoothed(statics, model, carried)
+    start = max(0, frames - rest_ease_frames(frames, frame_time) - 1)
+    rest = facing_as(statics[-1], statics[start], model.template)
+    carried = rested(carried, frames, frame_time) if carried is not None else None
+    return rested(statics, frames, frame_time, rest), carried
+
+
+def statics_to_motion(
+    statics: FloatArray, model: HsmmModel, carried: FloatArray | None = None, smooth: bool = True
+) -> Motion:
+    """BVH motion from static features: rotations, template offsets, recomputed root
+    (``carried``: per-frame flight phases, :mod:`mse.motion.hsmm.carried`); ``smooth=False``
+    when they are already :func:`smoothed`."""
+    template = model.template
+    skeleton = template.skeleton
+    frames = statics.shape[0]
+    if smooth:
+        statics, carried = smoothed(statics, model, carried)
+    standing = not model.travels  # one-shot actions and hand cycles (waves)
     rotations = local_rotations_from_features(statics, template)
     translations = np.broadcast_to(template.translations, (frames, skeleton.joint_count, 3)).copy()
     translations[:, template.root_joint] = 0.0
     positions, world = forward_kinematics(skeleton.parents, translations, rotations)
-    if carried is not None:
-        carried = smooth_carried(carried, template.frame_time, OUTPUT_CUTOFF_HZ)
     path = path_yaws(model, frames)
     if path is not None:
         # turning locomotion: the features face the path; the path turns at the model's rate
@@ -434,11 +463,23 @@ def synthesize(
         requested = round(sum(float(model.unit(n).duration_means.sum()) for n in names))
     if requested * frame_time > MAX_MOTION_SECONDS:
         raise ValueError(f"{requested} frames would last more than {MAX_MOTION_SECONDS:g} s")
+    natural = _natural_frames(model)
+    period = model.info.get("period_s", 0.0)
+    period_s = float(period) if isinstance(period, int | float) else 0.0
+    if duration_s is not None and natural and shorter_than_a_cycle(requested, natural, frame_time, period_s):
+        # shorter than one cycle (a one-shot action: than its clips): generated at their
+        # length and ended on its rest pose (base.loop.rested, as LMA + HMM). Planned for the
+        # request, a run of 7 frames (0.3 of its cycle) dropped to its first unit and
+        # stopped mid-stride (51 cm from the take's last pose, 124 cm/s in its last frame),
+        # and a one-shot was played whole, faster (a kick at 0.3 of its take: jerk x9)
+        names = plan_units(model, frames=natural)
+        statics, carried = generate(model, names, natural, gv=gv and model.cycle != "hands", seed=seed)
+        statics, carried = rested_statics(statics, carried, model, requested)
+        return statics_to_motion(statics, model, carried, smooth=False)
     # Short requests drop inner units until every state can have a frame.
     while len(names) > 1 and requested < model.states * len(names):
         names = names[:-2] + names[-1:] if len(names) > 2 else names[:1]
     frames = max(requested, model.states)
-    natural = _natural_frames(model)
     if model.cycle == "hands" and natural and frames >= LOOP_RATIO * natural:
         # a hand cycle longer than its clips: generated at their length, its swings repeated
         # at their tempo (base.loop): planned for the whole length, the units between the
@@ -446,8 +487,6 @@ def synthesize(
         # amplitude fell from 5.9 cm at the takes' length to 3.3 at 3x (real 7.2-8.2)
         names = plan_units(model, frames=natural)
         statics, _ = generate(model, names, natural, gv=False, seed=seed)
-        period = model.info.get("period_s", 0.0)
-        period_s = float(period) if isinstance(period, int | float) else 0.0
         span = swings_span(model, names, natural, seed)
         return statics_to_motion(looped(statics, frames, frame_time, period_s=period_s, stretch=span), model)
     if not model.cyclic and natural and frames >= LOOP_RATIO * natural:

@@ -58,14 +58,16 @@ from dataclasses import asdict, dataclass, field, replace
 import numpy as np
 
 from mse.motion.base import cache
+from mse.motion.base.bodyparts import body_map
 from mse.motion.base.bvh import Motion
 from mse.motion.base.contacts import STANCE_HYSTERESIS, contact_height, ground, support
 from mse.motion.base.cycles import ActionShape, action_shape, leg_length
 from mse.motion.base.heading import heading, heading_track, in_heading_frame, turn_rate, turned_along, turning_rate
 from mse.motion.base.kinematics import FloatArray
 from mse.motion.base.library import Clip, MotionLibrary, MotionUnavailable
-from mse.motion.base.loop import EDGE_SHARE, held, looped, rested
+from mse.motion.base.loop import EDGE_SHARE, held, looped, rested, rested_facing, shorter_than_a_cycle
 from mse.motion.lma_hmm.hmm import (
+    Encoding,
     decode,
     encode,
     encoding_for,
@@ -332,6 +334,17 @@ def _key(library: MotionLibrary, action: str, style: str, desired: str, original
     return hashlib.sha256(text.encode()).hexdigest()[:24]
 
 
+def _rested(path: FloatArray, frames: int, frame_time: float, encoding: Encoding) -> FloatArray:
+    """:func:`mse.motion.base.loop.rested_facing`: the root joint (the one the legs hang from)
+    rests facing where the body faces."""
+    root = encoding.skeleton.parents[body_map(encoding.skeleton).left_hip]
+    if root not in encoding.rotated:
+        return rested(path, frames, frame_time)
+    k = encoding.rotated.index(root)
+    up = encoding.references[k].T @ np.array([0.0, 1.0, 0.0])
+    return rested_facing(path, frames, frame_time, slice(3 * k, 3 * k + 3), up / np.linalg.norm(up))
+
+
 def generate_motion(
     library: MotionLibrary,
     action: str,
@@ -380,9 +393,10 @@ def generate_motion(
     if duration is not None:
         wanted = round(duration / frame_time)
         shape = modulated.shape
-        if shape.cyclic and wanted < len(path) and wanted * frame_time < shape.period_s:
-            # shorter than one cycle: started at its tempo, ended on the rest pose (base.loop)
-            path = rested(path, wanted, frame_time)
+        if shorter_than_a_cycle(wanted, len(path), frame_time, shape.period_s):
+            # shorter than one cycle (an action that does not cycle: than its path): started
+            # at its tempo, ended on the rest pose (base.loop)
+            path = _rested(path, wanted, frame_time, modulated.encoding)
         elif shape.cyclic or wanted < LOOP_RATIO * len(path):
             # (an action that does not cycle, measured on its clips, is not continued through
             # its state means even when its path's HMM cycles: a normal punch lost its reach)
