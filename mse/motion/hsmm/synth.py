@@ -470,8 +470,8 @@ def synthesize(
         # shorter than one cycle (a one-shot action: than its clips): generated at their
         # length and ended on its rest pose (base.loop.rested, as LMA + HMM). Planned for the
         # request, a run of 7 frames (0.3 of its cycle) dropped to its first unit and
-        # stopped mid-stride (51 cm from the take's last pose, 124 cm/s in its last frame),
-        # and a one-shot was played whole, faster (a kick at 0.3 of its take: jerk x9)
+        # stopped mid-stride (53 cm from the take's last pose, 124 cm/s in its last frame),
+        # and a one-shot was played whole, faster (a kick at 0.3 of its take: jerk 7x its take's)
         names = plan_units(model, frames=natural)
         statics, carried = generate(model, names, natural, gv=gv and model.cycle != "hands", seed=seed)
         statics, carried = rested_statics(statics, carried, model, requested)
