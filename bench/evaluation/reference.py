@@ -26,7 +26,7 @@ from dataclasses import dataclass
 
 from mse.ir import model as ir
 from mse.ir.evaluate import is_consistent
-from mse.ir.prior_draw import prior_timeline
+from mse.ir.prior_draw import PriorDraw
 from mse.ir.profile import mean_relative_start, occurrence_probability
 from mse.ir.schedule import TICKS_PER_SECOND, Schedule, to_ticks
 
@@ -52,7 +52,7 @@ def sample_reference(model: ir.Model, duration: float, *, wanted: int, seed: int
     ``max_draws`` draws (and ``max_seconds`` of wall time).  Draw i uses the stream of one
     ``random.Random(seed)``, so a seed fixes the result."""
     rng = random.Random(seed)
-    ticks = to_ticks(duration)
+    prior = PriorDraw(model, to_ticks(duration))
     accepted: list[Schedule] = []
     draws = 0
     began = time.monotonic()
@@ -60,7 +60,7 @@ def sample_reference(model: ir.Model, duration: float, *, wanted: int, seed: int
         if max_seconds is not None and draws % 64 == 0 and time.monotonic() - began > max_seconds:
             break
         draws += 1
-        schedule = prior_timeline(model, ticks, rng)
+        schedule = prior.draw(rng)
         if is_consistent(model, schedule):
             accepted.append(schedule)
     return Reference(tuple(accepted), draws)

@@ -32,70 +32,113 @@ def _shortest(signal: ir.Signal) -> int:
     return max(1, to_ticks(signal.min_duration))
 
 
-def _length(rng: random.Random, signal: ir.Signal, start: int, duration: int) -> int:
-    low = _shortest(signal)
-    high = duration - start if signal.max_duration is None else min(duration - start, to_ticks(signal.max_duration))
+def _longest(signal: ir.Signal) -> int | None:
+    return None if signal.max_duration is None else to_ticks(signal.max_duration)
+
+
+class _Once:
+    """A once-only signal's draw on one duration, its constants computed once."""
+
+    __slots__ = ("duration", "last", "linear", "longest", "name", "occurs", "shortest", "slope", "start")
+
+    def __init__(self, signal: ir.Signal, duration: int) -> None:
+        self.name, self.duration = signal.id, duration
+        self.shortest, self.longest = _shortest(signal), _longest(signal)
+        self.last = duration - self.shortest
+        self.occurs = occurrence_probability(signal) if self.last >= 0 else 0.0
+        # The start's density is proportional to p(u) over [0, last]: start + slope v, v in [0, 1].
+        self.start = profile_at(signal, 0.0)
+        end = profile_at(signal, self.last / duration) if self.last >= 0 else self.start
+        self.slope = end - self.start
+        self.linear = abs(self.slope) >= 1e-12 * max(1.0, abs(self.start))
+
+    def draw(self, rng: random.Random) -> Occurrence | None:
+        if rng.random() >= self.occurs:
+            return None
+        if self.linear:  # v with density proportional to start + slope v: the inverse of its CDF
+            b, a = self.start, self.slope / 2
+            target = rng.random() * (b + a)
+            v = (-b + math.sqrt(max(0.0, b * b + 4 * a * target))) / (2 * a)
+        else:
+            v = rng.random()
+        start = min(self.last, int(v * self.last))
+        return Occurrence(start, start + _length(rng, self.shortest, self.longest, start, self.duration), self.name)
+
+
+class _Repetitive:
+    """A repetitive signal's draw on one duration: thinning of its Poisson process."""
+
+    __slots__ = ("duration", "last", "limit", "longest", "name", "peak", "shortest", "signal")
+
+    def __init__(self, signal: ir.Signal, duration: int) -> None:
+        self.signal, self.name, self.duration = signal, signal.id, duration
+        self.shortest, self.longest = _shortest(signal), _longest(signal)
+        self.last = duration - self.shortest
+        never = signal.probability_start <= 0 and signal.probability_end <= 0
+        self.peak = 0.0 if never or self.last < 0 else max(start_rate(signal, 0.0), start_rate(signal, 1.0))
+        self.limit = signal.max_occurrences
+
+    def draw(self, rng: random.Random) -> list[Occurrence]:
+        found: list[Occurrence] = []
+        peak = self.peak
+        if peak <= 0:
+            return found
+        signal, limit, last, duration = self.signal, self.limit, self.last, self.duration
+        t = 0.0  # seconds
+        while limit is None or len(found) < limit:
+            t += rng.expovariate(peak)
+            start = math.ceil(t * TICKS_PER_SECOND)
+            if start > last:
+                break
+            if rng.random() * peak > start_rate(signal, start / duration):
+                continue
+            stop = start + _length(rng, self.shortest, self.longest, start, duration)
+            found.append(Occurrence(start, stop, self.name))
+            t = stop / TICKS_PER_SECOND
+        return found
+
+
+def _length(rng: random.Random, low: int, longest: int | None, start: int, duration: int) -> int:
+    high = duration - start if longest is None else min(duration - start, longest)
     if high <= low:
         return low
     return round(rng.triangular(low, high, (low + high) / 2))
 
 
-def _linear_draw(rng: random.Random, start: float, end: float) -> float:
-    """v in [0, 1] with density proportional to start + (end - start) v."""
-    if abs(end - start) < 1e-12 * max(1.0, abs(start)):
-        return rng.random()
-    area = (start + end) / 2
-    target = rng.random() * area
-    a, b = (end - start) / 2, start
-    return (-b + math.sqrt(max(0.0, b * b + 4 * a * target))) / (2 * a)
-
-
 def draw_once(signal: ir.Signal, duration: int, rng: random.Random) -> Occurrence | None:
     """A once-only signal drawn from the prior (None: absent)."""
-    last = duration - _shortest(signal)
-    if last < 0 or rng.random() >= occurrence_probability(signal):
-        return None
-    reach = last / duration
-    v = _linear_draw(rng, profile_at(signal, 0.0), profile_at(signal, reach))
-    start = min(last, int(v * reach * duration))
-    return Occurrence(start, start + _length(rng, signal, start, duration), signal.id)
+    return _Once(signal, duration).draw(rng)
 
 
 def draw_repetitive(signal: ir.Signal, duration: int, rng: random.Random) -> list[Occurrence]:
     """A repetitive signal's occurrences drawn from the prior (thinning of its Poisson process)."""
-    last = duration - _shortest(signal)
-    found: list[Occurrence] = []
-    if last < 0 or (signal.probability_start <= 0 and signal.probability_end <= 0):
-        return found
-    peak = max(start_rate(signal, 0.0), start_rate(signal, 1.0))
-    limit = signal.max_occurrences
-    t = 0.0  # seconds
-    while limit is None or len(found) < limit:
-        t += rng.expovariate(peak)
-        start = math.ceil(t * TICKS_PER_SECOND)
-        if start > last:
-            break
-        if rng.random() * peak > start_rate(signal, start / duration):
-            continue
-        stop = start + _length(rng, signal, start, duration)
-        found.append(Occurrence(start, stop, signal.id))
-        t = stop / TICKS_PER_SECOND
-    return found
+    return _Repetitive(signal, duration).draw(rng)
+
+
+class PriorDraw:
+    """Draws of the prior for one model and duration (ticks), its constants computed once.
+    Signals in ``absent`` are not drawn: the prior conditioned on their absence (signals are
+    independent under the prior, so the others are drawn as they are)."""
+
+    __slots__ = ("duration", "once", "repetitive")
+
+    def __init__(self, model: ir.Model, duration: int, absent: Collection[str] = ()) -> None:
+        self.duration = duration
+        kept = [s for s in model.signals if s.id not in absent]
+        # In the model's order, once-only signals first (one draw: the order is the stream's only).
+        self.once = tuple(_Once(s, duration) for s in kept if not s.repetitive)
+        self.repetitive = tuple(_Repetitive(s, duration) for s in kept if s.repetitive)
+
+    def draw(self, rng: random.Random) -> Schedule:
+        """One timeline of the prior."""
+        occurrences = [o for o in (once.draw(rng) for once in self.once) if o is not None]
+        for repetitive in self.repetitive:
+            occurrences.extend(repetitive.draw(rng))
+        return Schedule.of(self.duration, occurrences)
 
 
 def prior_timeline(model: ir.Model, duration: int, rng: random.Random,
                    absent: Collection[str] = ()) -> Schedule:
-    """One draw of the prior: every signal on its own (``duration`` in ticks).  Signals in
-    ``absent`` are not drawn: the prior conditioned on their absence (signals are independent
-    under the prior, so the others are drawn as they are)."""
-    occurrences: list[Occurrence] = []
-    for signal in model.signals:
-        if signal.id in absent:
-            continue
-        if signal.repetitive:
-            occurrences.extend(draw_repetitive(signal, duration, rng))
-        else:
-            drawn = draw_once(signal, duration, rng)
-            if drawn is not None:
-                occurrences.append(drawn)
-    return Schedule.of(duration, occurrences)
+    """One draw of the prior: every signal on its own (``duration`` in ticks; signals in
+    ``absent`` left out, :class:`PriorDraw`, which a loop of draws should keep)."""
+    return PriorDraw(model, duration, absent).draw(rng)

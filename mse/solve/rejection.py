@@ -10,11 +10,12 @@ exact; where almost no draw is consistent it would never end, so its budget is s
 from a *pilot*:
 
 * the pilot draws, from a fixed seed (so it does not depend on the request's seed), until
-  PILOT_ACCEPTED draws are consistent, PILOT_DRAWS are drawn or PILOT_COST occurrences are
+  PILOT_ACCEPTED draws are consistent, PILOT_DRAWS are drawn or twice the cost limit below is
   drawn, and estimates the acceptance ``a`` and the cost of a draw (in drawn occurrences, which
   is what a draw and its check cost: about 10-45 microseconds each);
 * when the pilot accepted nothing, or the expected cost of one accepted draw (cost / ``a``)
-  exceeds MAX_EXPECTED_COST, the stage is not used for the request;
+  exceeds :func:`expected_cost_limit` (2,000 occurrences plus 5 per second of timeline), the
+  stage is not used for the request;
 * otherwise each seed draws at most ``K = ceil(ln(1 / MISS) / a_low)`` timelines and at most
   ``2 K`` times the pilot's mean cost in occurrences (and MAX_SEED_COST), ``a_low`` being a low estimate of the
   acceptance (``(accepted - 2 sqrt(accepted)) / draws``, at least ``0.5 / draws``: a pilot of
@@ -44,27 +45,34 @@ from dataclasses import dataclass
 
 from mse.ir import model as ir
 from mse.ir.evaluate import is_consistent
-from mse.ir.prior_draw import prior_timeline
+from mse.ir.prior_draw import PriorDraw
 from mse.ir.profile import never_occurs
-from mse.ir.schedule import Schedule, to_ticks
+from mse.ir.schedule import TICKS_PER_SECOND, Schedule, to_ticks
 from mse.solve.protocol import SolveRequest
 
 #: The pilot stops at this many consistent draws (the acceptance then within about 30 %) ...
 PILOT_ACCEPTED = 10
-#: ... or after this many draws ...
+#: ... or after this many draws, or after drawing twice the largest expected cost below.
 PILOT_DRAWS = 200
-#: ... or after drawing this many occurrences (0.3-1 s; only one-hour draws of repetitive
-#: signals, hundreds of occurrences each, reach it).
-PILOT_COST = 30_000
 #: The pilot's seed: one per request, whatever the request's seed.
 PILOT_SEED = "rejection/pilot"
 #: Share of seeds the stage may miss where it is used ((1 - a)^K).
 MISS = 1e-3
-#: The stage is used when one accepted draw costs at most this many drawn occurrences on
-#: average (cost per draw / acceptance): 0.2-0.6 s, about what one walk of an hour costs.
-MAX_EXPECTED_COST = 20_000
+#: The stage is used when one accepted draw costs at most EXPECTED_COST + EXPECTED_COST_PER_SECOND
+#: x the duration in seconds drawn occurrences on average (cost per draw / acceptance).  A drawn
+#: and checked occurrence costs 10-45 us; a walk 0.25-2 ms at 10 s and about 0.1 ms per second
+#: of timeline at an hour (150-390 ms): 2,050 occurrences at 10 s (20-90 ms, reached only where
+#: 1-3 % of the draws are consistent), 20,000 at an hour (0.2-0.9 s, about one walk).
+EXPECTED_COST = 2_000
+EXPECTED_COST_PER_SECOND = 5.0
 #: Occurrences one seed draws at most (1.5-4 s; reached by about MISS of the seeds).
 MAX_SEED_COST = 100_000
+
+
+def expected_cost_limit(duration: int) -> float:
+    """The largest expected cost (drawn occurrences) of one accepted draw for which the stage
+    is used, for a timeline of ``duration`` ticks."""
+    return EXPECTED_COST + EXPECTED_COST_PER_SECOND * duration / TICKS_PER_SECOND
 
 
 @dataclass(frozen=True, slots=True)
@@ -101,10 +109,11 @@ class Rejection:
         # but lets requests that differ only by forbidding them share a pilot.
         self.absent = frozenset(name for name in request.forbid if not never_occurs(model.signal(name)))
         self.require = tuple(sorted(set(request.require)))
+        self.prior = PriorDraw(model, self.duration, self.absent)
         self.budget = _budget(self)
 
     def _draw(self, rng: random.Random) -> tuple[Schedule, bool]:
-        schedule = prior_timeline(self.model, self.duration, rng, self.absent)
+        schedule = self.prior.draw(rng)
         if self.require:
             present = {o.signal for o in schedule.occurrences}
             if any(name not in present for name in self.require):
@@ -130,8 +139,9 @@ class Rejection:
 
 def _pilot(stage: Rejection) -> Budget:
     rng = random.Random(PILOT_SEED)
+    limit = expected_cost_limit(stage.duration)
     draws = accepted = cost = 0
-    while draws < PILOT_DRAWS and accepted < PILOT_ACCEPTED and cost < PILOT_COST:
+    while draws < PILOT_DRAWS and accepted < PILOT_ACCEPTED and cost < 2 * limit:
         schedule, ok = stage._draw(rng)
         draws += 1
         accepted += ok
@@ -139,7 +149,7 @@ def _pilot(stage: Rejection) -> Budget:
     if not accepted:
         return Budget(draws, accepted, cost, 0, 0)
     acceptance, per_draw = accepted / draws, cost / draws
-    if per_draw / acceptance > MAX_EXPECTED_COST:
+    if per_draw / acceptance > limit:
         return Budget(draws, accepted, cost, 0, 0)
     if acceptance >= 1.0:
         return Budget(draws, accepted, cost, 1, math.ceil(2 * per_draw) + 1)
