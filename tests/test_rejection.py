@@ -129,14 +129,15 @@ def test_a_seed_that_misses_stops_at_its_budget(monkeypatch: pytest.MonkeyPatch)
     model = load("relief")
     stage = Rejection(model, SolveRequest(duration=10))
     draws: list[int] = []
-    drawn = stage.prior.draw
+    prior = stage.prior
 
-    def counted(rng: random.Random) -> Schedule:
-        schedule = drawn(rng)
-        draws.append(len(schedule.occurrences))
-        return schedule
+    class Counted:
+        def draw(self, rng: random.Random) -> Schedule:
+            schedule = prior.draw(rng)
+            draws.append(len(schedule.occurrences))
+            return schedule
 
-    monkeypatch.setattr(stage.prior, "draw", counted)
+    monkeypatch.setattr(stage, "prior", Counted())
     monkeypatch.setattr(rejection, "is_consistent", lambda _model, _schedule: False)
     assert stage.sample(1) is None
     assert 0 < len(draws) <= stage.budget.draws
