@@ -11,7 +11,7 @@ from a *pilot*:
 
 * the pilot draws, from a fixed seed (so it does not depend on the request's seed), until
   PILOT_ACCEPTED draws are consistent, PILOT_DRAWS are drawn or twice the cost limit below is
-  drawn, and estimates the acceptance ``a`` and the cost of a draw (in drawn occurrences, which
+  drawn (once the limit, while none is consistent), and estimates the acceptance ``a`` and the cost of a draw (in drawn occurrences, which
   is what a draw and its check cost: about 10-45 microseconds each);
 * when the pilot accepted nothing, or the expected cost of one accepted draw (cost / ``a``)
   exceeds :func:`expected_cost_limit` (2,000 occurrences plus 5 per second of timeline), the
@@ -141,7 +141,8 @@ def _pilot(stage: Rejection) -> Budget:
     rng = random.Random(PILOT_SEED)
     limit = expected_cost_limit(stage.duration)
     draws = accepted = cost = 0
-    while draws < PILOT_DRAWS and accepted < PILOT_ACCEPTED and cost < 2 * limit:
+    # Nothing accepted after the limit's worth of draws: the stage would cost more than the limit.
+    while draws < PILOT_DRAWS and accepted < PILOT_ACCEPTED and cost < (2 if accepted else 1) * limit:
         schedule, ok = stage._draw(rng)
         draws += 1
         accepted += ok
@@ -151,8 +152,6 @@ def _pilot(stage: Rejection) -> Budget:
     acceptance, per_draw = accepted / draws, cost / draws
     if per_draw / acceptance > limit:
         return Budget(draws, accepted, cost, 0, 0)
-    if acceptance >= 1.0:
-        return Budget(draws, accepted, cost, 1, math.ceil(2 * per_draw) + 1)
     low = max(accepted - 2 * math.sqrt(accepted), 0.5) / draws
     most = math.ceil(math.log(MISS) / math.log1p(-low))
     return Budget(draws, accepted, cost, most, min(MAX_SEED_COST, math.ceil(2 * most * per_draw)))
