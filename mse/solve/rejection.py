@@ -11,16 +11,18 @@ from a *pilot*:
 
 * the pilot draws, from a fixed seed (so it does not depend on the request's seed), until
   PILOT_ACCEPTED draws are consistent, PILOT_DRAWS are drawn or twice the cost limit below is
-  drawn (once the limit, while none is consistent), and estimates the acceptance ``a`` and the cost of a draw (in drawn occurrences, which
-  is what a draw and its check cost: about 10-45 microseconds each);
+  drawn (once the limit, while none is consistent), and estimates the acceptance ``a`` and
+  the cost of a draw (in drawn occurrences, which is what a draw and its check cost: about
+  10-45 microseconds each);
 * when the pilot accepted nothing, or the expected cost of one accepted draw (cost / ``a``)
   exceeds :func:`expected_cost_limit` (2,000 occurrences plus 5 per second of timeline), the
   stage is not used for the request;
 * otherwise each seed draws at most ``K = ceil(ln(1 / MISS) / a_low)`` timelines and at most
-  ``2 K`` times the pilot's mean cost in occurrences (and MAX_SEED_COST), ``a_low`` being a low estimate of the
-  acceptance (``(accepted - 2 sqrt(accepted)) / draws``, at least ``0.5 / draws``: a pilot of
-  a few accepted draws often overestimates it), so that ``(1 - a)^K`` is at most about MISS:
-  the first consistent draw is the timeline, and when none is, the caller goes on (the walk).
+  ``2 K`` times the pilot's mean cost in occurrences (and MAX_SEED_COST), ``a_low`` being a
+  low estimate of the acceptance (``(accepted - 2 sqrt(accepted)) / draws``, at least
+  ``0.5 / draws``: a pilot of a few accepted draws often overestimates it), so that
+  ``(1 - a)^K`` is at most about MISS: the first consistent draw is the timeline, and when
+  none is, the caller goes on (the walk).
   A generous K costs little: a seed stops at its first consistent draw, about ``1 / a`` draws.
 
 Everything is counted in draws and occurrences, never in wall time, so a seed gives the same
