@@ -15,7 +15,7 @@ from a *pilot*:
   the cost of a draw (in drawn occurrences, which is what a draw and its check cost: about
   10-45 microseconds each);
 * when the pilot accepted nothing, or the expected cost of one accepted draw (cost / ``a``)
-  exceeds :func:`expected_cost_limit` (2,000 occurrences plus 5 per second of timeline), the
+  exceeds :func:`expected_cost_limit` (3,000 occurrences plus 5 per second of timeline), the
   stage is not used for the request;
 * otherwise each seed draws at most ``K = ceil(ln(1 / MISS) / a_low)`` timelines and at most
   ``2 K`` times the pilot's mean cost in occurrences (and MAX_SEED_COST), ``a_low`` being a
@@ -63,9 +63,10 @@ MISS = 1e-3
 #: The stage is used when one accepted draw costs at most EXPECTED_COST + EXPECTED_COST_PER_SECOND
 #: x the duration in seconds drawn occurrences on average (cost per draw / acceptance).  A drawn
 #: and checked occurrence costs 10-45 us; a walk 0.25-2 ms at 10 s and about 0.1 ms per second
-#: of timeline at an hour (150-390 ms): 2,050 occurrences at 10 s (20-90 ms, reached only where
-#: 1-3 % of the draws are consistent), 20,000 at an hour (0.2-0.9 s, about one walk).
-EXPECTED_COST = 2_000
+#: of timeline at an hour (150-390 ms): 3,050 occurrences at 10 s (30-140 ms, reached only where
+#: 1-3 % of the draws are consistent, as anxiety's, where the walk misses a signal's rate by
+#: 0.39), 21,000 at an hour (0.2-0.9 s, about one walk).
+EXPECTED_COST = 3_000
 EXPECTED_COST_PER_SECOND = 5.0
 #: Occurrences one seed draws at most (1.5-4 s; reached by about MISS of the seeds).
 MAX_SEED_COST = 100_000
