@@ -30,6 +30,7 @@ import argparse
 import contextlib
 import math
 import os
+import shlex
 import subprocess
 import sys
 import tempfile
@@ -269,7 +270,7 @@ def main(argv: Sequence[str] | None = None) -> int:
             args.markdown.unlink()
         args.markdown.write_text("\n".join(text) + "\n", encoding="utf-8")
     if args.append is not None:
-        command = "python -m bench.evaluation.distribution " + " ".join(argv if argv is not None else sys.argv[1:])
+        command = "python -m bench.evaluation.distribution " + shlex.join(argv if argv is not None else sys.argv[1:])
         section = ["", f"## {args.title}", "", f"`{command}`", "", header, "", *summary, ""]
         with args.append.open("a", encoding="utf-8") as out:
             out.write("\n".join(section))
