@@ -27,7 +27,10 @@ QUICK = LearnOptions(name="relief", confidence=1.0, calibration_rounds=1, calibr
 
 @pytest.fixture(scope="module")
 def relief_corpus(tmp_path_factory: pytest.TempPathFactory) -> Path:
-    timelines = sampling.iter_timelines(api.load("relief"), 10.0, seed=11, count=300)
+    # The walk's corpus (the rules below were checked against it): from the default sampler's
+    # exact draws (its rejection stage) the learner recovers no rule of head_up, which occurs
+    # in 86 of these 300 timelines against 123 from the walk.
+    timelines = sampling.iter_timelines(api.load("relief"), 10.0, seed=11, count=300, solver="walk")
     path = tmp_path_factory.mktemp("corpus") / "relief.jsonl"
     path.write_text(dumps_jsonl(timelines), encoding="utf-8")
     return path
