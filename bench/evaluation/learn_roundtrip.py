@@ -54,6 +54,13 @@ def occurrence_rates(timelines: Sequence[Timeline]) -> dict[str, float]:
     return {signal: count / len(timelines) for signal, count in present.items()}
 
 
+def starts_per_timeline(timelines: Sequence[Timeline]) -> dict[str, float]:
+    starts: Counter[str] = Counter()
+    for timeline in timelines:
+        starts.update(signal.id for signal in timeline.signals)
+    return {signal: count / len(timelines) for signal, count in starts.items()}
+
+
 def corpus_of(timelines: Sequence[Timeline]) -> Corpus:
     """The timelines as ``mse learn`` reads them from a ``.jsonl`` file."""
     from mse.learn.corpus import DEFAULT_MAPPING, build_corpus
@@ -82,6 +89,11 @@ def round_trip(truth: ir.Model, count: int, duration: float, seed: int, options:
     signals = sorted(set(before) | set(after))
     diffs = {s: (before.get(s, 0.0), after.get(s, 0.0)) for s in signals}
     worst = max(signals, key=lambda s: abs(diffs[s][0] - diffs[s][1]))
+    # Repetitive signals (more than one start in a corpus timeline): starts per timeline, the
+    # learned set's against the corpus', relative (calibration matches presence, mostly).
+    repeated = {s for t in corpus for s, n in Counter(o.id for o in t.signals).items() if n > 1}
+    starts_before, starts_after = starts_per_timeline(corpus), starts_per_timeline(back)
+    starts_off = {s: abs(starts_after.get(s, 0.0) - starts_before[s]) / starts_before[s] for s in repeated}
     truth_diffs = {s: abs(before.get(s, 0.0) - truth_after.get(s, 0.0)) for s in set(before) | set(truth_after)}
     return {
         "set": truth.name,
@@ -94,6 +106,7 @@ def round_trip(truth: ir.Model, count: int, duration: float, seed: int, options:
         "max_diff": abs(diffs[worst][0] - diffs[worst][1]),
         "mean_diff": statistics.fmean(abs(a - b) for a, b in diffs.values()),
         "off": {s: ab for s, ab in diffs.items()},
+        "starts_off": starts_off,
         "truth_max_diff": max(truth_diffs.values()),
         "truth_off": sorted(s for s, d in truth_diffs.items() if d > 0.1),
     }
@@ -151,6 +164,11 @@ def main() -> None:
     print(f"the generating sets sampled back the same way (baseline): {truth_within} / {len(rows)} sets within "
           f"{args.tolerance:g}; signals off: {sum(len(r['truth_off']) for r in rows)}; largest difference "
           f"{max(r['truth_max_diff'] for r in rows):.2f}")
+    starts = [d for r in rows for d in r["starts_off"].values()]
+    if starts:
+        print(f"repetitive signals' starts per timeline ({len(starts)} signals): mean relative difference "
+              f"{statistics.fmean(starts):.3f}, largest {max(starts):.2f}, "
+              f"above 0.2: {sum(1 for d in starts if d > 0.2)}")
     print(f"learn time: median {statistics.median(times):.1f} s, max {times[-1]:.1f} s")
     if args.json:
         Path(args.json).write_text(json.dumps(rows, indent=2) + "\n", encoding="utf-8")

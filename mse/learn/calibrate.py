@@ -50,15 +50,18 @@ SMALLEST_STEP = 0.25
 
 @dataclass(frozen=True)
 class Profile:
-    """What is compared: mean starts per sequence and mean relative start, per signal."""
+    """What is compared, per signal: its rate (starts per sequence for a counted signal,
+    the fraction of sequences where it occurs for the others), the fraction of sequences
+    where it occurs (the same as the rate for the others) and its mean relative start."""
 
     rate: Mapping[str, float]
     mean_start: Mapping[str, float]
+    presence: Mapping[str, float]
 
 
 #: A repetitive signal present in at least this fraction of the corpus' sequences is
 #: calibrated on its starts per sequence: its presence says nothing about its level there.
-COUNTED_PRESENCE = 0.9
+COUNTED_PRESENCE = 0.97
 
 
 def counted_signals(model: ir.Model, corpus: Corpus) -> frozenset[str]:
@@ -99,6 +102,7 @@ def _profile(sequences: list[tuple[int, list[tuple[str, int]]]], signals: list[s
     return Profile(
         {s: (counts[s] if s in counted else present[s]) / n for s in signals},
         {s: (sums[s] / counts[s] if counts[s] else 0.5) for s in signals},
+        {s: present[s] / n for s in signals},
     )
 
 
@@ -111,10 +115,15 @@ def tolerance(rate: float, samples: int) -> float:
 
 
 def distance(target: Profile, sampled: Profile) -> float:
+    """Relative rate differences plus mean start differences; for a counted signal its
+    presence's difference too (calibrated on its starts, it must still occur as often)."""
     total = 0.0
     for signal, rate in target.rate.items():
         total += abs(sampled.rate[signal] - rate) / max(rate, 0.05)
         total += abs(sampled.mean_start[signal] - target.mean_start[signal]) * min(1.0, rate)
+        presence = target.presence[signal]
+        if presence != rate:
+            total += abs(sampled.presence[signal] - presence) / max(presence, 0.05)
     return total
 
 
@@ -215,8 +224,9 @@ def _adjusted(model: ir.Model, target: Profile, sampled: Profile, steps: Mapping
     return replace(model, signals=tuple(signals))
 
 
-#: A signal still this far from the corpus' rate after calibration is *stuck*: its
-#: probabilities cannot move it (a learned rule forces or blocks it in the sampler).
+#: A signal still this far from the corpus' rate after calibration, and beyond the
+#: calibration's tolerance (:func:`tolerance`), is *stuck*: its probabilities cannot move it
+#: (a learned rule forces or blocks it in the sampler).
 STUCK_ERROR = 0.05
 #: Sampling runs spent looking for rules to release, per stuck signal and in all.
 RELEASE_TRIALS = 6
@@ -229,7 +239,8 @@ def release_rules(
 ) -> tuple[ir.Model, list[tuple[str, str]]]:
     """Learned rules whose removal lets a stuck signal reach the corpus' rate, removed.
 
-    For each stuck signal (largest difference first), each learned constraint naming it is
+    For each stuck signal (largest difference first; a signal calibration brought within its
+    tolerance is not stuck, whatever its difference), each learned constraint naming it is
     left out in turn and the set sampled (same seed and size as calibration): the one whose
     absence moves the signal furthest towards the corpus' rate (by at least
     :data:`STUCK_ERROR`; past it is fine: calibration then brings it back) is released.  Every rule held in every corpus
@@ -247,7 +258,8 @@ def release_rules(
     def off(signal: str, found: Mapping[str, float]) -> float:  # relative above one start per sequence
         return abs(found[signal]) / max(1.0, target.rate[signal])
 
-    stuck = sorted((s for s in errors if off(s, errors) > STUCK_ERROR), key=lambda s: (-off(s, errors), s))
+    stuck = sorted((s for s in errors if off(s, errors) > STUCK_ERROR
+                    and abs(errors[s]) > tolerance(target.rate[s], samples)), key=lambda s: (-off(s, errors), s))
     for signal in stuck:
         if off(signal, errors) <= STUCK_ERROR or budget <= 0:
             continue
