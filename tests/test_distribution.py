@@ -10,15 +10,11 @@ import random
 
 import pytest
 
-from bench.evaluation.reference import (
-    prior_statistics,
-    prior_timeline,
-    sample_reference,
-    statistics,
-)
+from bench.evaluation.reference import prior_statistics, sample_reference, statistics
 from mse.api import loads
 from mse.ir import model as ir
 from mse.ir.evaluate import check_schedule
+from mse.ir.prior_draw import prior_timeline
 from mse.ir.schedule import Schedule, to_ticks
 from mse.solve.protocol import SolveRequest, get_solver
 

@@ -34,8 +34,9 @@ import subprocess
 import sys
 import tempfile
 import time
+from collections import Counter
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 
 from bench.evaluation.reference import Statistics, sample_reference, statistics
@@ -69,9 +70,11 @@ def every_set(directory: Path) -> dict[str, ir.Model]:
 
 
 def sampled(model: ir.Model, solver: str, duration: float, seeds: Sequence[int],
-            budget: float | None = None) -> tuple[list[Schedule], int]:
+            budget: float | None = None, methods: Counter[str] | None = None) -> tuple[list[Schedule], int]:
     """Timelines of ``solver`` for ``seeds`` (each re-checked), and how many found none; with
-    ``budget``, the seeds in order until that many seconds have passed (at least one)."""
+    ``budget``, the seeds in order until that many seconds have passed (at least one).  How
+    each timeline was made (``Solution.method``; CP-SAT's own search: "cpsat") is counted in
+    ``methods``."""
     backend = get_solver(solver)
     schedules, failed = [], 0
     began = time.monotonic()
@@ -83,7 +86,10 @@ def sampled(model: ir.Model, solver: str, duration: float, seeds: Sequence[int],
         except NoSolution:
             failed += 1
             continue
-        for schedule in result.schedules:
+        for solution in result.solutions:
+            schedule = solution.schedule
+            if methods is not None:
+                methods[solution.method or solver] += 1
             problems = check_schedule(model, schedule)
             if problems:
                 raise RuntimeError(f"{model.name} {solver} seed {seed}: inconsistent timeline: {problems[0].message}")
@@ -100,6 +106,15 @@ class Row:
     reference: Statistics | None
     solvers: dict[str, Statistics]
     seconds: dict[str, float]
+    methods: dict[str, Counter[str]] = field(default_factory=dict)
+
+    def shares(self, solver: str) -> str:
+        """How the solver's timelines were made, e.g. ``rejection 98%, walk 2%``."""
+        made = self.methods.get(solver)
+        total = sum(made.values()) if made else 0
+        if not made or not total:
+            return "-"
+        return ", ".join(f"{how} {count / total:.0%}" for how, count in made.most_common())
 
     def errors(self, solver: str, model: ir.Model) -> tuple[float, float, str] | None:
         """|mean once-only signals - reference|, max |rate - reference| and its signal."""
@@ -136,14 +151,16 @@ def measure(name: str, model: ir.Model, durations: Sequence[float], counts: dict
         else:
             wanted_stats, how = None, "none"
         found: dict[str, Statistics] = {}
+        methods: dict[str, Counter[str]] = {}
         for solver in solvers:
             began = time.monotonic()
-            schedules, failed = sampled(model, solver, duration, range(counts[duration]), budget)
+            methods[solver] = Counter()
+            schedules, failed = sampled(model, solver, duration, range(counts[duration]), budget, methods[solver])
             took[solver] = (time.monotonic() - began) / max(1, len(schedules) + failed)
             found[solver] = statistics(model, schedules, duration)
             if failed:
                 print(f"   {name} {duration:g} s {solver}: {failed} seeds without a timeline")
-        rows.append(Row(name, duration, how, reference.acceptance, wanted_stats, found, took))
+        rows.append(Row(name, duration, how, reference.acceptance, wanted_stats, found, took, methods))
     return rows
 
 
@@ -155,6 +172,7 @@ def summary_table(rows: Sequence[Row], models: dict[str, ir.Model], solvers: Seq
     head = ["set", "s", "reference (acceptance)", "timelines " + "/".join(solvers), "once-only / timeline: ref"]
     head += [f"{s}" for s in solvers]
     head += [f"max rate error {s}" for s in solvers]
+    head += [f"made by ({s})" for s in solvers]
     lines = ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
     for row in rows:
         model = models[row.name]
@@ -173,6 +191,7 @@ def summary_table(rows: Sequence[Row], models: dict[str, ir.Model], solvers: Seq
             else:
                 mark = "" if errors[1] <= RATE_TOLERANCE else " ✗"
                 cells.append(f"{errors[1]:.2f} ({errors[2]}){mark}")
+        cells += [row.shares(solver) for solver in solvers]
         lines.append("| " + " | ".join(cells) + " |")
     return lines
 
@@ -210,6 +229,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser.add_argument("--budget", type=float, default=None,
                         help="seconds per set, duration and sampler: fewer timelines past it (the table says how many)")
     parser.add_argument("--markdown", type=Path, default=None, help="also write the tables to this file")
+    parser.add_argument("--append", type=Path, default=None,
+                        help="append the summary table to this file as a section (titled --title)")
+    parser.add_argument("--title", default="Distribution", help="--append: the section's title")
     args = parser.parse_args(argv)
     counts = {d: (args.count if d <= 60 else args.long_count) for d in args.durations}
     with tempfile.TemporaryDirectory() as directory:
@@ -246,6 +268,11 @@ def main(argv: Sequence[str] | None = None) -> int:
         with contextlib.suppress(FileNotFoundError):
             args.markdown.unlink()
         args.markdown.write_text("\n".join(text) + "\n", encoding="utf-8")
+    if args.append is not None:
+        command = "python -m bench.evaluation.distribution " + " ".join(argv if argv is not None else sys.argv[1:])
+        section = ["", f"## {args.title}", "", f"`{command}`", "", header, "", *summary, ""]
+        with args.append.open("a", encoding="utf-8") as out:
+            out.write("\n".join(section))
     return 0
 
 

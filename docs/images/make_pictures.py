@@ -17,7 +17,7 @@ import sys
 import tempfile
 from pathlib import Path
 
-SEED = "224"
+SEED = "5461"
 AT = "8.4"
 IMAGES = Path(__file__).resolve().parent
 

@@ -225,7 +225,9 @@ class Session:
         # A length planned once (an announced episode), or a model resolved against one
         # utterance, is not worth the sampler's plan cache.
         once = abs(length - self.horizon) > _EPSILON or model is not loaded.model
-        request = SolveRequest(duration=length, seed=self.seed + index, greedy=GreedyOptions(cache_plan=not once))
+        # The walk's stream, without the rejection stage: its latency, and no pilot per episode.
+        request = SolveRequest(duration=length, seed=self.seed + index, greedy=GreedyOptions(cache_plan=not once),
+                               rejection=False)
         try:
             for occurrence in get_solver("greedy").stream(model, request):
                 modality, lexeme = model.signal_info[occurrence.signal]

@@ -25,8 +25,10 @@ expression to ``probability_end`` at its end, over the expression's *relative ti
 This is the *prior*: each signal on its own, before constraints.  A sampled timeline follows
 the prior **conditioned on being consistent** (every constraint holds, exclusive modalities do
 not overlap): drawing from the prior and keeping only consistent timelines would give the same
-distribution.  The greedy walk approximates that conditional, CP-SAT's default objective
-approximates it too; ``bench/speed/sample.py`` measures both against it.  The control condition
+distribution: the samplers do exactly that first where it is cheap (:mod:`mse.ir.prior_draw`
+draws the prior, :mod:`mse.solve.rejection` keeps the first consistent draw); elsewhere the
+greedy walk approximates that conditional, and CP-SAT's default objective too;
+``bench.evaluation.distribution`` measures them against it.  The control condition
 (``--mode constraint-less``) is the prior conditioned on violating at least one constraint.
 """
 

@@ -1,23 +1,30 @@
-"""The default solver (``--solver greedy``): the paper's walk, then a complete fallback.
+"""The default solver (``--solver greedy``): exact draws, the paper's walk, then a complete fallback.
 
 ``mse sample`` must return a timeline whenever one exists, and say so with a proof when none
 does.  The composition, per timeline (seed ``S + i``):
 
-1. **walk** — the greedy walk of :mod:`mse.solve.greedy` (docs/sampler.md), which backtracks
-   to its checkpoints by itself (the repair step); this is the distribution users get;
-2. **cpsat** — when the walk gives up (or the request pins signals, which the walk does not
+1. **rejection** — prior draws, the first consistent one wins (:mod:`mse.solve.rejection`): an
+   exact sample of the target distribution, used where the request's pilot says it is cheap
+   (plain requests: nothing pinned; ``--require`` and ``--forbid`` are honoured);
+2. **walk** — the greedy walk of :mod:`mse.solve.greedy` (docs/sampler.md), which backtracks
+   to its checkpoints by itself (the repair step), where the stage is not used or misses;
+3. **cpsat** — when the walk gives up (or the request pins signals, which the walk does not
    place), CP-SAT with its default objective, which follows the same probability profile
    (:mod:`mse.ir.profile`), finds a timeline if one exists;
-3. **proof** — when CP-SAT proves that none exists, its minimal explanation (file:line of
+4. **proof** — when CP-SAT proves that none exists, its minimal explanation (file:line of
    every rule in the conflict) is the answer (``NoSolution(proven=True)``).
 
 Signals whose probabilities are both 0 never occur (mse.ir.profile.never_occurs) unless the
 request requires or pins them, or no timeline exists without them (a constraint demands
 them): they are forbidden in a first pass, allowed in a second one only when the first is
-proven infeasible.
+proven infeasible (the rejection stage never draws them).
 
-Each solution records how it was made (:attr:`mse.solve.protocol.Solution.method`: ``walk``
-or ``cpsat``; the timeline JSON's ``"method"``) and the walk's attempts and backtracks.  CP-SAT is reached only through
+Each solution records how it was made (:attr:`mse.solve.protocol.Solution.method`:
+``rejection``, ``walk`` or ``cpsat``; the timeline JSON's ``"method"``) and the walk's attempts
+and backtracks.  :meth:`DefaultSolver.stream` gives the same timeline as a solve of the seed:
+the stage's draw at once, or the walk's stream (the first occurrences long before the end); a
+dialogue's episodes turn the stage off (``SolveRequest.rejection``) to keep the walk's
+latency.  CP-SAT is reached only through
 :func:`mse.solve.protocol.get_solver` and imported only when the walk fails, so sampling a
 set the walk solves never loads ortools.
 """
@@ -41,13 +48,14 @@ from mse.solve.protocol import (
     get_solver,
     solve_all,
 )
+from mse.solve.rejection import Rejection, applies
 
 #: Name of the complete fallback solver, as recorded in ``"method"``.
 FALLBACK = "cpsat"
 
 
 class DefaultSolver:
-    """``name = "greedy"``: walk → (backtracking) → CP-SAT → proof.  It reports nothing
+    """``name = "greedy"``: rejection → walk → (backtracking) → CP-SAT → proof.  It reports nothing
     through attributes: what one solve learns of its request lives in a :class:`_Run` for
     that solve alone, and each :class:`Solution` says how it was made."""
 
@@ -75,9 +83,17 @@ class DefaultSolver:
         return solve_all(self, model, request)
 
     def stream(self, model: ir.Model, request: SolveRequest) -> Iterator[Occurrence]:
-        """The walk's stream (each batch handed out at a checkpoint, docs/sampler.md); when the
-        walk gives up before its first checkpoint, the fallback's timeline at once."""
+        """The timeline :meth:`solutions` gives for the seed, as soon as each part is decided:
+        the rejection stage's draw at once (it decides a whole timeline), else the walk's
+        stream (each batch handed out at a checkpoint, docs/sampler.md); when the walk gives up
+        before its first checkpoint, the fallback's timeline at once."""
         run = self._run(model, request)
+        stage = run.setup.rejection()
+        if stage is not None:
+            drawn = stage.sample(derive_seed(request.seed, 0))
+            if drawn is not None:
+                yield from sorted(drawn.occurrences)
+                return
         if not request.pinned:
             streamed = False
             try:
@@ -101,7 +117,8 @@ def _same_but_seed(known: SolveRequest, request: SolveRequest) -> bool:
 
 class _Setup:
     """What a request implies whatever its seed: it is valid, its never-occurring signals,
-    and the walk's first request."""
+    the walk's first request and the rejection stage (with its pilot's budget, made on first
+    use)."""
 
     def __init__(self, model: ir.Model, request: SolveRequest) -> None:
         validate(model, request)
@@ -115,13 +132,23 @@ class _Setup:
         self.first = (replace(request, forbid=(*request.forbid, *self.zeros),
                               cpsat=replace(request.cpsat, explain=False))
                       if self.zeros else request)
+        self._rejection: Rejection | None = None
+
+    def rejection(self) -> Rejection | None:
+        """The rejection stage of this request (None: it cannot draw it exactly, or its pilot
+        found it too costly)."""
+        if not applies(self.request):
+            return None
+        if self._rejection is None:
+            self._rejection = Rejection(self.model, self.request)
+        return self._rejection if self._rejection.budget.draws else None
 
 
 class _Run:
     """One request's solve, with what it learns for every seed of it."""
 
     def __init__(self, walker: GreedySolver, setup: _Setup, request: SolveRequest) -> None:
-        self.walker, self.model, self.request = walker, setup.model, request
+        self.walker, self.model, self.request, self.setup = walker, setup.model, request, setup
         # The setup may come from another seed of the same request: the first pass is this one's.
         first = setup.first
         self.zeros, self.first = setup.zeros, first if first.seed == request.seed else replace(first, seed=request.seed)
@@ -139,6 +166,11 @@ class _Run:
 
     def _one(self, seed: int, walk: bool, tally: Tally) -> tuple[Schedule, str]:
         request = self.request
+        stage = self.setup.rejection() if walk else None
+        if stage is not None:
+            drawn = stage.sample(seed)
+            if drawn is not None:
+                return drawn, "rejection"
         if not self.zeros_needed:
             try:
                 return self._pass(self.first, seed, walk, tally)
@@ -179,5 +211,6 @@ class _Run:
     def _complete(self, request: SolveRequest, seed: int) -> Schedule:
         """CP-SAT's timeline for ``seed``; NoSolution (a proof when it has one) otherwise."""
         fallback = get_solver(FALLBACK)
-        complete = replace(request, seed=seed, count=1, objective=None, diverse=False)
+        # (CP-SAT's own rejection stage would repeat the draws this seed's stage missed.)
+        complete = replace(request, seed=seed, count=1, objective=None, diverse=False, rejection=False)
         return next(fallback.solutions(self.model, complete)).schedule

@@ -90,6 +90,11 @@ class SolveRequest:
     objective: str | None = None  # None: the default (objectives.DEFAULT_OBJECTIVE); else one of OBJECTIVES
     diverse: bool = False
     time_limit: float = 10.0  # seconds per timeline (and per window of a long cpsat one)
+    #: Try exact prior draws first where the backend has that stage (``greedy``, ``cpsat``:
+    #: :mod:`mse.solve.rejection`).  Off: a dialogue's episodes (the walk's streaming latency,
+    #: no pilot per episode) and the default solver's CP-SAT fallback (its own stage already
+    #: missed that seed).
+    rejection: bool = True
     greedy: GreedyOptions = GreedyOptions()
     cpsat: CpSatOptions = CpSatOptions()
     csp: CspOptions = CspOptions()
@@ -128,7 +133,8 @@ class Solution:
 
     schedule: Schedule
     seed: int
-    #: How it was made, when the backend composes several ("walk" or "cpsat" for ``greedy``).
+    #: How it was made, when the backend composes several: "rejection", "walk" or "cpsat" for
+    #: ``greedy``; "rejection" or None (its own search) for ``cpsat``.
     method: str | None = None
     #: Walks started and backtracks taken (the greedy walk's; 0 for the others).
     attempts: int = 0

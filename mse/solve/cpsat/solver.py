@@ -8,7 +8,10 @@ a longer one is cut into windows of WINDOW (a rolling horizon).  Each frame draw
 from the probability profile (:mod:`mse.solve.cpsat.prior`) and asks CP-SAT for the
 consistent timeline that scores best under the perturbed profile
 (:mod:`mse.solve.cpsat.objective`); when the draw is already consistent it is returned
-without CP-SAT.  A window's model also holds "later" slots for the rest of the timeline,
+without CP-SAT.  Before any frame, plain requests try the rejection stage
+(:mod:`mse.solve.rejection`): prior draws of the whole timeline, the first consistent one
+wins (``Solution.method == "rejection"``), an exact sample of the target where the request's
+pilot finds that cheap.  A window's model also holds "later" slots for the rest of the timeline,
 enough for the witness argument of :mod:`mse.solve.bounds`, so every committed window is
 provably completable and a later window never meets a dead end; committed occurrences are
 summarised by :mod:`mse.solve.cpsat.horizon`, so the cost per window does not grow with
@@ -42,6 +45,7 @@ from mse.solve.cpsat.horizon import Committed
 from mse.solve.cpsat.prior import SlotPrior, frame_priors
 from mse.solve.cpsat.search import best_positions, decided_occurrences, hint_later, run_search
 from mse.solve.protocol import NoSolution, Solution, SolveRequest, SolveResult, check_request, derive_seed, solve_all
+from mse.solve.rejection import Rejection, applies
 
 #: Timelines up to this many ticks are decided in one frame.
 SINGLE_FRAME = 30_000
@@ -67,9 +71,15 @@ class CpSatSolver:
     def solutions(self, model: ir.Model, request: SolveRequest) -> Iterator[Solution]:
         """The timelines one by one; with ``diverse`` each depends on those before it."""
         _validate(model, request)
+        stage = _rejection(model, request)
         schedules: list[Schedule] = []
         for index in range(max(1, request.count)):
             seed = derive_seed(request.seed, index)
+            drawn = stage.sample(seed) if stage is not None else None
+            if drawn is not None:
+                schedules.append(drawn)
+                yield Solution(drawn, seed, "rejection")
+                continue
             previous = schedules if request.diverse else []
             schedules.append(solve_one(model, request, seed, previous))
             yield Solution(schedules[-1], seed)
@@ -82,11 +92,23 @@ class CpSatSolver:
         out as soon as its window is committed (and checked at the end)."""
         _validate(model, request)
         seed = derive_seed(request.seed, 0)
+        stage = _rejection(model, request)
+        drawn = stage.sample(seed) if stage is not None else None
+        if drawn is not None:  # the timeline :meth:`solutions` gives for this seed
+            yield from sorted(drawn.occurrences)
+            return
         occurrences: list[Occurrence] = []
         for occurrence in _frames(model, request, seed, ()):
             occurrences.append(occurrence)
             yield occurrence
         _verified(model, Schedule.of(to_ticks(request.duration), occurrences), request)
+
+
+def _rejection(model: ir.Model, request: SolveRequest) -> Rejection | None:
+    """The rejection stage for ``request`` (None: not asked, or it cannot draw it exactly)."""
+    if not applies(request):
+        return None
+    return Rejection(model, request)
 
 
 def _validate(model: ir.Model, request: SolveRequest) -> None:
