@@ -94,15 +94,15 @@ def test_released_rules_are_kept_when_calibration_without_them_is_no_closer(monk
 
 
 def learned_from_random_set(seed: int) -> tuple[list[Any], LearnResult]:
-    """The round trip of bench/evaluation/learn_roundtrip.py for one set: the corpus (seeds
-    ``seed..``), the set learned from it (calibrated on unrelated seeds)."""
+    """The round trip of bench/evaluation/learn_roundtrip.py for one set (its row there): the
+    corpus (seeds ``seed..``), the set learned from it (calibrated on unrelated seeds)."""
     from bench.evaluation.learn_roundtrip import LEARN_SEEDS, corpus_of
     from bench.generators.corpus import random_model
     from mse.learn import learn_corpus
 
-    truth = random_model(seed, 18, random.Random(seed).randint(9, 36))
+    truth = random_model(seed, 18, random.Random(seed).randint(9, 36), name=f"random{seed}")
     corpus = list(sampling.iter_timelines(truth, 10.0, seed=seed, count=300))
-    options = LearnOptions(name=f"random{seed}", confidence=1.0, seed=seed + LEARN_SEEDS, deep_lint=False)
+    options = LearnOptions(name=f"random{seed}", confidence=1.0, seed=seed + LEARN_SEEDS)
     return corpus, learn_corpus(corpus_of(corpus), options)
 
 
