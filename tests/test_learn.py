@@ -88,9 +88,12 @@ def test_every_rule_carries_its_evidence(relief: LearnResult) -> None:
 @pytest.mark.xfail(reason="branch exact: with the default sampler's exact draws (rejection stage) in the corpus "
                    "and in learn's calibration, head_up's rules are not recovered (branch learnrt)", strict=False)
 def test_known_rules_of_the_generating_set_are_recovered(relief: LearnResult) -> None:
+    """Not ``tilt_after_head_up`` (``rightincludes(head_tilt_right, head_up)``): since the
+    default sampler draws relief exactly (the rejection stage), the two occur together in 6 of
+    the 300 timelines, below ``--min-support`` (10): no corpus of this size can teach it."""
     truth = api.load("relief")
     wanted = {c.id: c.expr for c in truth.constraints if c.id in
-              ("smile_after_exhale", "tilt_after_head_up", "thrust_outlasts_mouth", "one_torso_movement",
+              ("smile_after_exhale", "thrust_outlasts_mouth", "one_torso_movement",
                "gaze_away_after_exhale", "head_up_with_mouth")}
     checker = ImplicationChecker(relief.model, list(wanted.values()), duration=10000)
     learned = [c.id for c in relief.model.constraints]
@@ -213,13 +216,13 @@ def test_learned_set_samples_back_at_the_corpus_rates() -> None:
     whose learned rules include one that, in the default sampler, forces a signal the corpus
     shows in 11 % of its sequences (``exists(s10) or exists(s12)``: 0.39 before calibration
     released it); every signal's occurrence rate comes back within 0.1 of the corpus."""
-    from bench.evaluation.learn_roundtrip import occurrence_rates
+    from bench.evaluation.learn_roundtrip import BACK_SEEDS, occurrence_rates
     from bench.generators.corpus import random_model
 
-    truth = random_model(8, 18, random.Random(8).randint(9, 36))
+    truth = random_model(8, 18, random.Random(8).randint(9, 36), name="random8")
     corpus = list(sampling.iter_timelines(truth, 10.0, seed=8, count=300))
     result = learn_corpus_quietly(corpus)
-    back = list(sampling.iter_timelines(result.model, 10.0, seed=10**6, count=600))
+    back = list(sampling.iter_timelines(result.model, 10.0, seed=8 + BACK_SEEDS, count=1000))
     before, after = occurrence_rates(corpus), occurrence_rates(back)
     off = {s: (before.get(s, 0.0), after.get(s, 0.0)) for s in set(before) | set(after)
            if abs(before.get(s, 0.0) - after.get(s, 0.0)) > 0.1}
@@ -227,7 +230,10 @@ def test_learned_set_samples_back_at_the_corpus_rates() -> None:
 
 
 def learn_corpus_quietly(corpus: list[Any]) -> LearnResult:
-    from bench.evaluation.learn_roundtrip import corpus_of
+    from bench.evaluation.learn_roundtrip import LEARN_SEEDS, corpus_of
     from mse.learn import learn_corpus
 
-    return learn_corpus(corpus_of(corpus), LearnOptions(name="random8", confidence=1.0, seed=8, deep_lint=False))
+    # The corpus was drawn with seeds 8..307: calibration samples with unrelated ones (the
+    # same seeds would share the corpus' random draws, and its sampling noise).
+    # The bench's row for random8 (bench/evaluation/learn_roundtrip.py), deep lint included.
+    return learn_corpus(corpus_of(corpus), LearnOptions(name="random8", confidence=1.0, seed=8 + LEARN_SEEDS))

@@ -144,7 +144,9 @@ def learn_corpus(corpus: Corpus, options: LearnOptions = DEFAULT_OPTIONS) -> Lea
 def _calibrated(model: ir.Model, corpus: Corpus, options: LearnOptions, late: Collection[str],
                 release: bool = False) -> tuple[ir.Model, list[str], list[tuple[str, str]]]:
     """Calibrated probabilities; with ``release``, then the rules that keep a signal from the
-    corpus' rate whatever its probabilities are released and the rest calibrated again."""
+    corpus' rate whatever its probabilities are released and the rest calibrated again, kept
+    only when that calibration ends closer to the corpus than the first (a release moves
+    other signals too, and a counted signal's presence)."""
     from mse.learn.calibrate import calibrate, release_rules
 
     def run(start: ir.Model) -> Calibration:
@@ -158,7 +160,11 @@ def _calibrated(model: ir.Model, corpus: Corpus, options: LearnOptions, late: Co
     if not released:
         return first.model, first.notes, []
     again = run(loosened)
-    return again.model, [*first.notes, *(f"rule {rule} {why}" for rule, why in released), *again.notes], released
+    notes = [*first.notes, *(f"rule {rule} {why}" for rule, why in released), *again.notes]
+    if again.score >= first.score:
+        return first.model, [*notes, f"released rules kept: calibrated without them the set is no closer to the "
+                                     f"corpus (distance {again.score:.3f} against {first.score:.3f})"], []
+    return again.model, notes, released
 
 
 def select_rules(base: ir.Model, candidates: list[Rule], duration: int,
