@@ -85,8 +85,6 @@ def test_every_rule_carries_its_evidence(relief: LearnResult) -> None:
         assert any(f'id="{signal.id}"' in line for line in lines)
 
 
-@pytest.mark.xfail(reason="branch exact: with the default sampler's exact draws (rejection stage) in the corpus "
-                   "and in learn's calibration, head_up's rules are not recovered (branch learnrt)", strict=False)
 def test_known_rules_of_the_generating_set_are_recovered(relief: LearnResult) -> None:
     """Not ``tilt_after_head_up`` (``rightincludes(head_tilt_right, head_up)``): since the
     default sampler draws relief exactly (the rejection stage), the two occur together in 6 of
