@@ -105,6 +105,8 @@ class Attempt(Obligations):
         # What a placement of an optional candidate (one nothing owes) is weighed against:
         # the owed signals before it (prior_pays).
         owed, saved = (None, None) if sid in self.latest or sid in self.require else (self.latest, self._saved(signal))
+        # ... and the windows of the free signals its placement may narrow (prior_spares)
+        spared = self.windows_of(self.narrowed_by(signal)) if owed is not None else None
         start = low + int(rng.random() * (high - low + 1))
         # draw_stop(signal, start), inlined (the same draw): once per candidate
         first, last = start + signal.shortest, start + signal.longest
@@ -141,7 +143,10 @@ class Attempt(Obligations):
                     return False
                 stop, window = found, None
         if self.commit(signal, start, stop):
-            if owed is None or saved is None or self.latest.keys() <= owed.keys() or self.prior_pays(signal, owed):
+            if owed is None or saved is None or (
+                (self.latest.keys() <= owed.keys() or self.prior_pays(signal, owed))
+                and (not spared or self.prior_spares(signal, start, spared))
+            ):
                 return True
             self.take_back(signal, saved)
             return False
@@ -211,6 +216,62 @@ class Attempt(Obligations):
             starts = self.feasible_starts(payer, low, deadline) if low <= deadline else []
             missed *= 1.0 - _pays(payer, starts, low, duration)
         return draw >= missed
+
+    def narrowed_by(self, signal: SignalPlan) -> list[SignalPlan]:
+        """The free signals whose start window a placement of ``signal`` may narrow: the
+        other members of its exclusive modality and the signals its necessary start bounds
+        name (``Plan.partners_of``), neither owed (their debts are weighed apart), required
+        nor out of the walk."""
+        plan, dead, latest, require = self.plan, self.dead, self.latest, self.require
+        found: dict[str, SignalPlan] = {}
+        if signal.exclusive is not None:
+            for other in plan.in_modality[signal.exclusive]:
+                found[other.id] = other
+        for name in plan.partners_of.get(signal.id, ()):
+            found[name] = plan.by_id[name]
+        found.pop(signal.id, None)
+        env, needs_before = self.env, plan.needs_before
+        return [other for name, other in found.items()
+                if name not in dead and name not in latest and name not in require
+                and all(env.get(before) for before in needs_before[name])]
+
+    def windows_of(self, signals: list[SignalPlan]) -> list[tuple[SignalPlan, int, int]]:
+        """Their start windows (:meth:`start_window`), leaving out those that cannot start
+        anywhere in it now (one partial check of the box of every start): a signal that
+        needs a partner not placed yet loses nothing to a placement."""
+        found = []
+        for other in signals:
+            first, last = self.start_window(other)
+            if first <= last and self.allows(other, self.starts_box(other, first, last)):
+                found.append((other, first, last))
+        return found
+
+    def prior_spares(self, signal: SignalPlan, start: int, before: list[tuple[SignalPlan, int, int]]) -> bool:
+        """Whether to keep the placement of an optional candidate that closes starts of other
+        free signals (``before``: their start windows without it): with the probability that
+        the prior alone starts none of them where it no longer may.
+
+        The target (the prior conditioned on consistency) rejects the draws where a signal
+        starts inside another of its exclusive modality, or where ``start(b) > stop(a)``
+        has ``a`` after ``b``; the walk, deciding in time order, placed the first at its prior
+        rate and only moved the others later: members of an exclusive modality, and the
+        partners of such bounds, occurred more often than the target has them
+        (docs/sampler.md, "Starts a placement closes")."""
+        duration, low = self.plan.duration, self.stamp_low
+        missed = 1.0
+        for other, first, last in before:
+            first = max(first, start)
+            if first > last:
+                continue
+            after_first, after_last = self.start_window(other)
+            if after_first > after_last:
+                closed = [(first, last)]
+            else:
+                closed = [(first, min(last, after_first - 1)), (max(first, after_last + 1), last)]
+                closed = [(a, b) for a, b in closed if a <= b]
+            if closed:
+                missed *= 1.0 - _pays(other, closed, low, duration)
+        return missed >= 1.0 or self.rng.random() < missed
 
     def take_back(self, signal: SignalPlan, saved: _Saved) -> None:
         """Undo the placement :meth:`commit` just made (``saved``: :meth:`_saved` before it)."""

@@ -202,23 +202,32 @@ def walk_stamp(attempt: Attempt, j: int) -> None:
         return
     attempt.stamp_low = low
     queue: list[SignalPlan] = []
+    owed: set[str] = set()  # drawn above with the debt's probability: not a second time below
     careful = attempt.careful
     if attempt.latest:
         if any(latest < low for latest in attempt.latest.values()):
             attempt.refresh_latest(expired_only=True)
         row = plan.table[j]
+        pays = payers_pay(attempt, j)
         for name in sorted(attempt.latest):
             signal = plan.by_id[name]
             due = plan.stamp_of(attempt.latest[name])
             if due < j:
                 continue
-            # Due in this stamp with the profile's share of what is left before the deadline
-            # (certain at the deadline; evenly spread when the profile is 0 there).
-            masses = plan.masses[signal.index]
-            left = masses[due + 1] - masses[j]
-            share = (masses[j + 1] - masses[j]) / left if left > 0 else 1 / (due - j + 1)
+            owed.add(name)
+            # A candidate with the prior's probability given that the debt is paid: the
+            # table's hazard over the probability that the prior alone has one of the
+            # debt's payers start before its deadline (a single once-only payer: the
+            # profile's share of what is left before the deadline, certain at the
+            # deadline).  Forcing each payer as if it were the only one over-placed the
+            # payers of a disjunction (docs/sampler.md, "Owed signals").
+            chance = pays.get(name, 0.0)
+            if chance > 0:
+                share = row[signal.index] / chance
+            else:  # the profile is 0 up to the deadline: evenly spread
+                share = 1 / (due - j + 1)
             # careful (after failures): every owed signal is a candidate at every stamp
-            if rng.random() < max(row[signal.index], share) or careful:
+            if rng.random() < share or careful:
                 queue.append(signal)
     bucket = attempt.buckets[j]
     if not bucket and not queue:
@@ -227,7 +236,9 @@ def walk_stamp(attempt: Attempt, j: int) -> None:
     bucket.clear()
     if len(proposals) > 1:
         _shuffle(rng.getrandbits, proposals)
-    queue.extend(proposals)
+    # An owed signal's own candidacy is the one drawn above (its prior probability given the
+    # debt is paid): its bucket's would be a second chance in the stamp.
+    queue.extend([s for s in proposals if s.id not in owed] if owed else proposals)
     # Each signal is tried once per stamp and state: a placement may open the window of
     # a signal tried before it (an owed partner), which is then tried again at once.
     tried: dict[str, int] = {}
@@ -257,6 +268,31 @@ def walk_stamp(attempt: Attempt, j: int) -> None:
             schedule_from(attempt, signal, attempt.last_stop[signal.id], j + 1)
         else:
             schedule(attempt, signal, j + 1)
+
+
+def payers_pay(attempt: Attempt, j: int) -> dict[str, float]:
+    """Per owed signal, the probability that the prior alone starts one of the payers of its
+    debt from stamp ``j`` on, each before its deadline: the payers of an owing constraint are
+    the owed signals it mentions; an owed signal on no owing constraint (a prerequisite, a
+    ``--require``) pays alone; with several debts, the least likely to be paid counts."""
+    plan, latest = attempt.plan, attempt.latest
+    alone: dict[str, float] = {}
+    for name, deadline in latest.items():
+        due = plan.stamp_of(deadline)
+        cumulative = plan.cumulative[plan.by_id[name].index]
+        alone[name] = 1.0 - math.exp(cumulative[j] - cumulative[due + 1]) if due >= j else 0.0
+    found: dict[str, float] = {}
+    for cid in attempt.owing:
+        payers = [name for name in plan.by_constraint_id[cid].mentioned if name in alone]
+        missed = 1.0
+        for name in payers:
+            missed *= 1.0 - alone[name]
+        for name in payers:
+            if 1.0 - missed < found.get(name, 2.0):
+                found[name] = 1.0 - missed
+    for name, chance in alone.items():
+        found.setdefault(name, chance)
+    return found
 
 
 def start_candidacies(attempt: Attempt, first: int) -> None:
