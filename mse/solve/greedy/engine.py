@@ -122,6 +122,11 @@ class Attempt(Obligations):
         # second check always passes the first (the open stop's box contains it), so the
         # first check is only run when the pair fails: same outcomes, one check fewer.
         if not self.allows(signal, (start, start, stop, stop)):
+            if owed is not None:
+                # An optional candidate whose drawn start and stop fail is rejected, as the
+                # target rejects that draw (it keeps its hazard for later stamps); moving it to
+                # the allowed times is for owed signals, which must pay.
+                return False
             if not self.allows(signal, self.start_box(signal, start)):
                 starts = self.feasible_starts(signal, low, high)
                 if not starts:
@@ -271,7 +276,15 @@ class Attempt(Obligations):
                 closed = [(a, b) for a, b in closed if a <= b]
             if closed:
                 missed *= 1.0 - _pays(other, closed, low, duration)
-        return missed >= 1.0 or self.rng.random() < missed
+        if missed >= 1.0:
+            return True
+        # Against the timelines where it does not start here: it may start later, closing as
+        # much (``later``: the prior's probability that it does), so the weight of this
+        # start is the ratio, not ``missed`` alone (a signal that surely occurs loses little).
+        plan = self.plan
+        cumulative = plan.cumulative[signal.index]
+        later = 1.0 - math.exp(cumulative[plan.stamp_of(start)] - cumulative[-1])
+        return self.rng.random() < missed / (1.0 - later + later * missed)
 
     def take_back(self, signal: SignalPlan, saved: _Saved) -> None:
         """Undo the placement :meth:`commit` just made (``saved``: :meth:`_saved` before it)."""

@@ -94,6 +94,7 @@ class Plan:
         "masses",
         "must_exist",
         "needs_before",
+        "enables",
         "order_free_bounds",
         "order_free_offsets",
         "partner_bounds",
@@ -192,6 +193,13 @@ class Plan:
         lengths = {s.id: (s.shortest, s.longest) for s in signals}
         # signals that must be placed before each one can start (order.py)
         self.needs_before = {s.id: needs_before(s.id, by_signal[s.id], lengths, duration) for s in signals}
+        # the reverse, for the once-only signals others wait for: (signal, those that need it)
+        enables: dict[str, list[SignalPlan]] = {}
+        for s in signals:
+            for name in self.needs_before[s.id]:
+                enables.setdefault(name, []).append(s)
+        self.enables = tuple((self.by_id[name], tuple(found)) for name, found in sorted(enables.items())
+                             if self.by_id[name].limit == 1)
         # the bounds that name another signal, grouped by it, as (other, ((box index, delta,
         # upper), ...)) for speed: one lookup of the other's occurrences per partner
         self.partner_bounds = {s.id: _by_partner(bounds[s.id]) for s in signals}

@@ -229,6 +229,8 @@ def walk_stamp(attempt: Attempt, j: int) -> None:
             # careful (after failures): every owed signal is a candidate at every stamp
             if rng.random() < share or careful:
                 queue.append(signal)
+    if plan.enables:
+        queue.extend(enabling(attempt, j))
     bucket = attempt.buckets[j]
     if not bucket and not queue:
         return
@@ -268,6 +270,59 @@ def walk_stamp(attempt: Attempt, j: int) -> None:
             schedule_from(attempt, signal, attempt.last_stop[signal.id], j + 1)
         else:
             schedule(attempt, signal, j + 1)
+
+
+def enabling(attempt: Attempt, j: int) -> list[SignalPlan]:
+    """Extra candidacies at stamp ``j`` of the once-only signals that others must follow
+    (``exists(s1) and precedes(s1, s2)``: ``Plan.enables``), so that one is a candidate with
+    its table's probability ``h`` times the gain ``B`` its start brings: the target keeps
+    the prior's timelines where each signal needing it is absent or starts after it, so a
+    start now weighs ``g = prod (1 - q_y + p_y) / (1 - q_y)`` against never (``q_y``: the
+    prior's probability that ``y`` starts from now on, ``p_y``: after this one's shortest
+    length), and ``B = g / (1 - l + l g)`` against starting later (``l``: the prior's
+    probability that it does).  Time-ordered, the walk drew it at its prior rate, and the
+    signals needing it occurred less often than the target has them (docs/sampler.md)."""
+    plan, env, dead, count = attempt.plan, attempt.env, attempt.dead, attempt.count
+    row, cumulative, n = plan.table[j], plan.cumulative, len(plan.stamps) - 1
+    low = plan.stamps[j]
+    found: list[SignalPlan] = []
+    for signal, followers in plan.enables:
+        if signal.id in dead or env.get(signal.id):
+            continue
+        hazard = row[signal.index]
+        if hazard <= 0.0 or hazard >= 1.0:
+            continue
+        # where it would be: from this stamp, for its mean length
+        box = (low, low, low + signal.shortest, low + (signal.shortest + signal.longest) // 2)
+        gain = 1.0
+        for other in followers:
+            if other.id in dead or count.get(other.id, 0):
+                continue
+            mine = cumulative[other.index]
+            q = 1.0 - math.exp(mine[j] - mine[n])
+            if q >= 1.0 - 1e-9:
+                continue
+            first, last = low + signal.shortest, plan.duration - other.shortest
+            for partner, rules in plan.partner_bounds[other.id]:
+                if partner == signal.id:
+                    for index, delta, upper in rules:
+                        if upper:
+                            last = min(last, box[index + 1] + delta)
+                        else:
+                            first = max(first, box[index] + delta)
+            if first > last or first >= plan.duration:
+                continue
+            opened = math.exp(mine[plan.stamp_of(first)] - mine[plan.stamp_of(last) + 1])
+            gain *= (1.0 - q + 1.0 - opened) / (1.0 - q)
+        if gain <= 1.0:
+            continue
+        own = cumulative[signal.index]
+        later = 1.0 - math.exp(own[j + 1] - own[n])
+        boost = gain / (1.0 - later + later * gain)
+        extra = hazard * (boost - 1.0) / (1.0 - hazard)
+        if attempt.rng.random() < extra:
+            found.append(signal)
+    return found
 
 
 def payers_pay(attempt: Attempt, j: int) -> dict[str, float]:
