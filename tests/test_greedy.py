@@ -162,9 +162,10 @@ def _stamp_frequencies(model: ir.Model, runs: int) -> list[float]:
 @pytest.mark.parametrize(("start", "end"), [(0.0, 0.6), (0.2, 0.8), (0.5, 0.5), (0.9, 0.1), (0.7, 0.0), (0.2, 0.2)])
 def test_start_and_end_frequencies_follow_the_profile(start: float, end: float) -> None:
     """mse/ir/profile.py: a signal that occurs once occurs with probability (start + end) / 2
-    and starts in second j with probability proportional to p at its middle."""
+    and starts in second j with probability proportional to p at its middle, over the starts
+    where its shortest length (0.5 s) fits: half of the last second."""
     model = ir.Model("one", (signal("x", probability_start=start, probability_end=end),))
-    profile = [start + (end - start) * (j + 0.5) / 10 for j in range(10)]
+    profile = [(start + (end - start) * (j + 0.5) / 10) * (0.5 if j == 9 else 1.0) for j in range(10)]
     occurs = (start + end) / 2
     expected = [occurs * p / sum(profile) for p in profile]
     observed = _stamp_frequencies(model, 2000)

@@ -222,10 +222,8 @@ def walk_stamp(attempt: Attempt, j: int) -> None:
             # deadline).  Forcing each payer as if it were the only one over-placed the
             # payers of a disjunction (docs/sampler.md, "Owed signals").
             chance = pays.get(name, 0.0)
-            if chance > 0:
-                share = row[signal.index] / chance
-            else:  # the profile is 0 up to the deadline: evenly spread
-                share = 1 / (due - j + 1)
+            # (the profile is 0 up to the deadline: evenly spread)
+            share = row[signal.index] / chance if chance > 0 else 1 / (due - j + 1)
             # careful (after failures): every owed signal is a candidate at every stamp
             if rng.random() < share or careful:
                 queue.append(signal)
