@@ -235,10 +235,14 @@ class Attempt(Obligations):
         for name in plan.partners_of.get(signal.id, ()):
             found[name] = plan.by_id[name]
         found.pop(signal.id, None)
-        env, needs_before = self.env, plan.needs_before
+        # One that waits for a prerequisite or cannot occur without a signal not placed yet
+        # (this one, perhaps) has no starts to lose: the prior's draws of it are
+        # inconsistent anyway.
+        env, needs_before, requires = self.env, plan.needs_before, plan.requires
         return [other for name, other in found.items()
                 if name not in dead and name not in latest and name not in require
-                and all(env.get(before) for before in needs_before[name])]
+                and all(env.get(before) for before in needs_before[name])
+                and all(env.get(before) for before in requires[name])]
 
     def windows_of(self, signals: list[SignalPlan]) -> list[tuple[SignalPlan, int, int]]:
         """Their start windows (:meth:`start_window`), leaving out those that cannot start

@@ -100,6 +100,7 @@ class Plan:
         "partner_bounds",
         "partners_of",
         "related",
+        "requires",
         "signals",
         "stamps",
         "table",
@@ -193,10 +194,27 @@ class Plan:
         lengths = {s.id: (s.shortest, s.longest) for s in signals}
         # signals that must be placed before each one can start (order.py)
         self.needs_before = {s.id: needs_before(s.id, by_signal[s.id], lengths, duration) for s in signals}
-        # the reverse, for the once-only signals others wait for: (signal, those that need it)
+        # Per signal y, the signals x without which it cannot occur: a constraint that y
+        # instantiates holds only if x occurs (``exists(x) and equal(start(y), start(x), 0.3)``,
+        # ``exists(y) implies exists(x)``, an ``exists(x)`` in every operand of an ``or``).
+        requires: dict[str, set[str]] = {s.id: set() for s in signals}
+        for compiled in constraints:
+            constraint = compiled.constraint
+            antecedent = _antecedent(constraint)
+            if antecedent is not None:
+                assert isinstance(constraint.expr, ir.Implies)
+                requires[antecedent] |= _required(constraint.expr.right)
+                continue
+            needed = _required(constraint.expr)
+            for name in constraint.triggers:
+                if name in requires:
+                    requires[name] |= needed
+        self.requires = {name: frozenset(found - {name}) for name, found in requires.items()}
+        # the reverse, for the once-only signals others wait for or cannot occur without:
+        # (signal, those that need it)
         enables: dict[str, list[SignalPlan]] = {}
         for s in signals:
-            for name in self.needs_before[s.id]:
+            for name in sorted(set(self.needs_before[s.id]) | self.requires[s.id]):
                 enables.setdefault(name, []).append(s)
         self.enables = tuple((self.by_id[name], tuple(found)) for name, found in sorted(enables.items())
                              if self.by_id[name].limit == 1)
@@ -256,6 +274,19 @@ def _must_exist(constraint: ir.Constraint) -> tuple[str, ...]:
         assert isinstance(constraint.expr, ir.Implies)
         return _top_level_exists(constraint.expr.right)
     return _top_level_exists(constraint.expr)
+
+
+def _required(expr: ir.Expr) -> set[str]:
+    """The signals that must occur for ``expr`` to hold (``exists`` conjuncts; in an ``or``,
+    those every operand requires)."""
+    if isinstance(expr, ir.Exists):
+        return {expr.signal}
+    if isinstance(expr, ir.And):
+        return {name for operand in expr.operands for name in _required(operand)}
+    if isinstance(expr, ir.Or):
+        found = [_required(operand) for operand in expr.operands]
+        return set.intersection(*found) if found else set()
+    return set()
 
 
 def _top_level_exists(expr: ir.Expr) -> tuple[str, ...]:

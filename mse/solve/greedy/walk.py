@@ -300,7 +300,9 @@ def enabling(attempt: Attempt, j: int) -> list[SignalPlan]:
             q = 1.0 - math.exp(mine[j] - mine[n])
             if q >= 1.0 - 1e-9:
                 continue
-            first, last = low + signal.shortest, plan.duration - other.shortest
+            # after its shortest length if it must come after it, else from its start on
+            first = low + (signal.shortest if signal.id in plan.needs_before[other.id] else 0)
+            last = plan.duration - other.shortest
             for partner, rules in plan.partner_bounds[other.id]:
                 if partner == signal.id:
                     for index, delta, upper in rules:
