@@ -149,7 +149,7 @@ class Attempt(Obligations):
                 stop, window = found, None
         if self.commit(signal, start, stop):
             if owed is None or saved is None or (
-                (self.latest.keys() <= owed.keys() or self.prior_pays(signal, owed))
+                (self.latest == owed or self.prior_pays(signal, owed))
                 and (not spared or self.prior_spares(signal, start, spared))
             ):
                 return True
@@ -206,21 +206,34 @@ class Attempt(Obligations):
         low = max(self.frontier, self.stamp_low)
         payers = [(plan.by_id[name], deadline) for name, deadline in self.latest.items()
                   if name not in before and name != signal.id]
-        if not payers:
+        # Signals owed already whose deadline it brought forward (``includes(frown, lean)``
+        # placing lean while a disjunction owes a frown: now one must start at that very
+        # millisecond): kept with the ratio of the prior's chances to start one in time.
+        hastened = [(plan.by_id[name], deadline, before[name]) for name, deadline in self.latest.items()
+                    if name in before and deadline < before[name] and name != signal.id]
+        if not payers and not hastened:
             return True  # only the placed signal itself owes another occurrence of it
         draw = self.rng.random()  # kept iff draw >= the probability that none pays
+        keep = 1.0
+        for payer, deadline, previous in hastened:
+            was = _pays(payer, [(low, previous)] if low <= previous else [], low, duration)
+            if was > 0:
+                starts = self.feasible_starts(payer, low, deadline) if low <= deadline else []
+                keep *= min(1.0, _pays(payer, starts, low, duration) / was)
+        if not payers:
+            return draw < keep
         # First with every start up to each deadline allowed (no probing): an upper bound of
         # each payment, so a lower bound of "none pays"; usually enough to reject at once.
         bound = 1.0
         for payer, deadline in payers:
             bound *= 1.0 - _pays(payer, [(low, deadline)] if low <= deadline else [], low, duration)
-        if draw < bound:
+        if draw >= keep * (1.0 - bound):
             return False
         missed = 1.0
         for payer, deadline in payers:
             starts = self.feasible_starts(payer, low, deadline) if low <= deadline else []
             missed *= 1.0 - _pays(payer, starts, low, duration)
-        return draw >= missed
+        return draw < keep * (1.0 - missed)
 
     def narrowed_by(self, signal: SignalPlan) -> list[SignalPlan]:
         """The free signals whose start window a placement of ``signal`` may narrow: the
