@@ -298,9 +298,20 @@ class Attempt(Obligations):
         # Against the timelines where it does not start here: it may start later, closing as
         # much (``later``: the prior's probability that it does), so the weight of this
         # start is the ratio, not ``missed`` alone (a signal that surely occurs loses little).
+        # A once-only signal that does not start here may start later, anywhere: ``later``
+        # is the prior's probability that it does.  A repetitive one that does not start
+        # here starts again soon, and an occurrence then closes about the same span only
+        # when it comes within that span: ``later`` is the probability of a start within its
+        # mean length (counting its whole future would cancel the weight; counting none
+        # halved the rates of two repetitive signals sharing an exclusive modality).
         plan = self.plan
         cumulative = plan.cumulative[signal.index]
-        later = 1.0 - math.exp(cumulative[plan.stamp_of(start)] - cumulative[-1])
+        first = plan.stamp_of(start)
+        if signal.limit > 1:
+            until = plan.stamp_of(min(plan.duration - 1, start + (signal.shortest + signal.longest) // 2))
+            later = 1.0 - math.exp(cumulative[first] - cumulative[until + 1])
+        else:
+            later = 1.0 - math.exp(cumulative[first] - cumulative[-1])
         return self.rng.random() < missed / (1.0 - later + later * missed)
 
     def take_back(self, signal: SignalPlan, saved: _Saved) -> None:

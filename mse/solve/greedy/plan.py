@@ -364,17 +364,17 @@ def _hazards(signal: SignalPlan, stamps: Sequence[int], duration: int) -> list[f
     ``occurrence_probability * mass_j`` where ``mass_j`` is the stamp's share of the integral
     of ``p(u)`` (the start density is proportional to the profile over the whole span)."""
     profile = _profile(signal, stamps, duration)
-    lengths = [last - first for first, last in itertools.pairwise(stamps)]
+    # Only the starts where its shortest length fits count (the prior of docs/semantics.md, as
+    # bench/evaluation/reference.py draws it): a once-only signal's mass spread over the
+    # stamps past ``duration - shortest`` lost those candidacies (a 1/1 signal of >= 2.6 s
+    # occurred in 81 % of 10 s timelines instead of all); a repetitive one's whole last
+    # stamp of hazard fell on its last possible start.
+    last = duration - signal.shortest
+    lengths = [max(0, min(last + 1, second) - first) for first, second in itertools.pairwise(stamps)]
     if signal.limit > 1:
         unit = RATE_UNIT * 1000
         return [1.0 - (1.0 - p) ** (length / unit) for p, length in zip(profile, lengths, strict=True)]
-    # Only the starts where its shortest length fits count (the prior of docs/semantics.md, as
-    # bench/evaluation/reference.py draws it): spreading the mass over the stamps past
-    # ``duration - shortest`` lost those candidacies (a 1/1 signal of >= 2.6 s occurred in
-    # 81 % of 10 s timelines instead of all).
-    last = duration - signal.shortest
-    masses = [p * max(0, min(last + 1, second) - first)
-              for p, (first, second) in zip(profile, itertools.pairwise(stamps), strict=True)]
+    masses = [p * length for p, length in zip(profile, lengths, strict=True)]
     total = sum(masses)
     if total <= 0:
         return [0.0] * len(masses)
