@@ -214,16 +214,24 @@ def walk_stamp(attempt: Attempt, j: int) -> None:
             due = plan.stamp_of(attempt.latest[name])
             if due < j:
                 continue
-            owed.add(name)
-            # A candidate with the prior's probability given that the debt is paid: the
-            # table's hazard over the probability that the prior alone has one of the
-            # debt's payers start before its deadline (a single once-only payer: the
-            # profile's share of what is left before the deadline, certain at the
-            # deadline).  Forcing each payer as if it were the only one over-placed the
-            # payers of a disjunction (docs/sampler.md, "Owed signals").
-            chance = pays.get(name, 0.0)
-            # (the profile is 0 up to the deadline: evenly spread)
-            share = row[signal.index] / chance if chance > 0 else 1 / (due - j + 1)
+            chance = pays.get(name)
+            if chance is None:
+                # It alone can pay: due in this stamp with the profile's share of what is left
+                # before the deadline (certain at the deadline; evenly spread when the profile
+                # is 0 there), on top of its own candidacy (this only moves its start earlier:
+                # it must occur; it leaves the others room, docs/sampler.md "Signals that must
+                # occur").
+                masses = plan.masses[signal.index]
+                left = masses[due + 1] - masses[j]
+                share = max(row[signal.index], (masses[j + 1] - masses[j]) / left if left > 0 else 1 / (due - j + 1))
+            else:
+                # One of several that may pay: a candidate with the prior's probability given
+                # that the debt is paid, the table's hazard over the probability that the prior
+                # alone starts one of the payers before its deadline, and only so (not its own
+                # candidacy as well).  Forcing each as if it were the only one over-placed the
+                # payers of a disjunction (docs/sampler.md, "Owed signals").
+                owed.add(name)
+                share = row[signal.index] / chance if chance > 0 else 1 / (due - j + 1)
             # careful (after failures): every owed signal is a candidate at every stamp
             if rng.random() < share or careful:
                 queue.append(signal)
@@ -326,10 +334,11 @@ def enabling(attempt: Attempt, j: int) -> list[SignalPlan]:
 
 
 def payers_pay(attempt: Attempt, j: int) -> dict[str, float]:
-    """Per owed signal, the probability that the prior alone starts one of the payers of its
-    debt from stamp ``j`` on, each before its deadline: the payers of an owing constraint are
-    the owed signals it mentions; an owed signal on no owing constraint (a prerequisite, a
-    ``--require``) pays alone; with several debts, the least likely to be paid counts."""
+    """Per owed signal that shares its debts with other payers, the probability that the
+    prior alone starts one of the payers from stamp ``j`` on, each before its deadline: the
+    payers of an owing constraint are the owed signals it mentions; with several debts, the
+    least likely to be paid counts.  Left out: the owed signals that are the sole payer of a
+    debt or on no owing constraint (a prerequisite, a ``--require``): they must occur."""
     plan, latest = attempt.plan, attempt.latest
     alone: dict[str, float] = {}
     for name, deadline in latest.items():
@@ -337,16 +346,20 @@ def payers_pay(attempt: Attempt, j: int) -> dict[str, float]:
         cumulative = plan.cumulative[plan.by_id[name].index]
         alone[name] = 1.0 - math.exp(cumulative[j] - cumulative[due + 1]) if due >= j else 0.0
     found: dict[str, float] = {}
+    single: set[str] = set()  # the sole payer of some debt: it must occur
     for cid in attempt.owing:
         payers = [name for name in plan.by_constraint_id[cid].mentioned if name in alone]
+        if len(payers) == 1:
+            single.add(payers[0])
+            continue
         missed = 1.0
         for name in payers:
             missed *= 1.0 - alone[name]
         for name in payers:
             if 1.0 - missed < found.get(name, 2.0):
                 found[name] = 1.0 - missed
-    for name, chance in alone.items():
-        found.setdefault(name, chance)
+    for name in single:
+        found.pop(name, None)
     return found
 
 
