@@ -21,7 +21,7 @@ from typing import Any
 from mse.ir.schedule import Occurrence
 from mse.solve.greedy.debts import Doomed
 from mse.solve.greedy.obligations import Obligations
-from mse.solve.greedy.plan import SignalPlan
+from mse.solve.greedy.plan import SignalPlan, prior_starts_in
 from mse.solve.greedy.windows import Intervals, feasible, nearest_feasible, pick_uniform, probes
 
 __all__ = ["Attempt", "Doomed"]
@@ -35,33 +35,6 @@ _sqrt = math.sqrt
 _Saved = tuple[
     int | None, int | None, int, set[str], dict[str, int], dict[str, tuple[str, ...]], frozenset[str]
 ]
-
-
-def _mass(payer: SignalPlan, x0: int, x1: int, duration: int) -> float:
-    """Integral of the profile p(u) du over the ticks [x0, x1)."""
-    a, b = payer.probability_start, payer.probability_end
-    u0, u1 = x0 / duration, x1 / duration
-    return a * (u1 - u0) + (b - a) * (u1 * u1 - u0 * u0) / 2
-
-
-def _pays(payer: SignalPlan, starts: Intervals, low: int, duration: int) -> float:
-    """Probability that the prior alone starts ``payer`` in ``starts`` (intervals of ticks,
-    inclusive), given that it is free from ``low`` (a once-only one: not started before)."""
-    if payer.limit > 1:
-        # a start within a free second with probability p: intensity -ln(1 - p) per second
-        hazard = 0.0
-        for lo, hi in starts:
-            span = (hi + 1 - lo) / duration
-            mean = _mass(payer, lo, hi + 1, duration) / span
-            hazard -= math.log1p(-min(0.999999, mean)) * span * duration / 1000
-        return 1.0 - math.exp(-hazard)
-    total = _mass(payer, 0, duration - payer.shortest + 1, duration)
-    if total <= 0:
-        return 0.0
-    occurs = min(1.0, (payer.probability_start + payer.probability_end) / 2)
-    left = 1.0 - occurs * _mass(payer, 0, low, duration) / total
-    pays = occurs * sum(_mass(payer, lo, hi + 1, duration) for lo, hi in starts) / total / max(1e-12, left)
-    return min(1.0, max(0.0, pays))
 
 
 class Attempt(Obligations):
@@ -92,6 +65,19 @@ class Attempt(Obligations):
         if first_start > last_start or last_start < low:
             self.dead.add(signal.id)
             return False
+        optional = sid not in self.latest and sid not in self.require
+        if optional:
+            # An optional candidate starts where the prior puts it in the stamp; outside its
+            # window it is rejected, as the target rejects that draw (it keeps its hazard for
+            # later stamps).  Drawn inside the window, a signal whose window a partner narrows
+            # to a band (``equal(start(b), stop(a), 0.3)``) took the whole stamp's chance.
+            # (a repetitive one: from its last stop, where its hazard is counted from)
+            since = max(low, self.last_stop.get(sid, 0))
+            if since > high:
+                return False
+            drawn = since + int(self.rng.random() * (high - since + 1))
+            if not first_start <= drawn <= last_start:
+                return False
         low, high = max(low, first_start), min(high, last_start)
         if self.latest:
             # Starts never decrease: starting past an owed signal's deadline would leave its
@@ -107,7 +93,12 @@ class Attempt(Obligations):
         owed, saved = (None, None) if sid in self.latest or sid in self.require else (self.latest, self._saved(signal))
         # ... and the windows of the free signals its placement may narrow (prior_spares)
         spared = self.windows_of(self.narrowed_by(signal)) if owed is not None else None
-        start = low + int(rng.random() * (high - low + 1))
+        if optional:
+            if not low <= drawn <= high:
+                return False  # past an owed signal's deadline
+            start = drawn
+        else:
+            start = low + int(rng.random() * (high - low + 1))
         # draw_stop(signal, start), inlined (the same draw): once per candidate
         first, last = start + signal.shortest, start + signal.longest
         if last > self.plan.duration:
@@ -154,6 +145,11 @@ class Attempt(Obligations):
             ):
                 return True
             self.take_back(signal, saved)
+            return False
+        if owed is not None:
+            # An optional candidate whose drawn stop leaves a debt nothing can pay: the target
+            # rejects that draw (trying other stops, unweighed, placed `b` of ``exists(a) and
+            # includes(a, b)`` with `a` forced to start at the same millisecond).
             return False
         if window is None:  # the state is as it was before commit(): the same window
             window = feasible(stop_allowed, first, last, points)
@@ -216,23 +212,23 @@ class Attempt(Obligations):
         draw = self.rng.random()  # kept iff draw >= the probability that none pays
         keep = 1.0
         for payer, deadline, previous in hastened:
-            was = _pays(payer, [(low, previous)] if low <= previous else [], low, duration)
+            was = prior_starts_in(payer, [(low, previous)] if low <= previous else [], low, duration)
             if was > 0:
                 starts = self.feasible_starts(payer, low, deadline) if low <= deadline else []
-                keep *= min(1.0, _pays(payer, starts, low, duration) / was)
+                keep *= min(1.0, prior_starts_in(payer, starts, low, duration) / was)
         if not payers:
             return draw < keep
         # First with every start up to each deadline allowed (no probing): an upper bound of
         # each payment, so a lower bound of "none pays"; usually enough to reject at once.
         bound = 1.0
         for payer, deadline in payers:
-            bound *= 1.0 - _pays(payer, [(low, deadline)] if low <= deadline else [], low, duration)
+            bound *= 1.0 - prior_starts_in(payer, [(low, deadline)] if low <= deadline else [], low, duration)
         if draw >= keep * (1.0 - bound):
             return False
         missed = 1.0
         for payer, deadline in payers:
             starts = self.feasible_starts(payer, low, deadline) if low <= deadline else []
-            missed *= 1.0 - _pays(payer, starts, low, duration)
+            missed *= 1.0 - prior_starts_in(payer, starts, low, duration)
         return draw < keep * (1.0 - missed)
 
     def narrowed_by(self, signal: SignalPlan) -> list[SignalPlan]:
@@ -292,7 +288,7 @@ class Attempt(Obligations):
                 closed = [(first, min(last, after_first - 1)), (max(first, after_last + 1), last)]
                 closed = [(a, b) for a, b in closed if a <= b]
             if closed:
-                missed *= 1.0 - _pays(other, closed, low, duration)
+                missed *= 1.0 - prior_starts_in(other, closed, low, duration)
         if missed >= 1.0:
             return True
         # Against the timelines where it does not start here: it may start later, closing as

@@ -297,6 +297,33 @@ def _top_level_exists(expr: ir.Expr) -> tuple[str, ...]:
     return ()
 
 
+def _mass(signal: SignalPlan, x0: int, x1: int, duration: int) -> float:
+    """Integral of the profile p(u) du over the ticks [x0, x1)."""
+    a, b = signal.probability_start, signal.probability_end
+    u0, u1 = x0 / duration, x1 / duration
+    return a * (u1 - u0) + (b - a) * (u1 * u1 - u0 * u0) / 2
+
+
+def prior_starts_in(signal: SignalPlan, starts: Sequence[tuple[int, int]], low: int, duration: int) -> float:
+    """Probability that the prior alone starts ``signal`` in ``starts`` (intervals of ticks,
+    inclusive), given that it is free from ``low`` (a once-only one: not started before)."""
+    if signal.limit > 1:
+        # a start within a free second with probability p: intensity -ln(1 - p) per second
+        hazard = 0.0
+        for lo, hi in starts:
+            span = (hi + 1 - lo) / duration
+            mean = _mass(signal, lo, hi + 1, duration) / span
+            hazard -= math.log1p(-min(0.999999, mean)) * span * duration / 1000
+        return 1.0 - math.exp(-hazard)
+    total = _mass(signal, 0, duration - signal.shortest + 1, duration)
+    if total <= 0:
+        return 0.0
+    occurs = min(1.0, (signal.probability_start + signal.probability_end) / 2)
+    left = 1.0 - occurs * _mass(signal, 0, low, duration) / total
+    pays = occurs * sum(_mass(signal, lo, hi + 1, duration) for lo, hi in starts) / total / max(1e-12, left)
+    return min(1.0, max(0.0, pays))
+
+
 def _cumulative(hazards: Sequence[float]) -> tuple[float, ...]:
     total, found = 0.0, [0.0]
     for hazard in hazards:

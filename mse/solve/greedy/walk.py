@@ -28,7 +28,7 @@ from typing import TYPE_CHECKING
 
 from mse.ir.schedule import Occurrence
 from mse.solve.greedy.debts import Doomed
-from mse.solve.greedy.plan import SignalPlan
+from mse.solve.greedy.plan import SignalPlan, prior_starts_in
 
 if TYPE_CHECKING:
     from mse.solve.greedy.engine import Attempt
@@ -304,8 +304,7 @@ def enabling(attempt: Attempt, j: int) -> list[SignalPlan]:
         for other in followers:
             if other.id in dead or count.get(other.id, 0):
                 continue
-            mine = cumulative[other.index]
-            q = 1.0 - math.exp(mine[j] - mine[n])
+            q = prior_starts_in(other, ((low, plan.duration - other.shortest),), low, plan.duration)
             if q >= 1.0 - 1e-9:
                 continue
             # after its shortest length if it must come after it, else from its start on
@@ -320,8 +319,8 @@ def enabling(attempt: Attempt, j: int) -> list[SignalPlan]:
                             first = max(first, box[index] + delta)
             if first > last or first >= plan.duration:
                 continue
-            opened = math.exp(mine[plan.stamp_of(first)] - mine[plan.stamp_of(last) + 1])
-            gain *= (1.0 - q + 1.0 - opened) / (1.0 - q)
+            opened = prior_starts_in(other, ((first, last),), low, plan.duration)
+            gain *= (1.0 - q + opened) / (1.0 - q)
         if gain <= 1.0:
             continue
         own = cumulative[signal.index]
