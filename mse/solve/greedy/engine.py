@@ -40,7 +40,7 @@ _Saved = tuple[
 class Attempt(Obligations):
     """One walk's state and its moves: trying, placing and taking back occurrences."""
 
-    __slots__ = ("careful",)
+    __slots__ = ("careful", "sharing")
 
     def __init__(self, *args: Any, **kwargs: Any) -> None:
         super().__init__(*args, **kwargs)
@@ -48,6 +48,10 @@ class Attempt(Obligations):
         #: timeline owes many debts: a candidate that is not owed may not add a debt (it
         #: keeps the room the owed signals need; docs/sampler.md, "Sixth pass").
         self.careful = False
+        #: The owed signals of the current stamp that share their debts with other payers and
+        #: are not due yet (walk.walk_stamp): their placement is weighed like an optional one's
+        #: by the starts it closes (prior_spares); one of the others may still pay.
+        self.sharing: frozenset[str] = frozenset()
 
     def try_place(self, signal: SignalPlan, low: int, high: int) -> bool:
         """Draw, check and place one occurrence starting in [low, high]; False if impossible."""
@@ -92,7 +96,8 @@ class Attempt(Obligations):
         # the owed signals before it (prior_pays).
         owed, saved = (None, None) if sid in self.latest or sid in self.require else (self.latest, self._saved(signal))
         # ... and the windows of the free signals its placement may narrow (prior_spares)
-        spared = self.windows_of(self.narrowed_by(signal)) if owed is not None else None
+        spared = self.windows_of(self.narrowed_by(signal)) if owed is not None or sid in self.sharing else None
+        sharing_saved = self._saved(signal) if owed is None and spared else None
         if optional:
             if not low <= drawn <= high:
                 return False  # past an owed signal's deadline
@@ -139,6 +144,9 @@ class Attempt(Obligations):
                     return False
                 stop, window = found, None
         if self.commit(signal, start, stop):
+            if sharing_saved is not None and not self.prior_spares(signal, start, spared or []):
+                self.take_back(signal, sharing_saved)
+                return False
             if owed is None or saved is None or (
                 (self.latest == owed or self.prior_pays(signal, owed))
                 and (not spared or self.prior_spares(signal, start, spared))

@@ -203,6 +203,7 @@ def walk_stamp(attempt: Attempt, j: int) -> None:
     attempt.stamp_low = low
     queue: list[SignalPlan] = []
     owed: set[str] = set()  # drawn above with the debt's probability: not a second time below
+    sharing: set[str] = set()  # those of them not due in this stamp (Attempt.sharing)
     careful = attempt.careful
     if attempt.latest:
         if any(latest < low for latest in attempt.latest.values()):
@@ -231,10 +232,13 @@ def walk_stamp(attempt: Attempt, j: int) -> None:
                 # candidacy as well).  Forcing each as if it were the only one over-placed the
                 # payers of a disjunction (docs/sampler.md, "Owed signals").
                 owed.add(name)
+                if due > j:
+                    sharing.add(name)
                 share = row[signal.index] / chance if chance > 0 else 1 / (due - j + 1)
             # careful (after failures): every owed signal is a candidate at every stamp
             if rng.random() < share or careful:
                 queue.append(signal)
+    attempt.sharing = frozenset(sharing)
     if plan.enables:
         queue.extend(enabling(attempt, j))
     bucket = attempt.buckets[j]
