@@ -40,7 +40,7 @@ _Saved = tuple[
 class Attempt(Obligations):
     """One walk's state and its moves: trying, placing and taking back occurrences."""
 
-    __slots__ = ("careful", "sharing")
+    __slots__ = ("careful", "offsets", "sharing")
 
     def __init__(self, *args: Any, **kwargs: Any) -> None:
         super().__init__(*args, **kwargs)
@@ -52,6 +52,9 @@ class Attempt(Obligations):
         #: are not due yet (walk.walk_stamp): their placement is weighed like an optional one's
         #: by the starts it closes (prior_spares); one of the others may still pay.
         self.sharing: frozenset[str] = frozenset()
+        #: Per candidate of the current stamp, where in the stamp (0..1) the prior starts it
+        #: (walk.walk_stamp draws them and tries the candidates in that order).
+        self.offsets: dict[str, float] = {}
 
     def try_place(self, signal: SignalPlan, low: int, high: int) -> bool:
         """Draw, check and place one occurrence starting in [low, high]; False if impossible."""
@@ -79,7 +82,11 @@ class Attempt(Obligations):
             since = max(low, self.last_stop.get(sid, 0))
             if since > high:
                 return False
-            drawn = since + int(self.rng.random() * (high - since + 1))
+            offset = self.offsets.get(sid)
+            stamp_high = high
+            drawn = -1 if offset is None else self.stamp_low + int(offset * (stamp_high - self.stamp_low + 1))
+            if drawn < since:  # it starts after the frontier or its own last stop: uniformly there
+                drawn = since + int(self.rng.random() * (high - since + 1))
             if not first_start <= drawn <= last_start:
                 return False
         low, high = max(low, first_start), min(high, last_start)

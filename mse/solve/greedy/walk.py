@@ -23,7 +23,7 @@ from __future__ import annotations
 import bisect
 import math
 from collections import Counter
-from collections.abc import Callable, Generator
+from collections.abc import Generator
 from typing import TYPE_CHECKING
 
 from mse.ir.schedule import Occurrence
@@ -73,19 +73,6 @@ class Checkpoint:
         self.kept = kept  # occurrences of Attempt.occurrences kept
         self.frontier = frontier
         self.owing = owing
-
-
-def _shuffle(getrandbits: Callable[[int], int], items: list[SignalPlan]) -> None:
-    """``random.Random.shuffle``, written out with the same draws (CPython's Fisher-Yates over
-    ``_randbelow_with_getrandbits``), so the same order: it saves two calls per element on
-    the hot path, and pins the order to this code rather than to the standard library."""
-    for i in range(len(items) - 1, 0, -1):
-        bound = i + 1
-        bits = bound.bit_length()
-        j = getrandbits(bits)
-        while j >= bound:
-            j = getrandbits(bits)
-        items[i], items[j] = items[j], items[i]
 
 
 def walk(attempt: Attempt, budget: int = 0, backtracks: list[int] | None = None) -> list[Occurrence]:
@@ -246,8 +233,19 @@ def walk_stamp(attempt: Attempt, j: int) -> None:
         return
     proposals = [s for s in bucket if s.id not in dead]
     bucket.clear()
-    if len(proposals) > 1:
-        _shuffle(rng.getrandbits, proposals)
+    # Each candidate nothing owes gets its place in the stamp now (Attempt.offsets: where the
+    # prior starts it) and they are tried in that order, so that the frontier a placement
+    # moves never pushes a later one's start (tried in a random order, a candidate placed
+    # late in the stamp delayed the others: three unconstrained repetitive signals lost 4 %
+    # of their starts).
+    offsets = attempt.offsets
+    offsets.clear()
+    if proposals:
+        random = rng.random
+        for signal in proposals:
+            offsets[signal.id] = random()
+        if len(proposals) > 1:
+            proposals.sort(key=lambda signal: offsets[signal.id])
     # An owed signal's own candidacy is the one drawn above (its prior probability given the
     # debt is paid): its bucket's would be a second chance in the stamp.
     queue.extend([s for s in proposals if s.id not in owed] if owed else proposals)
