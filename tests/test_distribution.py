@@ -155,7 +155,8 @@ def test_walk_places_a_certain_signal_whatever_its_length() -> None:
     """A 1/1 once-only signal of 3 s occurs in every 10 s timeline: its hazard counts only the
     starts where it fits (it occurred in 81 % of them when the mass past 7 s was lost), and a
     disjunction it pays does not force its partner (0.3 occurred in 51 %, not 30 %)."""
-    model = _set(_signal("a", "face", 1.0, 3, 4) + _signal("b", "head", 0.3), "<constraint>exists(a) or exists(b)</constraint>")
+    model = _set(_signal("a", "face", 1.0, 3, 4) + _signal("b", "head", 0.3),
+                 "<constraint>exists(a) or exists(b)</constraint>")
     rates = _walk_against_reference(model)
     assert rates["a"][0] >= 0.98
     assert abs(rates["b"][0] - rates["b"][1]) <= 0.08

@@ -1,13 +1,15 @@
 """One walk of the paper's greedy algorithm (§4.3) on a :class:`Plan`: its state and its moves.
 
 Walk the time stamps t_0 .. t_{n-1}.  At each stamp every available signal is a candidate
-with the probability the table gives it there (owed signals first, with a raised weight);
-candidates are tried in random order.  For a candidate: draw its start in
-[max(t_j, frontier), t_{j+1}), check the partial animation with the start and an open stop;
-draw its stop (triangular, mode at the middle of [min, max]) and check again.  When a drawn
-time fails, the ad-hoc inference computes the exact set of times the instantiated constraints
-allow (critical points, docs/sampler.md) and draws inside it, so equalities and offsets are
-met exactly.  Starts never decrease.  The walk over the stamps (with its checkpoints and
+with the probability the table gives it there (owed signals first, with a raised weight); the
+others are tried in the order of the starts drawn for them.  For a candidate: draw its start
+in [max(t_j, frontier), t_{j+1}), check the partial animation with the start and an open stop;
+draw its stop (triangular, mode at the middle of [min, max]) and check again.  A candidate
+nothing owes is rejected when a drawn time fails, and its placement is weighed by the prior
+(the debts it takes on, the starts it closes to others: docs/sampler.md).  For an owed one,
+when a drawn time fails, the ad-hoc inference computes the exact set of times the
+instantiated constraints allow (critical points) and draws inside it, so equalities and
+offsets are met exactly.  Starts never decrease.  The walk over the stamps (with its checkpoints and
 backtracking) is in walk.py; the state and its partial checks in state.py; the obligations
 (owed signals, their deadlines and prerequisites) in obligations.py; this module holds
 trying, placing and taking back.

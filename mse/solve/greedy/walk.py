@@ -1,9 +1,10 @@
 """The walk over the time stamps (paper §4.3) on an :class:`Attempt`, with checkpoints.
 
-At each stamp t_j the candidates are the owed signals (first, each with the larger of the
-table's probability and 1 / the stamps left before its deadline) and the signals whose next
-candidacy falls at this stamp (drawn ahead from the cumulative hazard, :func:`schedule`), in
-random order.  Each is tried once per state with :meth:`Attempt.try_place`; a placement that
+At each stamp t_j the candidates are the owed signals (first, each with the probability
+:func:`payers_pay` gives: certain at its deadline when it alone can pay), the signals others
+need (:func:`enabling`) and the signals whose next candidacy falls at this stamp (drawn ahead
+from the cumulative hazard, :func:`schedule`), in the order of the starts drawn for them.
+Each is tried once per state with :meth:`Attempt.try_place`; a placement that
 opens an owed signal's window tries that one again at once.
 
 The state at the start of every stamp is a *checkpoint*.  When the walk paints itself into a
