@@ -104,9 +104,6 @@ class Attempt(Obligations):
         # What a placement of an optional candidate (one nothing owes) is weighed against:
         # the owed signals before it (prior_pays).
         owed, saved = (None, None) if sid in self.latest or sid in self.require else (self.latest, self._saved(signal))
-        # ... and the windows of the free signals its placement may narrow (prior_spares)
-        spared = self.windows_of(self.narrowed_by(signal)) if owed is not None or sid in self.sharing else None
-        sharing_saved = self._saved(signal) if owed is None and spared else None
         if optional:
             if not low <= drawn <= high:
                 return False  # past an owed signal's deadline
@@ -152,6 +149,9 @@ class Attempt(Obligations):
                 if found is None:
                     return False
                 stop, window = found, None
+        # ... and the windows of the free signals its placement may narrow (prior_spares)
+        spared = self.windows_of(self.narrowed_by(signal)) if owed is not None or sid in self.sharing else None
+        sharing_saved = self._saved(signal) if owed is None and spared else None
         if self.commit(signal, start, stop):
             if sharing_saved is not None and not self.prior_spares(signal, start, spared or []):
                 self.take_back(signal, sharing_saved)
@@ -271,13 +271,11 @@ class Attempt(Obligations):
                 and all(env.get(before) for before in requires[name])]
 
     def windows_of(self, signals: list[SignalPlan]) -> list[tuple[SignalPlan, int, int]]:
-        """Their start windows (:meth:`start_window`), leaving out those that cannot start
-        anywhere in it now (one partial check of the box of every start): a signal that
-        needs a partner not placed yet loses nothing to a placement."""
+        """Their start windows (:meth:`start_window`), the empty ones left out."""
         found = []
         for other in signals:
             first, last = self.start_window(other)
-            if first <= last and self.allows(other, self.starts_box(other, first, last)):
+            if first <= last:
                 found.append((other, first, last))
         return found
 
