@@ -85,6 +85,7 @@ class Plan:
         "duration",
         "edges",
         "enables",
+        "enabling_memo",
         "fixed",
         "gated",
         "implied",
@@ -216,6 +217,8 @@ class Plan:
         for s in signals:
             for name in sorted(set(self.needs_before[s.id]) | self.requires[s.id]):
                 enables.setdefault(name, []).append(s)
+        # (position in enables, stamp, free followers) -> walk.enabling's extra probability
+        self.enabling_memo: dict[tuple[int, int, tuple[int, ...]], float] = {}
         self.enables = tuple((self.by_id[name], tuple(found)) for name, found in sorted(enables.items())
                              if self.by_id[name].limit == 1)
         # the bounds that name another signal, grouped by it, as (other, ((box index, delta,

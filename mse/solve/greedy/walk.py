@@ -29,7 +29,7 @@ from typing import TYPE_CHECKING
 
 from mse.ir.schedule import Occurrence
 from mse.solve.greedy.debts import Doomed
-from mse.solve.greedy.plan import SignalPlan, prior_starts_in
+from mse.solve.greedy.plan import Plan, SignalPlan, prior_starts_in
 
 if TYPE_CHECKING:
     from mse.solve.greedy.engine import Attempt
@@ -292,47 +292,55 @@ def enabling(attempt: Attempt, j: int) -> list[SignalPlan]:
     probability that it does).  Time-ordered, the walk drew it at its prior rate, and the
     signals needing it occurred less often than the target has them (docs/sampler.md)."""
     plan, env, dead, count = attempt.plan, attempt.env, attempt.dead, attempt.count
-    row, cumulative, n = plan.table[j], plan.cumulative, len(plan.stamps) - 1
-    low = plan.stamps[j]
+    memo = plan.enabling_memo
     found: list[SignalPlan] = []
-    for signal, followers in plan.enables:
+    for position, (signal, followers) in enumerate(plan.enables):
         if signal.id in dead or env.get(signal.id):
             continue
-        hazard = row[signal.index]
-        if hazard <= 0.0 or hazard >= 1.0:
-            continue
-        # where it would be: from this stamp, for its mean length
-        box = (low, low, low + signal.shortest, low + (signal.shortest + signal.longest) // 2)
-        gain = 1.0
-        for other in followers:
-            if other.id in dead or count.get(other.id, 0):
-                continue
-            q = prior_starts_in(other, ((low, plan.duration - other.shortest),), low, plan.duration)
-            if q >= 1.0 - 1e-9:
-                continue
-            # after its shortest length if it must come after it, else from its start on
-            first = low + (signal.shortest if signal.id in plan.needs_before[other.id] else 0)
-            last = plan.duration - other.shortest
-            for partner, rules in plan.partner_bounds[other.id]:
-                if partner == signal.id:
-                    for index, delta, upper in rules:
-                        if upper:
-                            last = min(last, box[index + 1] + delta)
-                        else:
-                            first = max(first, box[index] + delta)
-            if first > last or first >= plan.duration:
-                continue
-            opened = prior_starts_in(other, ((first, last),), low, plan.duration)
-            gain *= (1.0 - q + opened) / (1.0 - q)
-        if gain <= 1.0:
-            continue
-        own = cumulative[signal.index]
-        later = 1.0 - math.exp(own[j + 1] - own[n])
-        boost = gain / (1.0 - later + later * gain)
-        extra = hazard * (boost - 1.0) / (1.0 - hazard)
-        if attempt.rng.random() < extra:
+        free = tuple(other.index for other in followers if other.id not in dead and not count.get(other.id, 0))
+        key = (position, j, free)
+        extra = memo.get(key)
+        if extra is None:
+            extra = memo[key] = _enabling_extra(plan, j, signal, [plan.signals[i] for i in free])
+        if extra > 0.0 and attempt.rng.random() < extra:
             found.append(signal)
     return found
+
+
+def _enabling_extra(plan: Plan, j: int, signal: SignalPlan, followers: list[SignalPlan]) -> float:
+    """The probability of :func:`enabling`'s extra candidacy of ``signal`` at stamp ``j``
+    with ``followers`` still free (it depends on nothing else: cached per plan)."""
+    hazard = plan.table[j][signal.index]
+    if hazard <= 0.0 or hazard >= 1.0:
+        return 0.0
+    low, duration, n = plan.stamps[j], plan.duration, len(plan.stamps) - 1
+    # where it would be: from this stamp, for its mean length
+    box = (low, low, low + signal.shortest, low + (signal.shortest + signal.longest) // 2)
+    gain = 1.0
+    for other in followers:
+        q = prior_starts_in(other, ((low, duration - other.shortest),), low, duration)
+        if q >= 1.0 - 1e-9:
+            continue
+        # after its shortest length if it must come after it, else from its start on
+        first = low + (signal.shortest if signal.id in plan.needs_before[other.id] else 0)
+        last = duration - other.shortest
+        for partner, rules in plan.partner_bounds[other.id]:
+            if partner == signal.id:
+                for index, delta, upper in rules:
+                    if upper:
+                        last = min(last, box[index + 1] + delta)
+                    else:
+                        first = max(first, box[index] + delta)
+        if first > last or first >= duration:
+            continue
+        opened = prior_starts_in(other, ((first, last),), low, duration)
+        gain *= (1.0 - q + opened) / (1.0 - q)
+    if gain <= 1.0:
+        return 0.0
+    own = plan.cumulative[signal.index]
+    later = 1.0 - math.exp(own[j + 1] - own[n])
+    boost = gain / (1.0 - later + later * gain)
+    return hazard * (boost - 1.0) / (1.0 - hazard)
 
 
 def payers_pay(attempt: Attempt, j: int) -> dict[str, float]:
