@@ -153,12 +153,12 @@ class Attempt(Obligations):
         spared = self.windows_of(self.narrowed_by(signal)) if owed is not None or sid in self.sharing else None
         sharing_saved = self._saved(signal) if owed is None and spared else None
         if self.commit(signal, start, stop):
-            if sharing_saved is not None and not self.prior_spares(signal, start, spared or []):
+            if sharing_saved is not None and not self.prior_spares(signal, start, stop, spared or []):
                 self.take_back(signal, sharing_saved)
                 return False
             if owed is None or saved is None or (
                 (self.latest == owed or self.prior_pays(signal, owed))
-                and (not spared or self.prior_spares(signal, start, spared))
+                and (not spared or self.prior_spares(signal, start, stop, spared))
             ):
                 return True
             self.take_back(signal, saved)
@@ -279,7 +279,9 @@ class Attempt(Obligations):
                 found.append((other, first, last))
         return found
 
-    def prior_spares(self, signal: SignalPlan, start: int, before: list[tuple[SignalPlan, int, int]]) -> bool:
+    def prior_spares(
+        self, signal: SignalPlan, start: int, stop: int, before: list[tuple[SignalPlan, int, int]]
+    ) -> bool:
         """Whether to keep the placement of an optional candidate that closes starts of other
         free signals (``before``: their start windows without it): with the probability that
         the prior alone starts none of them where it no longer may.
@@ -290,13 +292,30 @@ class Attempt(Obligations):
         rate and only moved the others later: members of an exclusive modality, and the
         partners of such bounds, occurred more often than the target has them
         (docs/sampler.md, "Starts a placement closes")."""
-        duration, low = self.plan.duration, self.stamp_low
+        plan = self.plan
+        duration, low = plan.duration, self.stamp_low
+        # The window after the placement is the one before narrowed by what the placement
+        # adds (start_window's rules, written for this one occurrence): the end of its run in
+        # an exclusive modality, and the necessary bounds that name it (an upper bound uses a
+        # signal's first occurrence: only its first one counts).
+        box = (start, start, stop, stop)
+        first_one = self.count.get(signal.id, 0) <= 1
         missed = 1.0
         for other, first, last in before:
             first = max(first, start)
             if first > last:
                 continue
-            after_first, after_last = self.start_window(other)
+            after_first, after_last = first, last
+            if signal.exclusive is not None and other.exclusive == signal.exclusive and stop > after_first:
+                after_first = stop
+            for partner, rules in plan.partner_bounds[other.id]:
+                if partner == signal.id:
+                    for index, delta, upper in rules:
+                        if upper:
+                            if first_one and box[index + 1] + delta < after_last:
+                                after_last = box[index + 1] + delta
+                        elif box[index] + delta > after_first:
+                            after_first = box[index] + delta
             if after_first > after_last:
                 closed = [(first, last)]
             else:
