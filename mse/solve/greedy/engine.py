@@ -85,7 +85,8 @@ class Attempt(Obligations):
             if since > high:
                 return False
             offset = self.offsets.get(sid)
-            stamp_high = high
+            # (over the starts of the stamp where its shortest length fits: its hazard's)
+            stamp_high = min(high, self.plan.duration - signal.shortest)
             drawn = -1 if offset is None else self.stamp_low + int(offset * (stamp_high - self.stamp_low + 1))
             if drawn < since:  # it starts after the frontier or its own last stop: uniformly there
                 drawn = since + int(self.rng.random() * (high - since + 1))
