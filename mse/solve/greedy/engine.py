@@ -329,8 +329,7 @@ class Attempt(Obligations):
         # Against the timelines where it does not start here: it may start later, closing as
         # much (``later``: the prior's probability that it does), so the weight of this
         # start is the ratio, not ``missed`` alone (a signal that surely occurs loses little).
-        # A once-only signal that does not start here may start later, anywhere: ``later``
-        # is the prior's probability that it does.  A repetitive one that does not start
+        # A once-only signal that does not start here may start later, anywhere.  A repetitive one that does not start
         # here starts again soon, and an occurrence then closes about the same span only
         # when it comes within that span: ``later`` is the probability of a start within its
         # mean length (counting its whole future would cancel the weight; counting none
@@ -343,7 +342,8 @@ class Attempt(Obligations):
             later = 1.0 - math.exp(cumulative[first] - cumulative[until + 1])
         else:
             later = 1.0 - math.exp(cumulative[first] - cumulative[-1])
-        return self.rng.random() < missed / (1.0 - later + later * missed)
+        # missed / (1 - later + later * missed), without dividing (missed 0 and later 1: 0)
+        return self.rng.random() * (1.0 - later + later * missed) < missed
 
     def take_back(self, signal: SignalPlan, saved: _Saved) -> None:
         """Undo the placement :meth:`commit` just made (``saved``: :meth:`_saved` before it)."""
