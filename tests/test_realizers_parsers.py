@@ -111,7 +111,7 @@ def test_greta_never_throws_and_reads_every_time(corpus: Corpus, variant: str) -
 @pytest.mark.parametrize("variant", GRETA_VARIANTS)
 def test_greta_resolves_the_bundled_sets(corpus: Corpus, variant: str) -> None:
     resolved, total = greta_resolution(corpus, variant, "bundled").count()
-    assert total > 90  # 98 signals: the default sampler's exact draws hold fewer than the walk's
+    assert total > 80  # the sampled signals of the bundled sets (94 with the walk of issue 32, 98 from exact draws)
     assert resolved >= 0.9 * total, f"{variant}: {resolved}/{total}"
 
 

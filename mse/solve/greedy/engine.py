@@ -1,13 +1,15 @@
 """One walk of the paper's greedy algorithm (§4.3) on a :class:`Plan`: its state and its moves.
 
 Walk the time stamps t_0 .. t_{n-1}.  At each stamp every available signal is a candidate
-with the probability the table gives it there (owed signals first, with a raised weight);
-candidates are tried in random order.  For a candidate: draw its start in
-[max(t_j, frontier), t_{j+1}), check the partial animation with the start and an open stop;
-draw its stop (triangular, mode at the middle of [min, max]) and check again.  When a drawn
-time fails, the ad-hoc inference computes the exact set of times the instantiated constraints
-allow (critical points, docs/sampler.md) and draws inside it, so equalities and offsets are
-met exactly.  Starts never decrease.  The walk over the stamps (with its checkpoints and
+with the probability the table gives it there (owed signals first, with a raised weight); the
+others are tried in the order of the starts drawn for them.  For a candidate: draw its start
+in [max(t_j, frontier), t_{j+1}), check the partial animation with the start and an open stop;
+draw its stop (triangular, mode at the middle of [min, max]) and check again.  A candidate
+nothing owes is rejected when a drawn time fails, and its placement is weighed by the prior
+(the debts it takes on, the starts it closes to others: docs/sampler.md).  For an owed one,
+when a drawn time fails, the ad-hoc inference computes the exact set of times the
+instantiated constraints allow (critical points) and draws inside it, so equalities and
+offsets are met exactly.  Starts never decrease.  The walk over the stamps (with its checkpoints and
 backtracking) is in walk.py; the state and its partial checks in state.py; the obligations
 (owed signals, their deadlines and prerequisites) in obligations.py; this module holds
 trying, placing and taking back.
@@ -21,7 +23,7 @@ from typing import Any
 from mse.ir.schedule import Occurrence
 from mse.solve.greedy.debts import Doomed
 from mse.solve.greedy.obligations import Obligations
-from mse.solve.greedy.plan import SignalPlan
+from mse.solve.greedy.plan import SignalPlan, prior_starts_in
 from mse.solve.greedy.windows import Intervals, feasible, nearest_feasible, pick_uniform, probes
 
 __all__ = ["Attempt", "Doomed"]
@@ -37,37 +39,10 @@ _Saved = tuple[
 ]
 
 
-def _mass(payer: SignalPlan, x0: int, x1: int, duration: int) -> float:
-    """Integral of the profile p(u) du over the ticks [x0, x1)."""
-    a, b = payer.probability_start, payer.probability_end
-    u0, u1 = x0 / duration, x1 / duration
-    return a * (u1 - u0) + (b - a) * (u1 * u1 - u0 * u0) / 2
-
-
-def _pays(payer: SignalPlan, starts: Intervals, low: int, duration: int) -> float:
-    """Probability that the prior alone starts ``payer`` in ``starts`` (intervals of ticks,
-    inclusive), given that it is free from ``low`` (a once-only one: not started before)."""
-    if payer.limit > 1:
-        # a start within a free second with probability p: intensity -ln(1 - p) per second
-        hazard = 0.0
-        for lo, hi in starts:
-            span = (hi + 1 - lo) / duration
-            mean = _mass(payer, lo, hi + 1, duration) / span
-            hazard -= math.log1p(-min(0.999999, mean)) * span * duration / 1000
-        return 1.0 - math.exp(-hazard)
-    total = _mass(payer, 0, duration - payer.shortest + 1, duration)
-    if total <= 0:
-        return 0.0
-    occurs = min(1.0, (payer.probability_start + payer.probability_end) / 2)
-    left = 1.0 - occurs * _mass(payer, 0, low, duration) / total
-    pays = occurs * sum(_mass(payer, lo, hi + 1, duration) for lo, hi in starts) / total / max(1e-12, left)
-    return min(1.0, max(0.0, pays))
-
-
 class Attempt(Obligations):
     """One walk's state and its moves: trying, placing and taking back occurrences."""
 
-    __slots__ = ("careful",)
+    __slots__ = ("careful", "offsets", "sharing")
 
     def __init__(self, *args: Any, **kwargs: Any) -> None:
         super().__init__(*args, **kwargs)
@@ -75,6 +50,13 @@ class Attempt(Obligations):
         #: timeline owes many debts: a candidate that is not owed may not add a debt (it
         #: keeps the room the owed signals need; docs/sampler.md, "Sixth pass").
         self.careful = False
+        #: The owed signals of the current stamp that share their debts with other payers and
+        #: are not due yet (walk.walk_stamp): their placement is weighed like an optional one's
+        #: by the starts it closes (prior_spares); one of the others may still pay.
+        self.sharing: frozenset[str] = frozenset()
+        #: Per candidate of the current stamp, where in the stamp (0..1) the prior starts it
+        #: (walk.walk_stamp draws them and tries the candidates in that order).
+        self.offsets: dict[str, float] = {}
 
     def try_place(self, signal: SignalPlan, low: int, high: int) -> bool:
         """Draw, check and place one occurrence starting in [low, high]; False if impossible."""
@@ -92,6 +74,24 @@ class Attempt(Obligations):
         if first_start > last_start or last_start < low:
             self.dead.add(signal.id)
             return False
+        optional = sid not in self.latest and sid not in self.require
+        if optional:
+            # An optional candidate starts where the prior puts it in the stamp; outside its
+            # window it is rejected, as the target rejects that draw (it keeps its hazard for
+            # later stamps).  Drawn inside the window, a signal whose window a partner narrows
+            # to a band (``equal(start(b), stop(a), 0.3)``) took the whole stamp's chance.
+            # (a repetitive one: from its last stop, where its hazard is counted from)
+            since = max(low, self.last_stop.get(sid, 0))
+            if since > high:
+                return False
+            offset = self.offsets.get(sid)
+            # (over the starts of the stamp where its shortest length fits: its hazard's)
+            stamp_high = min(high, self.plan.duration - signal.shortest)
+            drawn = -1 if offset is None else self.stamp_low + int(offset * (stamp_high - self.stamp_low + 1))
+            if drawn < since:  # it starts after the frontier or its own last stop: uniformly there
+                drawn = since + int(self.rng.random() * (high - since + 1))
+            if not first_start <= drawn <= last_start:
+                return False
         low, high = max(low, first_start), min(high, last_start)
         if self.latest:
             # Starts never decrease: starting past an owed signal's deadline would leave its
@@ -105,7 +105,12 @@ class Attempt(Obligations):
         # What a placement of an optional candidate (one nothing owes) is weighed against:
         # the owed signals before it (prior_pays).
         owed, saved = (None, None) if sid in self.latest or sid in self.require else (self.latest, self._saved(signal))
-        start = low + int(rng.random() * (high - low + 1))
+        if optional:
+            if not low <= drawn <= high:
+                return False  # past an owed signal's deadline
+            start = drawn
+        else:
+            start = low + int(rng.random() * (high - low + 1))
         # draw_stop(signal, start), inlined (the same draw): once per candidate
         first, last = start + signal.shortest, start + signal.longest
         if last > self.plan.duration:
@@ -120,6 +125,11 @@ class Attempt(Obligations):
         # second check always passes the first (the open stop's box contains it), so the
         # first check is only run when the pair fails: same outcomes, one check fewer.
         if not self.allows(signal, (start, start, stop, stop)):
+            if owed is not None:
+                # An optional candidate whose drawn start and stop fail is rejected, as the
+                # target rejects that draw (it keeps its hazard for later stamps); moving it to
+                # the allowed times is for owed signals, which must pay.
+                return False
             if not self.allows(signal, self.start_box(signal, start)):
                 starts = self.feasible_starts(signal, low, high)
                 if not starts:
@@ -140,10 +150,24 @@ class Attempt(Obligations):
                 if found is None:
                     return False
                 stop, window = found, None
+        # ... and the windows of the free signals its placement may narrow (prior_spares)
+        spared = self.windows_of(self.narrowed_by(signal)) if owed is not None or sid in self.sharing else None
+        sharing_saved = self._saved(signal) if owed is None and spared else None
         if self.commit(signal, start, stop):
-            if owed is None or saved is None or self.latest.keys() <= owed.keys() or self.prior_pays(signal, owed):
+            if sharing_saved is not None and not self.prior_spares(signal, start, stop, spared or []):
+                self.take_back(signal, sharing_saved)
+                return False
+            if owed is None or saved is None or (
+                (self.latest == owed or self.prior_pays(signal, owed))
+                and (not spared or self.prior_spares(signal, start, stop, spared))
+            ):
                 return True
             self.take_back(signal, saved)
+            return False
+        if owed is not None:
+            # An optional candidate whose drawn stop leaves a debt nothing can pay: the target
+            # rejects that draw (trying other stops, unweighed, placed `b` of ``exists(a) and
+            # includes(a, b)`` with `a` forced to start at the same millisecond).
             return False
         if window is None:  # the state is as it was before commit(): the same window
             window = feasible(stop_allowed, first, last, points)
@@ -196,21 +220,130 @@ class Attempt(Obligations):
         low = max(self.frontier, self.stamp_low)
         payers = [(plan.by_id[name], deadline) for name, deadline in self.latest.items()
                   if name not in before and name != signal.id]
-        if not payers:
+        # Signals owed already whose deadline it brought forward (``includes(frown, lean)``
+        # placing lean while a disjunction owes a frown: now one must start at that very
+        # millisecond): kept with the ratio of the prior's chances to start one in time.
+        hastened = [(plan.by_id[name], deadline, before[name]) for name, deadline in self.latest.items()
+                    if name in before and deadline < before[name] and name != signal.id]
+        if not payers and not hastened:
             return True  # only the placed signal itself owes another occurrence of it
         draw = self.rng.random()  # kept iff draw >= the probability that none pays
+        keep = 1.0
+        for payer, deadline, previous in hastened:
+            was = prior_starts_in(payer, [(low, previous)] if low <= previous else [], low, duration)
+            if was > 0:
+                starts = self.feasible_starts(payer, low, deadline) if low <= deadline else []
+                keep *= min(1.0, prior_starts_in(payer, starts, low, duration) / was)
+        if not payers:
+            return draw < keep
         # First with every start up to each deadline allowed (no probing): an upper bound of
         # each payment, so a lower bound of "none pays"; usually enough to reject at once.
         bound = 1.0
         for payer, deadline in payers:
-            bound *= 1.0 - _pays(payer, [(low, deadline)] if low <= deadline else [], low, duration)
-        if draw < bound:
+            bound *= 1.0 - prior_starts_in(payer, [(low, deadline)] if low <= deadline else [], low, duration)
+        if draw >= keep * (1.0 - bound):
             return False
         missed = 1.0
         for payer, deadline in payers:
             starts = self.feasible_starts(payer, low, deadline) if low <= deadline else []
-            missed *= 1.0 - _pays(payer, starts, low, duration)
-        return draw >= missed
+            missed *= 1.0 - prior_starts_in(payer, starts, low, duration)
+        return draw < keep * (1.0 - missed)
+
+    def narrowed_by(self, signal: SignalPlan) -> list[SignalPlan]:
+        """The free signals whose start window a placement of ``signal`` may narrow: the
+        other members of its exclusive modality and the signals its necessary start bounds
+        name (``Plan.partners_of``), neither owed (their debts are weighed apart), required
+        nor out of the walk."""
+        plan, dead, latest, require = self.plan, self.dead, self.latest, self.require
+        found: dict[str, SignalPlan] = {}
+        if signal.exclusive is not None:
+            for other in plan.in_modality[signal.exclusive]:
+                found[other.id] = other
+        for name in plan.partners_of.get(signal.id, ()):
+            found[name] = plan.by_id[name]
+        found.pop(signal.id, None)
+        # One that waits for a prerequisite or cannot occur without a signal not placed yet
+        # (this one, perhaps) has no starts to lose: the prior's draws of it are
+        # inconsistent anyway.
+        env, needs_before, requires = self.env, plan.needs_before, plan.requires
+        return [other for name, other in found.items()
+                if name not in dead and name not in latest and name not in require
+                and all(env.get(before) for before in needs_before[name])
+                and all(env.get(before) for before in requires[name])]
+
+    def windows_of(self, signals: list[SignalPlan]) -> list[tuple[SignalPlan, int, int]]:
+        """Their start windows (:meth:`start_window`), the empty ones left out."""
+        found = []
+        for other in signals:
+            first, last = self.start_window(other)
+            if first <= last:
+                found.append((other, first, last))
+        return found
+
+    def prior_spares(
+        self, signal: SignalPlan, start: int, stop: int, before: list[tuple[SignalPlan, int, int]]
+    ) -> bool:
+        """Whether to keep the placement of an optional candidate that closes starts of other
+        free signals (``before``: their start windows without it): with the probability that
+        the prior alone starts none of them where it no longer may.
+
+        The target (the prior conditioned on consistency) rejects the draws where a signal
+        starts inside another of its exclusive modality, or where ``start(b) > stop(a)``
+        has ``a`` after ``b``; the walk, deciding in time order, placed the first at its prior
+        rate and only moved the others later: members of an exclusive modality, and the
+        partners of such bounds, occurred more often than the target has them
+        (docs/sampler.md, "Starts a placement closes")."""
+        plan = self.plan
+        duration, low = plan.duration, self.stamp_low
+        # The window after the placement is the one before narrowed by what the placement
+        # adds (start_window's rules, written for this one occurrence): the end of its run in
+        # an exclusive modality, and the necessary bounds that name it (an upper bound uses a
+        # signal's first occurrence: only its first one counts).
+        box = (start, start, stop, stop)
+        first_one = self.count.get(signal.id, 0) <= 1
+        missed = 1.0
+        for other, first, last in before:
+            first = max(first, start)
+            if first > last:
+                continue
+            after_first, after_last = first, last
+            if signal.exclusive is not None and other.exclusive == signal.exclusive and stop > after_first:
+                after_first = stop
+            for partner, rules in plan.partner_bounds[other.id]:
+                if partner == signal.id:
+                    for index, delta, upper in rules:
+                        if upper:
+                            if first_one and box[index + 1] + delta < after_last:
+                                after_last = box[index + 1] + delta
+                        elif box[index] + delta > after_first:
+                            after_first = box[index] + delta
+            if after_first > after_last:
+                closed = [(first, last)]
+            else:
+                closed = [(first, min(last, after_first - 1)), (max(first, after_last + 1), last)]
+                closed = [(a, b) for a, b in closed if a <= b]
+            if closed:
+                missed *= 1.0 - prior_starts_in(other, closed, low, duration)
+        if missed >= 1.0:
+            return True
+        # Against the timelines where it does not start here: it may start later, closing as
+        # much (``later``: the prior's probability that it does), so the weight of this
+        # start is the ratio, not ``missed`` alone (a signal that surely occurs loses little).
+        # A once-only signal that does not start here may start later, anywhere.  A repetitive one that does not start
+        # here starts again soon, and an occurrence then closes about the same span only
+        # when it comes within that span: ``later`` is the probability of a start within its
+        # mean length (counting its whole future would cancel the weight; counting none
+        # halved the rates of two repetitive signals sharing an exclusive modality).
+        plan = self.plan
+        cumulative = plan.cumulative[signal.index]
+        first = plan.stamp_of(start)
+        if signal.limit > 1:
+            until = plan.stamp_of(min(plan.duration - 1, start + (signal.shortest + signal.longest) // 2))
+            later = 1.0 - math.exp(cumulative[first] - cumulative[until + 1])
+        else:
+            later = 1.0 - math.exp(cumulative[first] - cumulative[-1])
+        # missed / (1 - later + later * missed), without dividing (missed 0 and later 1: 0)
+        return self.rng.random() * (1.0 - later + later * missed) < missed
 
     def take_back(self, signal: SignalPlan, saved: _Saved) -> None:
         """Undo the placement :meth:`commit` just made (``saved``: :meth:`_saved` before it)."""

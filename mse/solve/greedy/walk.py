@@ -1,9 +1,10 @@
 """The walk over the time stamps (paper §4.3) on an :class:`Attempt`, with checkpoints.
 
-At each stamp t_j the candidates are the owed signals (first, each with the larger of the
-table's probability and 1 / the stamps left before its deadline) and the signals whose next
-candidacy falls at this stamp (drawn ahead from the cumulative hazard, :func:`schedule`), in
-random order.  Each is tried once per state with :meth:`Attempt.try_place`; a placement that
+At each stamp t_j the candidates are the owed signals (first, each with the probability
+:func:`payers_pay` gives: certain at its deadline when it alone can pay), the signals others
+need (:func:`enabling`) and the signals whose next candidacy falls at this stamp (drawn ahead
+from the cumulative hazard, :func:`schedule`), in the order of the starts drawn for them.
+Each is tried once per state with :meth:`Attempt.try_place`; a placement that
 opens an owed signal's window tries that one again at once.
 
 The state at the start of every stamp is a *checkpoint*.  When the walk paints itself into a
@@ -23,12 +24,12 @@ from __future__ import annotations
 import bisect
 import math
 from collections import Counter
-from collections.abc import Callable, Generator
+from collections.abc import Generator
 from typing import TYPE_CHECKING
 
 from mse.ir.schedule import Occurrence
 from mse.solve.greedy.debts import Doomed
-from mse.solve.greedy.plan import SignalPlan
+from mse.solve.greedy.plan import Plan, SignalPlan, prior_starts_in
 
 if TYPE_CHECKING:
     from mse.solve.greedy.engine import Attempt
@@ -73,19 +74,6 @@ class Checkpoint:
         self.kept = kept  # occurrences of Attempt.occurrences kept
         self.frontier = frontier
         self.owing = owing
-
-
-def _shuffle(getrandbits: Callable[[int], int], items: list[SignalPlan]) -> None:
-    """``random.Random.shuffle``, written out with the same draws (CPython's Fisher-Yates over
-    ``_randbelow_with_getrandbits``), so the same order: it saves two calls per element on
-    the hot path, and pins the order to this code rather than to the standard library."""
-    for i in range(len(items) - 1, 0, -1):
-        bound = i + 1
-        bits = bound.bit_length()
-        j = getrandbits(bits)
-        while j >= bound:
-            j = getrandbits(bits)
-        items[i], items[j] = items[j], items[i]
 
 
 def walk(attempt: Attempt, budget: int = 0, backtracks: list[int] | None = None) -> list[Occurrence]:
@@ -202,32 +190,66 @@ def walk_stamp(attempt: Attempt, j: int) -> None:
         return
     attempt.stamp_low = low
     queue: list[SignalPlan] = []
+    owed: set[str] = set()  # drawn above with the debt's probability: not a second time below
+    sharing: set[str] = set()  # those of them not due in this stamp (Attempt.sharing)
     careful = attempt.careful
     if attempt.latest:
         if any(latest < low for latest in attempt.latest.values()):
             attempt.refresh_latest(expired_only=True)
         row = plan.table[j]
+        pays = payers_pay(attempt, j)
         for name in sorted(attempt.latest):
             signal = plan.by_id[name]
             due = plan.stamp_of(attempt.latest[name])
             if due < j:
                 continue
-            # Due in this stamp with the profile's share of what is left before the deadline
-            # (certain at the deadline; evenly spread when the profile is 0 there).
-            masses = plan.masses[signal.index]
-            left = masses[due + 1] - masses[j]
-            share = (masses[j + 1] - masses[j]) / left if left > 0 else 1 / (due - j + 1)
+            chance = pays.get(name)
+            if chance is None:
+                # It alone can pay: due in this stamp with the profile's share of what is left
+                # before the deadline (certain at the deadline; evenly spread when the profile
+                # is 0 there), on top of its own candidacy (this only moves its start earlier:
+                # it must occur; it leaves the others room, docs/sampler.md "Signals that must
+                # occur").
+                masses = plan.masses[signal.index]
+                left = masses[due + 1] - masses[j]
+                share = max(row[signal.index], (masses[j + 1] - masses[j]) / left if left > 0 else 1 / (due - j + 1))
+            else:
+                # One of several that may pay: a candidate with the prior's probability given
+                # that the debt is paid, the table's hazard over the probability that the prior
+                # alone starts one of the payers before its deadline, and only so (not its own
+                # candidacy as well).  Forcing each as if it were the only one over-placed the
+                # payers of a disjunction (docs/sampler.md, "Owed signals").
+                owed.add(name)
+                if due > j:
+                    sharing.add(name)
+                share = row[signal.index] / chance if chance > 0 else 1 / (due - j + 1)
             # careful (after failures): every owed signal is a candidate at every stamp
-            if rng.random() < max(row[signal.index], share) or careful:
+            if rng.random() < share or careful:
                 queue.append(signal)
+    attempt.sharing = frozenset(sharing)
+    if plan.enables:
+        queue.extend(enabling(attempt, j))
     bucket = attempt.buckets[j]
     if not bucket and not queue:
         return
     proposals = [s for s in bucket if s.id not in dead]
     bucket.clear()
-    if len(proposals) > 1:
-        _shuffle(rng.getrandbits, proposals)
-    queue.extend(proposals)
+    # Each candidate nothing owes gets its place in the stamp now (Attempt.offsets: where the
+    # prior starts it) and they are tried in that order, so that the frontier a placement
+    # moves never pushes a later one's start (tried in a random order, a candidate placed
+    # late in the stamp delayed the others: three unconstrained repetitive signals lost 4 %
+    # of their starts).
+    offsets = attempt.offsets
+    offsets.clear()
+    if proposals:
+        random = rng.random
+        for signal in proposals:
+            offsets[signal.id] = random()
+        if len(proposals) > 1:
+            proposals.sort(key=lambda signal: offsets[signal.id])
+    # An owed signal's own candidacy is the one drawn above (its prior probability given the
+    # debt is paid): its bucket's would be a second chance in the stamp.
+    queue.extend([s for s in proposals if s.id not in owed] if owed else proposals)
     # Each signal is tried once per stamp and state: a placement may open the window of
     # a signal tried before it (an owed partner), which is then tried again at once.
     tried: dict[str, int] = {}
@@ -257,6 +279,98 @@ def walk_stamp(attempt: Attempt, j: int) -> None:
             schedule_from(attempt, signal, attempt.last_stop[signal.id], j + 1)
         else:
             schedule(attempt, signal, j + 1)
+
+
+def enabling(attempt: Attempt, j: int) -> list[SignalPlan]:
+    """Extra candidacies at stamp ``j`` of the once-only signals that others must follow
+    (``exists(s1) and precedes(s1, s2)``: ``Plan.enables``), so that one is a candidate with
+    its table's probability ``h`` times the gain ``B`` its start brings: the target keeps
+    the prior's timelines where each signal needing it is absent or starts after it, so a
+    start now weighs ``g = prod (1 - q_y + p_y) / (1 - q_y)`` against never (``q_y``: the
+    prior's probability that ``y`` starts from now on, ``p_y``: after this one's shortest
+    length), and ``B = g / (1 - l + l g)`` against starting later (``l``: the prior's
+    probability that it does).  Time-ordered, the walk drew it at its prior rate, and the
+    signals needing it occurred less often than the target has them (docs/sampler.md)."""
+    plan, env, dead, count = attempt.plan, attempt.env, attempt.dead, attempt.count
+    memo = plan.enabling_memo
+    found: list[SignalPlan] = []
+    for position, (signal, followers) in enumerate(plan.enables):
+        if signal.id in dead or env.get(signal.id):
+            continue
+        free = tuple(other.index for other in followers if other.id not in dead and not count.get(other.id, 0))
+        key = (position, j, free)
+        extra = memo.get(key)
+        if extra is None:
+            extra = memo[key] = _enabling_extra(plan, j, signal, [plan.signals[i] for i in free])
+        if extra > 0.0 and attempt.rng.random() < extra:
+            found.append(signal)
+    return found
+
+
+def _enabling_extra(plan: Plan, j: int, signal: SignalPlan, followers: list[SignalPlan]) -> float:
+    """The probability of :func:`enabling`'s extra candidacy of ``signal`` at stamp ``j``
+    with ``followers`` still free (it depends on nothing else: cached per plan)."""
+    hazard = plan.table[j][signal.index]
+    if hazard <= 0.0 or hazard >= 1.0:
+        return 0.0
+    low, duration, n = plan.stamps[j], plan.duration, len(plan.stamps) - 1
+    # where it would be: from this stamp, for its mean length
+    box = (low, low, low + signal.shortest, low + (signal.shortest + signal.longest) // 2)
+    gain = 1.0
+    for other in followers:
+        q = prior_starts_in(other, ((low, duration - other.shortest),), low, duration)
+        if q >= 1.0 - 1e-9:
+            continue
+        # after its shortest length if it must come after it, else from its start on
+        first = low + (signal.shortest if signal.id in plan.needs_before[other.id] else 0)
+        last = duration - other.shortest
+        for partner, rules in plan.partner_bounds[other.id]:
+            if partner == signal.id:
+                for index, delta, upper in rules:
+                    if upper:
+                        last = min(last, box[index + 1] + delta)
+                    else:
+                        first = max(first, box[index] + delta)
+        if first > last or first >= duration:
+            continue
+        opened = prior_starts_in(other, ((first, last),), low, duration)
+        gain *= (1.0 - q + opened) / (1.0 - q)
+    if gain <= 1.0:
+        return 0.0
+    own = plan.cumulative[signal.index]
+    later = 1.0 - math.exp(own[j + 1] - own[n])
+    boost = gain / (1.0 - later + later * gain)
+    return hazard * (boost - 1.0) / (1.0 - hazard)
+
+
+def payers_pay(attempt: Attempt, j: int) -> dict[str, float]:
+    """Per owed signal that shares its debts with other payers, the probability that the
+    prior alone starts one of the payers from stamp ``j`` on, each before its deadline: the
+    payers of an owing constraint are the owed signals it mentions; with several debts, the
+    least likely to be paid counts.  Left out: the owed signals that are the sole payer of a
+    debt or on no owing constraint (a prerequisite, a ``--require``): they must occur."""
+    plan, latest = attempt.plan, attempt.latest
+    alone: dict[str, float] = {}
+    for name, deadline in latest.items():
+        due = plan.stamp_of(deadline)
+        cumulative = plan.cumulative[plan.by_id[name].index]
+        alone[name] = 1.0 - math.exp(cumulative[j] - cumulative[due + 1]) if due >= j else 0.0
+    found: dict[str, float] = {}
+    single: set[str] = set()  # the sole payer of some debt: it must occur
+    for cid in attempt.owing:
+        payers = [name for name in plan.by_constraint_id[cid].mentioned if name in alone]
+        if len(payers) == 1:
+            single.add(payers[0])
+            continue
+        missed = 1.0
+        for name in payers:
+            missed *= 1.0 - alone[name]
+        for name in payers:
+            if 1.0 - missed < found.get(name, 2.0):
+                found[name] = 1.0 - missed
+    for name in single:
+        found.pop(name, None)
+    return found
 
 
 def start_candidacies(attempt: Attempt, first: int) -> None:
