@@ -14,10 +14,10 @@ from hypothesis import strategies as st
 
 import mse.api as api
 import mse.sampling as sampling
-from bench.evaluation.reference import prior_timeline
 from mse.diagnostics import MseError
 from mse.ir import model as ir
 from mse.ir.evaluate import check_schedule
+from mse.ir.prior_draw import prior_timeline
 from mse.ir.schedule import Schedule, to_ticks
 from mse.resources import bundled_names
 from mse.solve.greedy.solver import GreedySolver
