@@ -10,6 +10,10 @@ from pathlib import Path
 import pytest
 from hypothesis import settings
 
+TYPE_CHECKING = False
+if TYPE_CHECKING:
+    from mse.motion.base.library import MotionLibrary
+
 # Property tests are deterministic by default (the "ci" profile: the same examples on every
 # run, so that a red CI is reproducible and never a coin toss); HYPOTHESIS_PROFILE=explore
 # draws fresh examples for bug hunting.
@@ -49,6 +53,17 @@ def bandai_dir(shared_dir: Path) -> Path:
     if not path.is_dir():
         pytest.skip(f"Bandai motion data not found in {shared_dir}")
     return path
+
+
+@pytest.fixture(scope="session")
+def bandai_ds2(shared_dir: Path) -> MotionLibrary:
+    """Bandai dataset 2, loaded once for every test that reads it."""
+    from mse.motion.base.library import load_library
+
+    path = shared_dir / "motion" / "bandai-ds2"
+    if not path.is_dir():
+        pytest.skip(f"Bandai dataset 2 not found in {shared_dir}")
+    return load_library(path)
 
 
 @pytest.fixture(autouse=True, scope="session")

@@ -12,7 +12,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from mse.motion.base.library import load_library
+from mse.motion.base.library import MotionLibrary
 from mse.motion.hsmm import api
 from mse.motion.hsmm.adapt import adapt_units, regression_class
 from mse.motion.hsmm.io import load_model, model_bytes
@@ -100,11 +100,8 @@ def test_models_record_the_units_their_clips_end_on() -> None:
 
 
 @pytest.fixture(scope="module")
-def wave_models(shared_dir: Path) -> tuple[HsmmModel, HsmmModel]:
-    folder = shared_dir / "motion" / "bandai-ds2"
-    if not folder.is_dir():
-        pytest.skip(f"Bandai dataset 2 not found in {shared_dir}")
-    library = load_library(folder)
+def wave_models(bandai_ds2: MotionLibrary) -> tuple[HsmmModel, HsmmModel]:
+    library = bandai_ds2
     clips = sorted(library.select(action="wave-both-hands"), key=lambda c: c.id)
     styles = sorted({c.style for c in clips})
     training = [(library.motion(c), c.style) for s in styles for c in [c for c in clips if c.style == s][:2]]

@@ -8,25 +8,20 @@ takes (the left arm at rest)."""
 
 from __future__ import annotations
 
-from pathlib import Path
-
 import numpy as np
 import pytest
 
 from bench.evaluation.one_hand import ONE_HAND_ACTION, one_hand_library, wave_measures
 from mse.motion.base.cycles import action_shape
-from mse.motion.base.library import MotionLibrary, load_library
+from mse.motion.base.library import MotionLibrary
 from mse.motion.generator import GenerationRequest, generator_for
 
 STYLES = ("active", "normal", "youthful", "feminine")
 
 
 @pytest.fixture(scope="module")
-def waves(shared_dir: Path) -> MotionLibrary:
-    path = shared_dir / "motion" / "bandai-ds2"
-    if not path.is_dir():
-        pytest.skip("Bandai dataset 2 not found")
-    source = load_library(path)
+def waves(bandai_ds2: MotionLibrary) -> MotionLibrary:
+    source = bandai_ds2
     keep = []
     for style in STYLES:
         keep.extend(sorted(source.select("wave-both-hands", style), key=lambda c: c.id)[:3])

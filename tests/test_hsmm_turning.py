@@ -7,26 +7,21 @@ turns at the rate of its clips at every length; the fidelity measures follow the
 
 from __future__ import annotations
 
-from pathlib import Path
-
 import numpy as np
 import pytest
 
 from bench.evaluation.fidelity import measure
 from bench.evaluation.turning import TURN_ACTION, curved, turning_library, turning_measures, walk_takes
 from mse.motion.base.heading import TURN_DEG_PER_S, smoothed_yaws, turn_rate, turning_rate
-from mse.motion.base.library import MotionLibrary, load_library
+from mse.motion.base.library import MotionLibrary
 
 RATE = np.radians(20.0)
 
 
 @pytest.fixture(scope="module")
-def walks(shared_dir: Path) -> MotionLibrary:
-    path = shared_dir / "motion" / "bandai-ds2"
-    if not path.is_dir():
-        pytest.skip("Bandai dataset 2 not found")
+def walks(bandai_ds2: MotionLibrary) -> MotionLibrary:
     # four takes of three styles: enough for an average model and an adaptation
-    return walk_takes(load_library(path), ("normal", "feminine", "active"))
+    return walk_takes(bandai_ds2, ("normal", "feminine", "active"))
 
 
 def test_smoothed_yaws_keep_a_steady_turn_to_the_ends() -> None:

@@ -15,19 +15,16 @@ import pytest
 
 from bench.evaluation.turning import TURN_ACTION, turning_library, turning_measures, walk_takes
 from mse.motion.base.heading import heading_track, straightened, turn_rate
-from mse.motion.base.library import MotionLibrary, load_library
+from mse.motion.base.library import MotionLibrary
 from mse.motion.lma_hmm.generate import action_turn_of, generate_motion
 
 RATE = np.radians(20.0)
 
 
 @pytest.fixture(scope="module")
-def walks(shared_dir: Path) -> MotionLibrary:
-    path = shared_dir / "motion" / "bandai-ds2"
-    if not path.is_dir():
-        pytest.skip("Bandai dataset 2 not found")
+def walks(bandai_ds2: MotionLibrary) -> MotionLibrary:
     # four takes of three styles: enough for an average model and an adaptation
-    return walk_takes(load_library(path), ("normal", "elderly", "active"))
+    return walk_takes(bandai_ds2, ("normal", "elderly", "active"))
 
 
 def test_a_straightened_turning_walk_goes_straight(walks: MotionLibrary) -> None:
