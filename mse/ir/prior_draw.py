@@ -20,12 +20,18 @@ The prior, as drawn here (profile.py's words, made precise where a start cannot 
 from __future__ import annotations
 
 import math
+import operator
 import random
-from collections.abc import Collection
+from collections.abc import Callable, Collection
 
 from mse.ir import model as ir
-from mse.ir.profile import occurrence_probability, profile_at, start_rate
+from mse.ir.profile import MAX_PROBABILITY, RATE_UNIT, occurrence_probability, profile_at, start_rate
 from mse.ir.schedule import TICKS_PER_SECOND, Occurrence, Schedule, to_ticks
+
+# bound once: every rejection draw calls them
+_sqrt, _log, _log1p, _ceil = math.sqrt, math.log, math.log1p, math.ceil
+#: The order of Schedule.of: (start, signal, stop).
+_ORDER = operator.attrgetter("start", "signal", "stop")
 
 
 def _shortest(signal: ir.Signal) -> int:
@@ -39,7 +45,8 @@ def _longest(signal: ir.Signal) -> int | None:
 class _Once:
     """A once-only signal's draw on one duration, its constants computed once."""
 
-    __slots__ = ("duration", "last", "linear", "longest", "name", "occurs", "shortest", "slope", "start")
+    __slots__ = ("a", "b", "duration", "last", "linear", "longest", "name", "occurs", "shortest", "slope",
+                 "start", "total")
 
     def __init__(self, signal: ir.Signal, duration: int) -> None:
         self.name, self.duration = signal.id, duration
@@ -51,18 +58,25 @@ class _Once:
         end = profile_at(signal, self.last / duration) if self.last >= 0 else self.start
         self.slope = end - self.start
         self.linear = abs(self.slope) >= 1e-12 * max(1.0, abs(self.start))
+        # the inverse CDF's constants (the same floats as computed in each draw before)
+        self.b, self.a = self.start, self.slope / 2
+        self.total = self.b + self.a
 
     def draw(self, rng: random.Random) -> Occurrence | None:
-        if rng.random() >= self.occurs:
+        random = rng.random
+        if random() >= self.occurs:
             return None
         if self.linear:  # v with density proportional to start + slope v: the inverse of its CDF
-            b, a = self.start, self.slope / 2
-            target = rng.random() * (b + a)
-            v = (-b + math.sqrt(max(0.0, b * b + 4 * a * target))) / (2 * a)
+            b, a = self.b, self.a
+            target = random() * self.total
+            v = (-b + _sqrt(max(0.0, b * b + 4 * a * target))) / (2 * a)
         else:
-            v = rng.random()
-        start = min(self.last, int(v * self.last))
-        return Occurrence(start, start + _length(rng, self.shortest, self.longest, start, self.duration), self.name)
+            v = random()
+        last = self.last
+        start = int(v * last)
+        if start > last:
+            start = last
+        return Occurrence(start, start + _length(random, self.shortest, self.longest, start, self.duration), self.name)
 
 
 class _Repetitive:
@@ -83,26 +97,58 @@ class _Repetitive:
         peak = self.peak
         if peak <= 0:
             return found
+        random = rng.random
         signal, limit, last, duration = self.signal, self.limit, self.last, self.duration
+        # start_rate(signal, u), expovariate and _length written out (the same floats, the
+        # same draws of rng.random in the same order): the loop of every rejection draw
+        first, change = signal.probability_start, signal.probability_end - signal.probability_start
+        shortest, longest, name = self.shortest, self.longest, self.name
+        # A flat profile's rate is the peak everywhere: the thinning draw never rejects.
+        flat = change == 0.0
         t = 0.0  # seconds
         while limit is None or len(found) < limit:
-            t += rng.expovariate(peak)
-            start = math.ceil(t * TICKS_PER_SECOND)
+            t += -_log(1.0 - random()) / peak
+            start = _ceil(t * TICKS_PER_SECOND)
             if start > last:
                 break
-            if rng.random() * peak > start_rate(signal, start / duration):
-                continue
-            stop = start + _length(rng, self.shortest, self.longest, start, duration)
-            found.append(Occurrence(start, stop, self.name))
+            if flat:
+                random()
+            else:
+                u = start / duration
+                if u > 1.0:
+                    u = 1.0
+                elif u < 0.0:  # (a NaN-free min/max clamp: u is a finite ratio of ticks)
+                    u = 0.0
+                p = first + change * u
+                if random() * peak > -_log1p(-(p if p < MAX_PROBABILITY else MAX_PROBABILITY)) / RATE_UNIT:
+                    continue
+            # _length(random, shortest, longest, start, duration)
+            high = duration - start
+            if longest is not None and longest < high:
+                high = longest
+            if high <= shortest:
+                stop = start + shortest
+            else:
+                v = random()
+                if v > 0.5:
+                    stop = start + round(high + (shortest - high) * _sqrt((1.0 - v) * 0.5))
+                else:
+                    stop = start + round(shortest + (high - shortest) * _sqrt(v * 0.5))
+            found.append(Occurrence(start, stop, name))
             t = stop / TICKS_PER_SECOND
         return found
 
 
-def _length(rng: random.Random, low: int, longest: int | None, start: int, duration: int) -> int:
+def _length(random: Callable[[], float], low: int, longest: int | None, start: int, duration: int) -> int:
+    """Triangular on [low, high], the mode in the middle: ``random.triangular`` written out
+    (one ``random()``; ``(mode - low) / (high - low)`` is exactly 0.5 on integer bounds)."""
     high = duration - start if longest is None else min(duration - start, longest)
     if high <= low:
         return low
-    return round(rng.triangular(low, high, (low + high) / 2))
+    u = random()
+    if u > 0.5:
+        return round(high + (low - high) * _sqrt((1.0 - u) * 0.5))
+    return round(low + (high - low) * _sqrt(u * 0.5))
 
 
 def draw_once(signal: ir.Signal, duration: int, rng: random.Random) -> Occurrence | None:
@@ -131,10 +177,16 @@ class PriorDraw:
 
     def draw(self, rng: random.Random) -> Schedule:
         """One timeline of the prior."""
-        occurrences = [o for o in (once.draw(rng) for once in self.once) if o is not None]
+        occurrences = []
+        for once in self.once:
+            occurrence = once.draw(rng)
+            if occurrence is not None:
+                occurrences.append(occurrence)
         for repetitive in self.repetitive:
             occurrences.extend(repetitive.draw(rng))
-        return Schedule.of(self.duration, occurrences)
+        # Schedule.of's order, with a C key function
+        occurrences.sort(key=_ORDER)
+        return Schedule(self.duration, tuple(occurrences))
 
 
 def prior_timeline(model: ir.Model, duration: int, rng: random.Random,
