@@ -69,18 +69,51 @@ def _comparisons(atom: ir.Atom, duration: int) -> list[tuple[ir.Term, ir.Term, i
     return [(_signal_time(atom, b.lower), _signal_time(atom, b.upper), 0) for b in RELATIONS[atom.kind].bounds]
 
 
+# Per constraint expression, what does not depend on the duration: its edge comparisons in
+# walk order, and its top-level conjuncts.  A model's plan is built again for every duration (a
+# dialogue plans each episode once): these are read once per expression.  Keyed by identity;
+# each entry holds its expression, so an id is not reused while its entry lives.
+_PER_EXPR: dict[int, _ExprParts] = {}
+_PER_EXPR_LIMIT = 4096
+
+
+class _ExprParts:
+    """One constraint expression's duration-free parts."""
+
+    __slots__ = ("conjuncts", "expr", "mine", "relation_bounds")
+
+    def __init__(self, expr: ir.Expr) -> None:
+        self.expr = expr
+        # per signal, (its edge, the other term, tolerance) of every comparison naming it, in
+        # the order edges_of always read them (walk order; left then right)
+        self.mine: dict[str, list[tuple[ir.SignalTime, ir.Term, int]]] = {}
+        for node in ir.walk(expr):
+            if isinstance(node, ir.Exists | ir.Relation | ir.Compare):
+                for left, right, tolerance in _comparisons(node, 0):  # (the duration is not used)
+                    for mine, other in ((left, right), (right, left)):
+                        if isinstance(mine, ir.SignalTime):
+                            self.mine.setdefault(mine.signal, []).append((mine, other, tolerance))
+        self.conjuncts = tuple(_conjuncts(expr))
+        # (conjunct index, signal id, shortest, longest) -> _relation_bounds of that conjunct
+        self.relation_bounds: dict[tuple[int, str, int, int], list[StartBound]] = {}
+
+
+def _expr_parts(expr: ir.Expr) -> _ExprParts:
+    entry = _PER_EXPR.get(id(expr))
+    if entry is not None and entry.expr is expr:
+        return entry
+    if len(_PER_EXPR) >= _PER_EXPR_LIMIT:
+        _PER_EXPR.clear()
+    entry = _PER_EXPR[id(expr)] = _ExprParts(expr)
+    return entry
+
+
 def edges_of(signal_id: str, constraints: Sequence[CompiledConstraint], duration: int) -> tuple[Edge, ...]:
     found: dict[Edge, None] = {}
     for compiled in constraints:
-        for node in ir.walk(compiled.constraint.expr):
-            if not isinstance(node, ir.Exists | ir.Relation | ir.Compare):
-                continue
-            for left, right, tolerance in _comparisons(node, duration):
-                for mine, other in ((left, right), (right, left)):
-                    if isinstance(mine, ir.SignalTime) and mine.signal == signal_id:
-                        other_signal, other_edge, other_offset = _term_edge(other, duration)
-                        edge = Edge(mine.edge, mine.offset, other_signal, other_edge, other_offset, tolerance)
-                        found[edge] = None
+        for mine, other, tolerance in _expr_parts(compiled.constraint.expr).mine.get(signal_id, ()):
+            other_signal, other_edge, other_offset = _term_edge(other, duration)
+            found[Edge(mine.edge, mine.offset, other_signal, other_edge, other_offset, tolerance)] = None
     return tuple(found)
 
 
@@ -169,12 +202,18 @@ def start_bounds_of(
     (a relation that is a disjunction, ``excludes``, gives none)."""
     found: dict[StartBound, None] = {}
     for compiled in constraints:
-        for atom in _conjuncts(compiled.constraint.expr):
+        parts = _expr_parts(compiled.constraint.expr)
+        for position, atom in enumerate(parts.conjuncts):
             if isinstance(atom, ir.Relation) and signal.id in (atom.left, atom.right):
                 meaning = RELATIONS[atom.kind]
                 if not placed_first and meaning.joined == "or" and len(meaning.bounds) > 1:
                     continue
-                found.update(dict.fromkeys(_relation_bounds(atom, signal)))
+                # it reads only the atom and the signal's id and lengths
+                key = (position, signal.id, signal.shortest, signal.longest)
+                bounds = parts.relation_bounds.get(key)
+                if bounds is None:
+                    bounds = parts.relation_bounds[key] = _relation_bounds(atom, signal)
+                found.update(dict.fromkeys(bounds))
             elif isinstance(atom, ir.Compare):
                 found.update(dict.fromkeys(_compare_bounds(atom, signal, duration)))
     return tuple(found)

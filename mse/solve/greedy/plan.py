@@ -378,10 +378,28 @@ def _signal_plan(index: int, signal: ir.Signal, duration: int, exclusive: frozen
 def _profile(signal: SignalPlan, stamps: Sequence[int], duration: int) -> list[float]:
     """``p(u)`` at the middle of every stamp (mse.ir.profile: the straight line over u = t / D)."""
     start, end = signal.probability_start, signal.probability_end
-    return [
-        min(1.0, max(0.0, start + (end - start) * ((first + last) / 2) / duration))
-        for first, last in itertools.pairwise(stamps)
-    ]
+    change = end - start
+    found = []
+    for middle in _middles(stamps):
+        # min(1.0, max(0.0, p)) written out (the same value, -0.0 included)
+        p = start + change * middle / duration
+        found.append(0.0 if p <= 0.0 else 1.0 if p > 1.0 else p)
+    return found
+
+
+#: The last stamps' middles (one tuple, read once: safe across threads).
+_last_middles: tuple[Sequence[int], list[float]] | None = None
+
+
+def _middles(stamps: Sequence[int]) -> list[float]:
+    """The middle of every stamp (the last stamps' kept: a plan asks for them per signal)."""
+    global _last_middles
+    entry = _last_middles
+    if entry is not None and entry[0] is stamps:
+        return entry[1]
+    middles = [(first + last) / 2 for first, last in itertools.pairwise(stamps)]
+    _last_middles = (stamps, middles)
+    return middles
 
 
 def _hazards(signal: SignalPlan, stamps: Sequence[int], duration: int) -> list[float]:
@@ -427,8 +445,8 @@ def build_plan(model: ir.Model, duration: int, slot: float, with_constraints: bo
     table = tuple(tuple(column[j] for column in columns) for j in range(count))
     # Constraints that say the same thing (Greta's sets repeat some) are checked once: the
     # walk's verdicts are the same, and the final check names every violated one anyway.
-    distinct = {c.expr: c for c in reversed(model.constraints)} if with_constraints else {}
-    constraints = tuple(compiled_constraint(c, duration) for c in model.constraints if distinct.get(c.expr) is c)
+    kept = _distinct(model.constraints) if with_constraints else ()
+    constraints = tuple(compiled_constraint(c, duration) for c in kept)
     by_signal = {s.id: [c for c in constraints if s.id in c.mentioned] for s in signals}
     related = {
         s.id: tuple(sorted({name for c in by_signal[s.id] for name in c.mentioned} | {s.id})) for s in signals
@@ -446,6 +464,25 @@ def build_plan(model: ir.Model, duration: int, slot: float, with_constraints: bo
         edges=edges,
         bounds=bounds,
     )
+
+
+# Per tuple of constraints (identity; the entry holds it, so its id is not reused): the first
+# of each distinct expression, in order.  Hashing every expression again for each plan cost a
+# tenth of building one (a dialogue builds one per episode).
+_DISTINCT: dict[int, tuple[tuple[ir.Constraint, ...], tuple[ir.Constraint, ...]]] = {}
+_DISTINCT_LIMIT = 1024
+
+
+def _distinct(constraints: tuple[ir.Constraint, ...]) -> tuple[ir.Constraint, ...]:
+    entry = _DISTINCT.get(id(constraints))
+    if entry is not None and entry[0] is constraints:
+        return entry[1]
+    distinct = {c.expr: c for c in reversed(constraints)}
+    kept = tuple(c for c in constraints if distinct.get(c.expr) is c)
+    if len(_DISTINCT) >= _DISTINCT_LIMIT:
+        _DISTINCT.clear()
+    _DISTINCT[id(constraints)] = (constraints, kept)
+    return kept
 
 
 # A model is cached by identity (hashing a whole model per call would cost more than it saves);
