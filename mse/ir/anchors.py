@@ -112,7 +112,20 @@ def anchored_atoms(expr: ir.Expr) -> Iterator[ir.Compare]:
 
 
 def anchored_constraints(model: ir.Model) -> list[ir.Constraint]:
-    return [c for c in model.constraints if next(anchored_atoms(c.expr), None) is not None]
+    # A live session asks this of the same model several times per episode: read once per
+    # tuple of constraints (identity; the entry holds the tuple, so its id is not reused).
+    constraints = model.constraints
+    entry = _ANCHORED.get(id(constraints))
+    if entry is None or entry[0] is not constraints:
+        if len(_ANCHORED) >= _ANCHORED_LIMIT:
+            _ANCHORED.clear()
+        found = tuple(c for c in constraints if next(anchored_atoms(c.expr), None) is not None)
+        entry = _ANCHORED[id(constraints)] = (constraints, found)
+    return list(entry[1])
+
+
+_ANCHORED: dict[int, tuple[tuple[ir.Constraint, ...], tuple[ir.Constraint, ...]]] = {}
+_ANCHORED_LIMIT = 1024
 
 
 def uses_anchors(model: ir.Model) -> bool:
