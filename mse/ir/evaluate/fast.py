@@ -9,7 +9,7 @@ import weakref
 from collections.abc import Callable, Mapping, Sequence
 
 from mse.ir import model as ir
-from mse.ir.evaluate.semantics import Truth, evaluate_atom, kleene_and, kleene_not, kleene_or
+from mse.ir.evaluate.semantics import Truth, evaluate_atom, kleene_not
 from mse.ir.relations import EDGE_INDEX, compare_test, interval_test, known_time
 from mse.ir.schedule import Schedule, to_ticks
 
@@ -97,14 +97,48 @@ def _compile(expr: ir.Expr) -> _Node:
     if isinstance(expr, ir.Not):
         inner = _compile(expr.operand)
         return lambda intervals, duration: kleene_not(inner(intervals, duration))
+    # The connectives stop at the first operand that decides (the operands are pure: the same
+    # value as kleene_or / kleene_and of them all).
     if isinstance(expr, ir.Implies):
         premise, conclusion = _compile(expr.left), _compile(expr.right)
-        return lambda intervals, duration: kleene_or(
-            [kleene_not(premise(intervals, duration)), conclusion(intervals, duration)]
-        )
-    parts = [_compile(e) for e in ir.children(expr)]
-    combine = kleene_and if isinstance(expr, ir.And) else kleene_or
-    return lambda intervals, duration: combine([part(intervals, duration) for part in parts])
+
+        def implies(intervals: Mapping[str, _Pool], duration: int) -> Truth:
+            # kleene_or([kleene_not(premise), conclusion])
+            given = premise(intervals, duration)
+            if given is False:
+                return True
+            then = conclusion(intervals, duration)
+            if then is True:
+                return True
+            return None if given is None or then is None else False
+
+        return implies
+    parts = tuple(_compile(e) for e in ir.children(expr))
+    if isinstance(expr, ir.And):
+
+        def conjunction(intervals: Mapping[str, _Pool], duration: int) -> Truth:
+            unknown = False
+            for part in parts:
+                value = part(intervals, duration)
+                if value is False:
+                    return False
+                if value is None:
+                    unknown = True
+            return None if unknown else True
+
+        return conjunction
+
+    def disjunction(intervals: Mapping[str, _Pool], duration: int) -> Truth:
+        unknown = False
+        for part in parts:
+            value = part(intervals, duration)
+            if value is True:
+                return True
+            if value is None:
+                unknown = True
+        return None if unknown else False
+
+    return disjunction
 
 
 _NO_LIMIT = 1 << 62  # stands for "unbounded": no length or count reaches it
