@@ -23,7 +23,7 @@ from typing import Any
 from mse.ir.schedule import Occurrence
 from mse.solve.greedy.debts import Doomed
 from mse.solve.greedy.obligations import Obligations
-from mse.solve.greedy.plan import SignalPlan, prior_starts_in
+from mse.solve.greedy.plan import Plan, SignalPlan, prior_starts_in
 from mse.solve.greedy.windows import Intervals, feasible, nearest_feasible, pick_uniform, probes
 
 __all__ = ["Attempt", "Doomed"]
@@ -37,6 +37,21 @@ _sqrt = math.sqrt
 _Saved = tuple[
     int | None, int | None, int, set[str], dict[str, int], dict[str, tuple[str, ...]], frozenset[str]
 ]
+
+
+def _narrowable(plan: Plan, signal: SignalPlan) -> tuple[tuple[str, SignalPlan, tuple[str, ...]], ...]:
+    """The signals whose start window a placement of ``signal`` may narrow, whatever the
+    state (:meth:`Attempt.narrowed_by` keeps the free ones): the other members of its
+    exclusive modality, then the signals its necessary start bounds name, each with the
+    signals it waits for or cannot occur without (``Plan.needs_before``, ``Plan.requires``)."""
+    found: dict[str, SignalPlan] = {}
+    if signal.exclusive is not None:
+        for other in plan.in_modality[signal.exclusive]:
+            found[other.id] = other
+    for name in plan.partners_of.get(signal.id, ()):
+        found[name] = plan.by_id[name]
+    found.pop(signal.id, None)
+    return tuple((name, other, (*plan.needs_before[name], *plan.requires[name])) for name, other in found.items())
 
 
 class Attempt(Obligations):
@@ -153,7 +168,7 @@ class Attempt(Obligations):
         # ... and the windows of the free signals its placement may narrow (prior_spares)
         spared = self.windows_of(self.narrowed_by(signal)) if owed is not None or sid in self.sharing else None
         sharing_saved = self._saved(signal) if owed is None and spared else None
-        if self.commit(signal, start, stop):
+        if self.commit(signal, start, stop, saved or sharing_saved):
             if sharing_saved is not None and not self.prior_spares(signal, start, stop, spared or []):
                 self.take_back(signal, sharing_saved)
                 return False
@@ -254,22 +269,23 @@ class Attempt(Obligations):
         other members of its exclusive modality and the signals its necessary start bounds
         name (``Plan.partners_of``), neither owed (their debts are weighed apart), required
         nor out of the walk."""
-        plan, dead, latest, require = self.plan, self.dead, self.latest, self.require
-        found: dict[str, SignalPlan] = {}
-        if signal.exclusive is not None:
-            for other in plan.in_modality[signal.exclusive]:
-                found[other.id] = other
-        for name in plan.partners_of.get(signal.id, ()):
-            found[name] = plan.by_id[name]
-        found.pop(signal.id, None)
+        plan, dead, latest, require, env = self.plan, self.dead, self.latest, self.require, self.env
+        candidates = plan.narrowable.get(signal.id)
+        if candidates is None:
+            candidates = plan.narrowable[signal.id] = _narrowable(plan, signal)
         # One that waits for a prerequisite or cannot occur without a signal not placed yet
         # (this one, perhaps) has no starts to lose: the prior's draws of it are
         # inconsistent anyway.
-        env, needs_before, requires = self.env, plan.needs_before, plan.requires
-        return [other for name, other in found.items()
-                if name not in dead and name not in latest and name not in require
-                and all(env.get(before) for before in needs_before[name])
-                and all(env.get(before) for before in requires[name])]
+        found = []
+        for name, other, needed in candidates:
+            if name in dead or name in latest or name in require:
+                continue
+            for before in needed:
+                if not env.get(before):
+                    break
+            else:
+                found.append(other)
+        return found
 
     def windows_of(self, signals: list[SignalPlan]) -> list[tuple[SignalPlan, int, int]]:
         """Their start windows (:meth:`start_window`), the empty ones left out."""
@@ -351,9 +367,12 @@ class Attempt(Obligations):
         self.memo, self.checked = {}, None
 
     # -- placing and taking back -----------------------------------------------------------------
-    def commit(self, signal: SignalPlan, start: int, stop: int) -> bool:
-        """Place the occurrence unless that leaves an obligation nothing can meet."""
-        saved, memo = self._saved(signal), self.memo
+    def commit(self, signal: SignalPlan, start: int, stop: int, saved: _Saved | None = None) -> bool:
+        """Place the occurrence unless that leaves an obligation nothing can meet (``saved``:
+        :meth:`_saved` of the current state, when the caller has it)."""
+        memo = self.memo
+        if saved is None:
+            saved = self._saved(signal)
         try:
             self.place(signal, start, stop)
         except Doomed:

@@ -95,6 +95,7 @@ class Plan:
         "initial_owing",
         "masses",
         "must_exist",
+        "narrowable",
         "needs_before",
         "order_free_bounds",
         "order_free_offsets",
@@ -233,6 +234,8 @@ class Plan:
         self.partners_of = {name: tuple(found) for name, found in partners_of.items()}
         # the same, holding whichever of the two starts first (Obligations.check_room
         # propagates them between signals not placed yet)
+        # signal -> the signals a placement of it may narrow (engine._narrowable), on first use
+        self.narrowable: dict[str, tuple[tuple[str, SignalPlan, tuple[str, ...]], ...]] = {}
         self.order_free_bounds = {
             s.id: _by_partner(start_bounds_of(s, by_signal[s.id], duration, placed_first=False)) for s in signals
         }
