@@ -54,7 +54,8 @@ class InitialDebts(NamedTuple):
 class SignalPlan:
     """One signal in ticks: what the walk needs of it."""
 
-    __slots__ = ("exclusive", "id", "index", "limit", "longest", "probability_end", "probability_start", "shortest")
+    __slots__ = ("exclusive", "id", "index", "limit", "longest", "prior_mass", "probability_end", "probability_start",
+                 "shortest")
 
     def __init__(
         self, index: int, id: str, shortest: int, longest: int, limit: int, exclusive: str | None,
@@ -68,6 +69,8 @@ class SignalPlan:
         self.exclusive = exclusive  # its modality, when that modality is exclusive
         self.probability_start = probability_start
         self.probability_end = probability_end
+        # (duration, mass of its starts, occurrence probability): prior_starts_in's constants
+        self.prior_mass: tuple[int, float, float] | None = None
 
 
 class Plan:
@@ -321,10 +324,15 @@ def prior_starts_in(signal: SignalPlan, starts: Sequence[tuple[int, int]], low: 
             mean = _mass(signal, lo, hi + 1, duration) / span
             hazard -= math.log1p(-min(0.999999, mean)) * span * duration / 1000
         return 1.0 - math.exp(-hazard)
-    total = _mass(signal, 0, duration - signal.shortest + 1, duration)
+    cached = signal.prior_mass
+    if cached is not None and cached[0] == duration:
+        total, occurs = cached[1], cached[2]
+    else:
+        total = _mass(signal, 0, duration - signal.shortest + 1, duration)
+        occurs = min(1.0, (signal.probability_start + signal.probability_end) / 2)
+        signal.prior_mass = (duration, total, occurs)
     if total <= 0:
         return 0.0
-    occurs = min(1.0, (signal.probability_start + signal.probability_end) / 2)
     left = 1.0 - occurs * _mass(signal, 0, low, duration) / total
     pays = occurs * sum(_mass(signal, lo, hi + 1, duration) for lo, hi in starts) / total / max(1e-12, left)
     return min(1.0, max(0.0, pays))
