@@ -33,6 +33,21 @@ _sqrt, _log, _log1p, _ceil = math.sqrt, math.log, math.log1p, math.ceil
 #: The order of Schedule.of: (start, signal, stop).
 _ORDER = operator.attrgetter("start", "signal", "stop")
 
+# Occurrence(start, stop, signal) without the frozen dataclass's __init__ (a Python frame that
+# sets each field through object.__setattr__): its three slots set directly, the same object
+# (equal, the same hash and order) at a third of the cost.  A rejection draw makes one per
+# occurrence and throws most of them away.  tests/test_prior_draw.py checks the fields.
+_new = object.__new__
+_set_start, _set_stop, _set_signal = (getattr(Occurrence, field).__set__ for field in ("start", "stop", "signal"))
+
+
+def _occurrence(start: int, stop: int, signal: str) -> Occurrence:
+    occurrence: Occurrence = _new(Occurrence)
+    _set_start(occurrence, start)
+    _set_stop(occurrence, stop)
+    _set_signal(occurrence, signal)
+    return occurrence
+
 
 def _shortest(signal: ir.Signal) -> int:
     return max(1, to_ticks(signal.min_duration))
@@ -76,7 +91,7 @@ class _Once:
         start = int(v * last)
         if start > last:
             start = last
-        return Occurrence(start, start + _length(random, self.shortest, self.longest, start, self.duration), self.name)
+        return _occurrence(start, start + _length(random, self.shortest, self.longest, start, self.duration), self.name)
 
 
 class _Repetitive:
@@ -103,6 +118,7 @@ class _Repetitive:
         # same draws of rng.random in the same order): the loop of every rejection draw
         first, change = signal.probability_start, signal.probability_end - signal.probability_start
         shortest, longest, name = self.shortest, self.longest, self.name
+        new, set_start, set_stop, set_signal = _new, _set_start, _set_stop, _set_signal
         # A flat profile's rate is the peak everywhere: the thinning draw never rejects.
         flat = change == 0.0
         t = 0.0  # seconds
@@ -134,7 +150,11 @@ class _Repetitive:
                     stop = start + round(high + (shortest - high) * _sqrt((1.0 - v) * 0.5))
                 else:
                     stop = start + round(shortest + (high - shortest) * _sqrt(v * 0.5))
-            found.append(Occurrence(start, stop, name))
+            occurrence = new(Occurrence)  # _occurrence(start, stop, name), written out
+            set_start(occurrence, start)
+            set_stop(occurrence, stop)
+            set_signal(occurrence, name)
+            found.append(occurrence)
             t = stop / TICKS_PER_SECOND
         return found
 
