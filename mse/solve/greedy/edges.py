@@ -80,7 +80,7 @@ _PER_EXPR_LIMIT = 4096
 class _ExprParts:
     """One constraint expression's duration-free parts."""
 
-    __slots__ = ("conjuncts", "expr", "mine", "relation_bounds")
+    __slots__ = ("compare_bounds", "conjuncts", "expr", "mine", "relation_bounds")
 
     def __init__(self, expr: ir.Expr) -> None:
         self.expr = expr
@@ -96,6 +96,9 @@ class _ExprParts:
         self.conjuncts = tuple(_conjuncts(expr))
         # (conjunct index, signal id, shortest, longest) -> _relation_bounds of that conjunct
         self.relation_bounds: dict[tuple[int, str, int, int], list[StartBound]] = {}
+        # (conjunct index, signal id, shortest, longest, -1) -> _compare_bounds of a conjunct
+        # between two signals (with a constant, the duration plays a part: not kept)
+        self.compare_bounds: dict[tuple[int, str, int, int, int], list[StartBound]] = {}
 
 
 def _expr_parts(expr: ir.Expr) -> _ExprParts:
@@ -212,8 +215,22 @@ def start_bounds_of(
                 key = (position, signal.id, signal.shortest, signal.longest)
                 bounds = parts.relation_bounds.get(key)
                 if bounds is None:
+                    if len(parts.relation_bounds) >= _PER_EXPR_LIMIT:
+                        # (a signal's longest length is the duration when it has no maximum)
+                        parts.relation_bounds.clear()
                     bounds = parts.relation_bounds[key] = _relation_bounds(atom, signal)
                 found.update(dict.fromkeys(bounds))
             elif isinstance(atom, ir.Compare):
-                found.update(dict.fromkeys(_compare_bounds(atom, signal, duration)))
+                # it reads the atom, the signal's id and lengths, and the duration only for a
+                # term that names no signal
+                between = isinstance(atom.left, ir.SignalTime) and isinstance(atom.right, ir.SignalTime)
+                compare_key = (position, signal.id, signal.shortest, signal.longest, -1 if between else duration)
+                bounds = parts.compare_bounds.get(compare_key)
+                if bounds is None:
+                    bounds = _compare_bounds(atom, signal, duration)
+                    if between:  # (kept only when the duration plays no part)
+                        if len(parts.compare_bounds) >= _PER_EXPR_LIMIT:
+                            parts.compare_bounds.clear()
+                        parts.compare_bounds[compare_key] = bounds
+                found.update(dict.fromkeys(bounds))
     return tuple(found)

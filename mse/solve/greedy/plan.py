@@ -55,7 +55,7 @@ class SignalPlan:
     """One signal in ticks: what the walk needs of it."""
 
     __slots__ = ("exclusive", "id", "index", "limit", "longest", "prior_mass", "probability_end", "probability_start",
-                 "shortest")
+                 "profile", "shortest")
 
     def __init__(
         self, index: int, id: str, shortest: int, longest: int, limit: int, exclusive: str | None,
@@ -71,6 +71,8 @@ class SignalPlan:
         self.probability_end = probability_end
         # (duration, mass of its starts, occurrence probability): prior_starts_in's constants
         self.prior_mass: tuple[int, float, float] | None = None
+        # (stamps, duration, p at the middle of each stamp): _profile's
+        self.profile: tuple[Sequence[int], int, list[float]] | None = None
 
 
 class Plan:
@@ -340,8 +342,9 @@ def prior_starts_in(signal: SignalPlan, starts: Sequence[tuple[int, int]], low: 
 
 def _cumulative(hazards: Sequence[float]) -> tuple[float, ...]:
     total, found = 0.0, [0.0]
+    log1p, certain = math.log1p, 1.0 - 1e-12  # a certain candidacy: 1 - 1e-12
     for hazard in hazards:
-        total -= math.log1p(-min(hazard, 1.0 - 1e-12))  # a certain candidacy: 1 - 1e-12
+        total -= log1p(-(hazard if hazard <= certain else certain))  # (min, written out)
         found.append(total)
     return tuple(found)
 
@@ -387,7 +390,17 @@ def _signal_plan(index: int, signal: ir.Signal, duration: int, exclusive: frozen
 
 
 def _profile(signal: SignalPlan, stamps: Sequence[int], duration: int) -> list[float]:
-    """``p(u)`` at the middle of every stamp (mse.ir.profile: the straight line over u = t / D)."""
+    """``p(u)`` at the middle of every stamp (mse.ir.profile: the straight line over u = t / D);
+    kept on the signal for its plan's stamps (the hazards and the masses both read it)."""
+    kept = signal.profile
+    if kept is not None and kept[0] is stamps and kept[1] == duration:
+        return kept[2]
+    found = _profile_of(signal, stamps, duration)
+    signal.profile = (stamps, duration, found)
+    return found
+
+
+def _profile_of(signal: SignalPlan, stamps: Sequence[int], duration: int) -> list[float]:
     start, end = signal.probability_start, signal.probability_end
     change = end - start
     found = []
@@ -428,8 +441,11 @@ def _hazards(signal: SignalPlan, stamps: Sequence[int], duration: int) -> list[f
     # stamps past ``duration - shortest`` lost those candidacies (a 1/1 signal of >= 2.6 s
     # occurred in 81 % of 10 s timelines instead of all); a repetitive one's whole last
     # stamp of hazard fell on its last possible start.
-    last = duration - signal.shortest
-    lengths = [max(0, min(last + 1, second) - first) for first, second in itertools.pairwise(stamps)]
+    end = duration - signal.shortest + 1
+    lengths = []
+    for first, second in itertools.pairwise(stamps):  # max(0, min(end, second) - first)
+        length = (end if end < second else second) - first
+        lengths.append(length if length > 0 else 0)
     if signal.limit > 1:
         unit = RATE_UNIT * 1000
         return [1.0 - (1.0 - p) ** (length / unit) for p, length in zip(profile, lengths, strict=True)]
