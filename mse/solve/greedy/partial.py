@@ -334,10 +334,22 @@ def compiled_constraint(constraint: ir.Constraint, duration: int) -> CompiledCon
     duration enters a check only through ``duration`` terms (relations.known_time), so a
     constraint without one compiles once for every length (a dialogue plans a new length for
     most episodes).  The compiled checks are pure; sharing them changes no result."""
-    uses_duration = any(
-        isinstance(term, ir.DurationTime)
-        for node in ir.walk(constraint.expr)
-        if isinstance(node, ir.Compare)
-        for term in (node.left, node.right)
-    )
-    return _compiled(constraint, duration if uses_duration else None)
+    entry = _SHARED.get(id(constraint))
+    if entry is None or entry[0] is not constraint:
+        uses_duration = any(
+            isinstance(term, ir.DurationTime)
+            for node in ir.walk(constraint.expr)
+            if isinstance(node, ir.Compare)
+            for term in (node.left, node.right)
+        )
+        if len(_SHARED) >= _SHARED_LIMIT:
+            _SHARED.clear()
+        entry = _SHARED[id(constraint)] = (constraint, None if uses_duration else _compiled(constraint, None))
+    return entry[1] if entry[1] is not None else _compiled(constraint, duration)
+
+
+# Per constraint (identity; the entry holds it, so its id is not reused): the compilation every
+# length shares, or None when its checks read the duration.  Saves walking the expression and
+# hashing the whole constraint (the lru_cache key) for every plan.
+_SHARED: dict[int, tuple[ir.Constraint, CompiledConstraint | None]] = {}
+_SHARED_LIMIT = 4096
