@@ -318,13 +318,17 @@ def _mass(signal: SignalPlan, x0: int, x1: int, duration: int) -> float:
 def prior_starts_in(signal: SignalPlan, starts: Sequence[tuple[int, int]], low: int, duration: int) -> float:
     """Probability that the prior alone starts ``signal`` in ``starts`` (intervals of ticks,
     inclusive), given that it is free from ``low`` (a once-only one: not started before)."""
+    # _mass(signal, x0, x1, duration) written out below (the same operations: the same floats)
+    a = signal.probability_start
+    change = signal.probability_end - a
     if signal.limit > 1:
         # a start within a free second with probability p: intensity -ln(1 - p) per second
         hazard = 0.0
         for lo, hi in starts:
             span = (hi + 1 - lo) / duration
-            mean = _mass(signal, lo, hi + 1, duration) / span
-            hazard -= math.log1p(-min(0.999999, mean)) * span * duration / 1000
+            u0, u1 = lo / duration, (hi + 1) / duration
+            mean = (a * (u1 - u0) + change * (u1 * u1 - u0 * u0) / 2) / span
+            hazard -= math.log1p(-(mean if mean < 0.999999 else 0.999999)) * span * duration / 1000
         return 1.0 - math.exp(-hazard)
     cached = signal.prior_mass
     if cached is not None and cached[0] == duration:
@@ -335,8 +339,13 @@ def prior_starts_in(signal: SignalPlan, starts: Sequence[tuple[int, int]], low: 
         signal.prior_mass = (duration, total, occurs)
     if total <= 0:
         return 0.0
-    left = 1.0 - occurs * _mass(signal, 0, low, duration) / total
-    pays = occurs * sum(_mass(signal, lo, hi + 1, duration) for lo, hi in starts) / total / max(1e-12, left)
+    u1 = low / duration
+    left = 1.0 - occurs * (a * (u1 - 0.0) + change * (u1 * u1 - 0.0 * 0.0) / 2) / total
+    masses = []
+    for lo, hi in starts:
+        u0, u1 = lo / duration, (hi + 1) / duration
+        masses.append(a * (u1 - u0) + change * (u1 * u1 - u0 * u0) / 2)
+    pays = occurs * sum(masses) / total / max(1e-12, left)
     return min(1.0, max(0.0, pays))
 
 
