@@ -75,6 +75,7 @@ def _comparisons(atom: ir.Atom, duration: int) -> list[tuple[ir.Term, ir.Term, i
 # each entry holds its expression, so an id is not reused while its entry lives.
 _PER_EXPR: dict[int, _ExprParts] = {}
 _PER_EXPR_LIMIT = 4096
+_PER_EXPR_BOUNDS = 256
 
 
 class _ExprParts:
@@ -94,8 +95,8 @@ class _ExprParts:
                         if isinstance(mine, ir.SignalTime):
                             self.mine.setdefault(mine.signal, []).append((mine, other, tolerance))
         self.conjuncts = tuple(_conjuncts(expr))
-        # (conjunct index, signal id, shortest, longest) -> _relation_bounds of that conjunct
-        self.relation_bounds: dict[tuple[int, str, int, int], list[StartBound]] = {}
+        # (conjunct index, signal id, shortest) -> _relation_bounds of that conjunct
+        self.relation_bounds: dict[tuple[int, str, int], list[StartBound]] = {}
         # (conjunct index, signal id, shortest, longest, -1) -> _compare_bounds of a conjunct
         # between two signals (with a constant, the duration plays a part: not kept)
         self.compare_bounds: dict[tuple[int, str, int, int, int], list[StartBound]] = {}
@@ -211,13 +212,11 @@ def start_bounds_of(
                 meaning = RELATIONS[atom.kind]
                 if not placed_first and meaning.joined == "or" and len(meaning.bounds) > 1:
                     continue
-                # it reads only the atom and the signal's id and lengths
-                key = (position, signal.id, signal.shortest, signal.longest)
+                # it reads only the atom, the signal's id and its shortest length (a bound
+                # through its stop that would read the longest one is not taken from relations)
+                key = (position, signal.id, signal.shortest)
                 bounds = parts.relation_bounds.get(key)
                 if bounds is None:
-                    if len(parts.relation_bounds) >= _PER_EXPR_LIMIT:
-                        # (a signal's longest length is the duration when it has no maximum)
-                        parts.relation_bounds.clear()
                     bounds = parts.relation_bounds[key] = _relation_bounds(atom, signal)
                 found.update(dict.fromkeys(bounds))
             elif isinstance(atom, ir.Compare):
@@ -229,7 +228,9 @@ def start_bounds_of(
                 if bounds is None:
                     bounds = _compare_bounds(atom, signal, duration)
                     if between:  # (kept only when the duration plays no part)
-                        if len(parts.compare_bounds) >= _PER_EXPR_LIMIT:
+                        if len(parts.compare_bounds) >= _PER_EXPR_BOUNDS:
+                            # (a signal without a longest length has the duration's: a dialogue
+                            # would add one per episode)
                             parts.compare_bounds.clear()
                         parts.compare_bounds[compare_key] = bounds
                 found.update(dict.fromkeys(bounds))
