@@ -124,6 +124,7 @@ class Plan:
         related: dict[str, tuple[str, ...]],
         edges: dict[str, tuple[Edge, ...]],
         bounds: dict[str, tuple[StartBound, ...]],
+        columns: Sequence[Sequence[float]] | None = None,
     ) -> None:
         self.duration = duration
         self.stamps = stamps  # t_0 .. t_n (t_n = duration)
@@ -131,7 +132,10 @@ class Plan:
         # Per signal, the cumulative hazard H[j] = -sum_{i<j} log(1 - table[i][k]): the next
         # stamp at which a signal is a candidate is drawn at once by inverting it (one draw per
         # candidacy instead of one per stamp; the same distribution as a trial per stamp).
-        self.cumulative = tuple(_cumulative([row[s.index] for row in table]) for s in signals)
+        # (``columns``: the table's columns, when the caller has them)
+        self.cumulative = tuple(
+            _cumulative(columns[s.index] if columns is not None else [row[s.index] for row in table]) for s in signals
+        )
         self.signals = signals
         # Per signal, the prefix sums of its profile's mass per stamp (p at the middle x the
         # length): an owed signal is due in stamp j with probability mass_j / (mass of j up to
@@ -499,6 +503,7 @@ def build_plan(model: ir.Model, duration: int, slot: float, with_constraints: bo
         related=related,
         edges=edges,
         bounds=bounds,
+        columns=columns,
     )
 
 
