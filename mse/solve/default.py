@@ -37,6 +37,7 @@ from dataclasses import replace
 from mse.ir import model as ir
 from mse.ir.profile import never_occurs
 from mse.ir.schedule import Occurrence, Schedule
+from mse.solve.chain import chained
 from mse.solve.greedy.solver import GreedySolver, Tally, validate
 from mse.solve.protocol import (
     NoSolution,
@@ -88,12 +89,9 @@ class DefaultSolver:
         stream (each batch handed out at a checkpoint, docs/sampler.md); when the walk gives up
         before its first checkpoint, the fallback's timeline at once."""
         run = self._run(model, request)
-        stage = run.setup.rejection()
-        if stage is not None:
-            drawn = stage.sample(derive_seed(request.seed, 0))
-            if drawn is not None:
-                yield from sorted(drawn.occurrences)
-                return
+        if applies(request):  # the rejection stage's draw, or the chain's: a whole timeline at once
+            yield from sorted(run.one(derive_seed(request.seed, 0)).schedule.occurrences)
+            return
         if not request.pinned:
             streamed = False
             try:
@@ -171,6 +169,14 @@ class _Run:
             drawn = stage.sample(seed)
             if drawn is not None:
                 return drawn, "rejection"
+        schedule, method = self._made(seed, walk, tally)
+        if walk and applies(request):
+            # Rejection is too costly (or missed): the chain from this timeline (mse.solve.chain).
+            return chained(self.model, schedule, seed, request.forbid, request.require), f"{method}+chain"
+        return schedule, method
+
+    def _made(self, seed: int, walk: bool, tally: Tally) -> tuple[Schedule, str]:
+        request = self.request
         if not self.zeros_needed:
             try:
                 return self._pass(self.first, seed, walk, tally)
