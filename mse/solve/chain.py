@@ -32,6 +32,7 @@ windows fit in the timeline), never by wall time: a seed gives the same timeline
 
 from __future__ import annotations
 
+import bisect
 import math
 import random
 import weakref
@@ -44,18 +45,31 @@ from mse.ir.prior_draw import RepetitiveDensity, prior_signal
 from mse.ir.profile import start_rate
 from mse.ir.schedule import TICKS_PER_SECOND, Occurrence, Schedule
 
-#: Sweeps after the start (each: every block once, and its windows at long durations).
-SWEEPS = 10
+#: Sweeps after the start (each: every block once, and its windows at long durations) ...
+SWEEPS = 30
+#: ... up to this duration (seconds); past it a check costs in proportion to the timeline's
+#: occurrences and a sweep holds as many windows: SWEEPS x SWEEPS_SECONDS / duration sweeps,
+#: at least MIN_SWEEPS (an hour: 2 sweeps, 1.4-1.7 s CPU each on Greta's sets).
+SWEEPS_SECONDS = 60.0
+MIN_SWEEPS = 2
 #: A window holds on average about this many cycles (start, run, free) of its slowest signal.
 WINDOW_CYCLES = 2.0
 
 Spans = list[Occurrence]
 
 
+def _start(occurrence: Occurrence) -> int:
+    return occurrence.start
+
+
+def _stop(occurrence: Occurrence) -> int:
+    return occurrence.stop
+
+
 class _Block:
     """Signals moved together, the sub-model that checks a move of them and its signals."""
 
-    __slots__ = ("names", "relevant", "submodel", "window")
+    __slots__ = ("free", "local", "names", "relevant", "submodel", "window")
 
     def __init__(self, model: ir.Model, names: tuple[str, ...], window: int) -> None:
         self.names = names
@@ -66,9 +80,16 @@ class _Block:
         relevant = set(moved)
         for constraint in constraints:
             relevant |= ir.mentioned_signals(constraint.expr)
-        relevant |= {s.id for s in model.signals if s.modality in modalities}
+        #: Signals whose every occurrence the check needs (the moved ones and those their
+        #: constraints mention) ...
         self.relevant = tuple(sorted(relevant))
+        #: ... and those only an exclusive modality links to them: only their occurrences that
+        #: meet the changed time span can change the verdict (the others were consistent before).
+        self.local = tuple(sorted({s.id for s in model.signals if s.modality in modalities} - relevant))
         self.submodel = replace(model, constraints=constraints)
+        #: No constraint and no exclusive modality touches the block: every prior draw of it is
+        #: consistent with the rest (lengths, counts and order are the prior's by construction).
+        self.free = not constraints and len(self.relevant) + len(self.local) == len(names)
         #: Window length in ticks (0: whole redraws only).
         self.window = window
 
@@ -107,19 +128,22 @@ class Chain:
             length = draw.shortest / TICKS_PER_SECOND if draw.longest is None else (
                 (draw.shortest + draw.longest) / 2 / TICKS_PER_SECOND)
             longest = max(longest, WINDOW_CYCLES * (1 / rate + length) * TICKS_PER_SECOND)
-        if longest <= 0 or longest * 2 >= self.duration:
+        if longest <= 0 or longest >= self.duration:
             return 0
         return max(1, int(longest))
 
-    def moves(self) -> int:
-        """Moves of one run: a deterministic function of the set and the duration."""
-        per_sweep = 0
-        for block in self.blocks:
-            per_sweep += 1 + (math.ceil(self.duration / block.window) if block.window else 0)
-        return SWEEPS * per_sweep
+    def sweeps(self) -> int:
+        """Sweeps of one run: a deterministic function of the duration."""
+        seconds = self.duration / TICKS_PER_SECOND
+        if seconds <= SWEEPS_SECONDS:
+            return SWEEPS
+        return max(MIN_SWEEPS, math.ceil(SWEEPS * SWEEPS_SECONDS / seconds))
 
-    def run(self, schedule: Schedule, rng: random.Random, sweeps: int = SWEEPS) -> Schedule:
-        """``schedule`` (consistent) after ``sweeps`` sweeps of the chain."""
+    def run(self, schedule: Schedule, rng: random.Random, sweeps: int | None = None) -> Schedule:
+        """``schedule`` (consistent) after ``sweeps`` sweeps of the chain (default:
+        :meth:`sweeps`)."""
+        if sweeps is None:
+            sweeps = self.sweeps()
         state: dict[str, Spans] = {name: [] for name in self.model.signal_by_id}
         for occurrence in sorted(schedule.occurrences):
             state.setdefault(occurrence.signal, []).append(occurrence)
@@ -152,9 +176,9 @@ class Chain:
                 proposal[name] = [] if drawn is None else [drawn]  # type: ignore[list-item]
                 continue
             spans = state[name]
-            before = [o for o in spans if o.start < low]
-            inside = [o for o in spans if low <= o.start <= high]
-            after = [o for o in spans if o.start > high]
+            first_inside = bisect.bisect_left(spans, low, key=_start)
+            first_after = bisect.bisect_right(spans, high, key=_start)
+            before, inside, after = spans[:first_inside], spans[first_inside:first_after], spans[first_after:]
             top = min(high, density.last)
             free = max(before[-1].stop if before else 0, low - 1)
             remaining = None if density.limit is None else density.limit - len(before) - len(after)
@@ -165,7 +189,10 @@ class Chain:
             gain = density.window_term(free, drawn_inside, after, top, remaining, len(new))
             if gain is None:  # overlaps the next kept occurrence: density 0
                 return
-            log_ratio += gain - density.window_term(free, inside, after, top, remaining, len(spans))  # type: ignore[operator]
+            kept = density.window_term(free, inside, after, top, remaining, len(spans))
+            # (None: the start, the walk's or CP-SAT's, is outside the prior's support, e.g. two
+            # occurrences back to back; any consistent proposal is then accepted.)
+            log_ratio += math.inf if kept is None else gain - kept
             proposal[name] = new
         if log_ratio < 0 and rng.random() >= math.exp(log_ratio):
             return
@@ -175,9 +202,20 @@ class Chain:
         for name, spans in proposal.items():
             if not spans and name in self.require:
                 return False
+        if block.free:  # nothing but the signals' own rules, which the prior's draws keep
+            state.update(proposal)
+            return True
         occurrences: list[Occurrence] = []
         for name in block.relevant:
             occurrences.extend(proposal[name] if name in proposal else state.get(name, ()))
+        if block.local:
+            changed = [o for name, spans in proposal.items() for o in set(spans).symmetric_difference(state[name])]
+            if changed:
+                low, high = min(o.start for o in changed), max(o.stop for o in changed)
+                for name in block.local:
+                    spans = state[name]
+                    occurrences.extend(spans[bisect.bisect_right(spans, low, key=_stop):
+                                             bisect.bisect_left(spans, high, key=_start)])
         if not is_consistent(block.submodel, Schedule(self.duration, tuple(occurrences))):
             return False
         state.update(proposal)
@@ -201,7 +239,7 @@ def chain_for(model: ir.Model, duration: int, absent: Iterable[str] = (), requir
     if chain is None:
         if len(entry[1]) >= _CHAINS_LIMIT:
             entry[1].clear()
-        chain = entry[1][key] = Chain(model, duration, key[1], key[2])  # type: ignore[arg-type]
+        chain = entry[1][key] = Chain(model, duration, key[1], key[2])
     return chain
 
 
