@@ -18,6 +18,10 @@ summarised by :mod:`mse.solve.cpsat.horizon`, so the cost per window does not gr
 the elapsed time and :meth:`CpSatSolver.stream` hands out each window as soon as it is
 committed.
 
+Where that stage's pilot finds it too costly (or a seed misses), the chain stage
+(:mod:`mse.solve.chain`) follows CP-SAT's timeline on those plain requests
+(``Solution.method == "cpsat+chain"``): its stationary law is the target.
+
 Every timeline returned by :meth:`CpSatSolver.solve` has passed
 :func:`mse.ir.evaluate.check_schedule`.  "Infeasible" is only reported as a proof
 (``NoSolution(proven=True)``, with a minimal explanation) when CP-SAT says INFEASIBLE with
