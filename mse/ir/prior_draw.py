@@ -163,13 +163,15 @@ class RepetitiveDensity:
     (:meth:`mass`, by the midpoint rule on the closed-form integral of ``-log(1 - p)`` for a
     linear ``p``: exact to about 1e-10 over an hour)."""
 
-    __slots__ = ("draw", "duration", "last", "limit", "p0", "slope")
+    __slots__ = ("draw", "duration", "flat", "last", "limit", "p0", "slope")
 
     def __init__(self, signal: ir.Signal, duration: int) -> None:
         self.draw = _Repetitive(signal, duration)
         self.duration, self.last, self.limit = duration, self.draw.last, signal.max_occurrences
         self.p0 = signal.probability_start
         self.slope = signal.probability_end - signal.probability_start
+        #: Starts per tick when the profile is flat (most sets): Λ is then a product.
+        self.flat = _rate(self.p0) / TICKS_PER_SECOND if self.slope == 0 else None
 
     def _p(self, tick: float) -> float:
         u = min(1.0, max(0.0, tick / self.duration))
@@ -181,6 +183,8 @@ class RepetitiveDensity:
         first, last = max(1, first), min(self.last, last)
         if last < first or self.draw.peak <= 0:
             return 0.0
+        if self.flat is not None:
+            return (last - first + 1) * self.flat
         return _rate_integral(self, first - 0.5, last + 0.5) / TICKS_PER_SECOND
 
     def run(self, rng: random.Random, free: int, top: int, remaining: int | None) -> list[Occurrence]:

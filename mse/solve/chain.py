@@ -52,8 +52,13 @@ SWEEPS = 30
 #: at least MIN_SWEEPS (an hour: 2 sweeps, 1.4-1.7 s CPU each on Greta's sets).
 SWEEPS_SECONDS = 60.0
 MIN_SWEEPS = 2
-#: A window holds on average about this many cycles (start, run, free) of its slowest signal.
-WINDOW_CYCLES = 2.0
+#: A window holds on average about this many cycles (start, run, free) of its slowest signal,
+#: up to SWEEPS_SECONDS: small windows are often accepted, so that a chain leaves a mode (e.g.
+#: the chains of equalities of Greta's tension: from CP-SAT's timeline, 30 sweeps of windows of
+#: 2 cycles left a signal's rate 0.7 per 10 s from the target, of 0.5 cycle 0.1) ...
+WINDOW_CYCLES = 0.5
+#: ... past it, where each move's check costs in proportion to the timeline, fewer larger ones.
+LONG_WINDOW_CYCLES = 2.0
 
 Spans = list[Occurrence]
 
@@ -115,8 +120,9 @@ class Chain:
         self.blocks = tuple(_Block(model, block, self._window(block)) for block in blocks)
 
     def _window(self, names: tuple[str, ...]) -> int:
-        """Window length for a block: WINDOW_CYCLES mean cycles of its slowest repetitive
-        signal; 0 when the block has none or a window would cover most of the timeline."""
+        """Window length for a block: WINDOW_CYCLES (LONG_WINDOW_CYCLES) mean cycles of its
+        slowest repetitive signal; 0 when the block has none or a window would cover the
+        timeline."""
         longest = 0.0
         for name in names:
             density = self.densities.get(name)
@@ -127,7 +133,8 @@ class Chain:
             draw = self.draws[name]
             length = draw.shortest / TICKS_PER_SECOND if draw.longest is None else (
                 (draw.shortest + draw.longest) / 2 / TICKS_PER_SECOND)
-            longest = max(longest, WINDOW_CYCLES * (1 / rate + length) * TICKS_PER_SECOND)
+            cycles = WINDOW_CYCLES if self.duration <= SWEEPS_SECONDS * TICKS_PER_SECOND else LONG_WINDOW_CYCLES
+            longest = max(longest, cycles * (1 / rate + length) * TICKS_PER_SECOND)
         if longest <= 0 or longest >= self.duration:
             return 0
         return max(1, int(longest))
