@@ -59,6 +59,9 @@ MIN_SWEEPS = 2
 WINDOW_CYCLES = 0.5
 #: ... past it, where each move's check costs in proportion to the timeline, fewer larger ones.
 LONG_WINDOW_CYCLES = 2.0
+#: Window moves per sweep of a block that holds once-only signals as well (Greta's regret at
+#: 60 s: 13 such blocks of 42 windows each made a timeline cost 1 s).
+MIXED_WINDOWS = 4
 
 Spans = list[Occurrence]
 
@@ -74,7 +77,7 @@ def _stop(occurrence: Occurrence) -> int:
 class _Block:
     """Signals moved together, the sub-model that checks a move of them and its signals."""
 
-    __slots__ = ("free", "local", "names", "relevant", "submodel", "window")
+    __slots__ = ("free", "local", "names", "relevant", "submodel", "window", "windows")
 
     def __init__(self, model: ir.Model, names: tuple[str, ...], window: int) -> None:
         self.names = names
@@ -95,8 +98,9 @@ class _Block:
         #: No constraint and no exclusive modality touches the block: every prior draw of it is
         #: consistent with the rest (lengths, counts and order are the prior's by construction).
         self.free = not constraints and len(self.relevant) + len(self.local) == len(names)
-        #: Window length in ticks (0: whole redraws only).
+        #: Window length in ticks (0: whole redraws only) and window moves per sweep.
         self.window = window
+        self.windows = 0
 
 
 class Chain:
@@ -118,6 +122,14 @@ class Chain:
                 known.add(linked)
                 blocks.append(linked)
         self.blocks = tuple(_Block(model, block, self._window(block)) for block in blocks)
+        for block in self.blocks:
+            if block.window:
+                # As many windows as fit; a block that also moves once-only signals (redrawn
+                # whole at each of its window moves) at most MIXED_WINDOWS: their own moves
+                # and the repetitive signals' blocks do most of the mixing.
+                fit = math.ceil(duration / block.window)
+                mixed = any(name not in self.densities for name in block.names)
+                block.windows = min(fit, MIXED_WINDOWS) if mixed else fit
 
     def _window(self, names: tuple[str, ...]) -> int:
         """Window length for a block: WINDOW_CYCLES (LONG_WINDOW_CYCLES) mean cycles of its
@@ -157,9 +169,8 @@ class Chain:
         for _ in range(sweeps):
             for block in self.blocks:
                 self._whole(block, state, rng)
-                if block.window:
-                    for _ in range(math.ceil(self.duration / block.window)):
-                        self._windowed(block, state, rng)
+                for _ in range(block.windows):
+                    self._windowed(block, state, rng)
         return Schedule.of(schedule.duration, (o for spans in state.values() for o in spans))
 
     # -- moves -------------------------------------------------------------------------------
