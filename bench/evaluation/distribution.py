@@ -133,11 +133,14 @@ class Row:
 
 def chain_reference_size(duration: float, wanted: int) -> dict[str, int]:
     """The chain reference's size: ``wanted`` timelines up to 60 s, 50 burn-in and 10 sweeps
-    between kept ones; past 60 s a sweep costs in proportion to the duration (about 1.5 s at an
-    hour), so fewer: 20 timelines, 4 burn-in sweeps, 2 between."""
+    between kept ones; past 60 s a sweep costs in proportion to the duration (1.5-5 s at an
+    hour), so fewer: 8 timelines (2 per chain), 2 burn-in sweeps (after the sampler's own 2
+    when it starts from its timeline: here from the walk's), 2 between.  An hour's timeline holds
+    hundreds of occurrences of each repetitive signal, so 8 give its rate closely; the once-only
+    signals' rates are then coarse (steps of 1/8)."""
     if duration <= 60:
         return {"wanted": wanted, "burn": 50, "thin": 10}
-    return {"wanted": min(wanted, 20), "burn": 4, "thin": 2}
+    return {"wanted": min(wanted, 8), "burn": 2, "thin": 2}
 
 
 def measure(name: str, model: ir.Model, durations: Sequence[float], counts: dict[float, int], draws: int,
