@@ -217,6 +217,8 @@ class Chain:
         self._accept_if_consistent(block, state, proposal)
 
     def _accept_if_consistent(self, block: _Block, state: dict[str, Spans], proposal: dict[str, Spans]) -> bool:
+        if all(spans == state[name] for name, spans in proposal.items()):
+            return True  # nothing changes (often: an absent once-only signal drawn absent again)
         for name, spans in proposal.items():
             if not spans and name in self.require:
                 return False
