@@ -102,7 +102,7 @@ def test_chained_samplers_and_the_chain_reference_agree_with_rejection(
     model, duration = api.load("anxiety"), 10.0
     wanted = statistics(model, sample_reference(model, duration, wanted=600, seed=1, max_draws=100_000).accepted,
                         duration)
-    samples = [statistics(model, _chained_samples(model, solver, duration, 150, monkeypatch), duration)]
+    samples = [statistics(model, _chained_samples(model, solver, duration, 200, monkeypatch), duration)]
     if solver == "greedy":
         reference = sample_chain_reference(model, duration, wanted=300, seed=1, burn=50, thin=10)
         samples.append(statistics(model, reference.accepted, duration))

@@ -60,8 +60,8 @@ WINDOW_CYCLES = 0.5
 #: ... past it, where each move's check costs in proportion to the timeline, fewer larger ones.
 LONG_WINDOW_CYCLES = 2.0
 #: Window moves per sweep of a block that holds once-only signals as well (Greta's regret at
-#: 60 s: 13 such blocks of 42 windows each made a timeline cost 1 s).
-MIXED_WINDOWS = 4
+#: 60 s: 13 such blocks of 42 windows each made a timeline cost 1 s; at 10 s no block has more).
+MIXED_WINDOWS = 8
 
 Spans = list[Occurrence]
 
