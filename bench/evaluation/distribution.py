@@ -15,13 +15,10 @@ rate within 0.1.  Every timeline is re-checked by the one evaluator (an inconsis
 error, not a statistic).
 
 Where rejection is impractical (fewer than ``--min-accepted`` consistent draws within the
-budget), the reference of that duration is replaced, and the table says which:
-
-* ``short``: the rates of once-only signals and the repetitive signals' rates per 10 s from the
-  reference at the longest shorter duration where rejection worked (the prior's once-only
-  rates do not depend on the duration, docs/semantics.md; the consistency conditioning may,
-  so this is an approximation, marked as such);
-* ``none``: no duration worked; the sampler columns are shown, no error is computed.
+budget), the reference of that duration is the target's Markov chain (mse/solve/chain.py,
+:func:`bench.evaluation.reference.sample_chain_reference`: several chains from different
+walks, burn-in, thinning; ``chain`` in the table, validated against rejection where both work
+in tests/test_chain.py).
 """
 
 from __future__ import annotations
@@ -40,7 +37,7 @@ from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from bench.evaluation.reference import Statistics, sample_reference, statistics
+from bench.evaluation.reference import Statistics, sample_chain_reference, sample_reference, statistics
 from mse.api import load
 from mse.ir import model as ir
 from mse.ir.evaluate import check_schedule
@@ -102,7 +99,7 @@ def sampled(model: ir.Model, solver: str, duration: float, seeds: Sequence[int],
 class Row:
     name: str
     duration: float
-    how: str  # "rejection", "short (60 s)", "none"
+    how: str  # "rejection" or "chain"
     acceptance: float
     reference: Statistics | None
     solvers: dict[str, Statistics]
@@ -134,23 +131,33 @@ class Row:
         return once, worst, which
 
 
+def chain_reference_size(duration: float, wanted: int) -> dict[str, int]:
+    """The chain reference's size: ``wanted`` timelines up to 60 s, 50 burn-in and 10 sweeps
+    between kept ones; past 60 s a sweep costs in proportion to the duration (1.5-5 s at an
+    hour), so fewer: 8 timelines (2 per chain), 2 burn-in sweeps (after the sampler's own 2
+    when it starts from its timeline: here from the walk's), 2 between.  An hour's timeline holds
+    hundreds of occurrences of each repetitive signal, so 8 give its rate closely; the once-only
+    signals' rates are then coarse (steps of 1/8)."""
+    if duration <= 60:
+        return {"wanted": wanted, "burn": 50, "thin": 10}
+    return {"wanted": min(wanted, 8), "burn": 2, "thin": 2}
+
+
 def measure(name: str, model: ir.Model, durations: Sequence[float], counts: dict[float, int], draws: int,
             wanted: int, seconds: float, minimum: int, solvers: Sequence[str],
-            budget: float | None = None) -> list[Row]:
+            budget: float | None = None, chain_wanted: int = 400) -> list[Row]:
     rows: list[Row] = []
-    fallback: tuple[float, Statistics] | None = None
     for duration in durations:
         began = time.monotonic()
         reference = sample_reference(model, duration, wanted=wanted, seed=1, max_draws=draws, max_seconds=seconds)
+        how = "rejection"
+        acceptance = reference.acceptance
+        if len(reference.accepted) < minimum:
+            reference = sample_chain_reference(model, duration, seed=1,
+                                               **chain_reference_size(duration, chain_wanted))
+            how = f"chain, {len(reference.accepted)}"
         took = {"reference": time.monotonic() - began}
-        if len(reference.accepted) >= minimum:
-            wanted_stats: Statistics | None = statistics(model, reference.accepted, duration)
-            how = "rejection"
-            fallback = (duration, wanted_stats)  # type: ignore[assignment]
-        elif fallback is not None:
-            wanted_stats, how = fallback[1], f"short ({fallback[0]:g} s)"
-        else:
-            wanted_stats, how = None, "none"
+        wanted_stats: Statistics | None = statistics(model, reference.accepted, duration)
         found: dict[str, Statistics] = {}
         methods: dict[str, Counter[str]] = {}
         for solver in solvers:
@@ -161,7 +168,7 @@ def measure(name: str, model: ir.Model, durations: Sequence[float], counts: dict
             found[solver] = statistics(model, schedules, duration)
             if failed:
                 print(f"   {name} {duration:g} s {solver}: {failed} seeds without a timeline")
-        rows.append(Row(name, duration, how, reference.acceptance, wanted_stats, found, took, methods))
+        rows.append(Row(name, duration, how, acceptance, wanted_stats, found, took, methods))
     return rows
 
 
@@ -227,6 +234,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser.add_argument("--wanted", type=int, default=2000, help="consistent draws wanted")
     parser.add_argument("--seconds", type=float, default=60.0, help="wall time of rejection per set and duration")
     parser.add_argument("--min-accepted", type=int, default=200)
+    parser.add_argument("--chain-wanted", type=int, default=400,
+                        help="timelines of the chain reference (where rejection accepts too few; 20 past 60 s)")
     parser.add_argument("--budget", type=float, default=None,
                         help="seconds per set, duration and sampler: fewer timelines past it (the table says how many)")
     parser.add_argument("--markdown", type=Path, default=None, help="also write the tables to this file")
@@ -242,9 +251,10 @@ def main(argv: Sequence[str] | None = None) -> int:
     load = os.getloadavg()[0]
     header = (f"Reference: the prior (mse/ir/profile.py) conditioned on consistency, by rejection from at most "
               f"{args.draws} prior draws (or {args.seconds:g} s) until {args.wanted} are consistent, used when "
-              f">= {args.min_accepted} are; otherwise `short (D s)`: the reference at the shorter duration D "
-              f"(the prior's once-only rates do not depend on the duration; the conditioning may: an "
-              f"approximation), or `none`.  Timelines per sampler: "
+              f">= {args.min_accepted} are; otherwise `chain, N`: N timelines of the target's Markov chain "
+              f"(mse/solve/chain.py; 4 chains from different walks, burn-in and thinning as "
+              f"bench.evaluation.distribution.chain_reference_size says; the acceptance column is then "
+              f"rejection's).  Timelines per sampler: "
               + ", ".join(f"{counts[d]} at {d:g} s" for d in args.durations)
               + (f" (seeds 0..N-1, fewer past {args.budget:g} s per set, duration and sampler)" if args.budget
                  else " (seeds 0..N-1)")
@@ -255,7 +265,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     rows: list[Row] = []
     for name, model in models.items():
         found = measure(name, model, args.durations, counts, args.draws, args.wanted, args.seconds,
-                        args.min_accepted, args.solvers, args.budget)
+                        args.min_accepted, args.solvers, args.budget, args.chain_wanted)
         for line in summary_table(found, models, args.solvers)[2:]:
             print(line, flush=True)
         rows.extend(found)

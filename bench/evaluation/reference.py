@@ -66,6 +66,35 @@ def sample_reference(model: ir.Model, duration: float, *, wanted: int, seed: int
     return Reference(tuple(accepted), draws)
 
 
+def sample_chain_reference(model: ir.Model, duration: float, *, wanted: int, seed: int, chains: int = 4,
+                           burn: int = 20, thin: int = 2) -> Reference:
+    """The target by its Markov chain (mse/solve/chain.py), where rejection accepts too few:
+    ``chains`` chains, each from another consistent timeline (the default sampler without its
+    rejection stage: the walk's, or CP-SAT's, seeds ``seed + i``), ``burn`` sweeps dropped,
+    then one timeline every ``thin`` sweeps until ``wanted`` are kept in all.  ``draws`` counts
+    the sweeps run."""
+    from mse.solve.chain import Chain
+    from mse.solve.protocol import SolveRequest, get_solver
+
+    ticks = to_ticks(duration)
+    chain = Chain(model, ticks)
+    solver = get_solver("greedy")
+    kept: list[Schedule] = []
+    sweeps = 0
+    for index in range(chains):
+        request = SolveRequest(duration=duration, seed=seed + index, rejection=False)
+        state = solver.solve(model, request).solutions[0].schedule
+        rng = random.Random(f"chain-reference/{seed}/{index}")
+        state = chain.run(state, rng, burn)
+        sweeps += burn
+        share = wanted // chains + (1 if index < wanted % chains else 0)
+        for _ in range(share):
+            state = chain.run(state, rng, thin)
+            sweeps += thin
+            kept.append(state)
+    return Reference(tuple(kept), sweeps)
+
+
 @dataclass(frozen=True)
 class Statistics:
     """What the distribution bench compares (see the module's docstring)."""

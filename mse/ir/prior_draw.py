@@ -214,3 +214,108 @@ def prior_timeline(model: ir.Model, duration: int, rng: random.Random,
     """One draw of the prior: every signal on its own (``duration`` in ticks; signals in
     ``absent`` left out, :class:`PriorDraw`, which a loop of draws should keep)."""
     return PriorDraw(model, duration, absent).draw(rng)
+
+
+def prior_signal(signal: ir.Signal, duration: int) -> _Once | _Repetitive:
+    """One signal's prior draw on ``duration`` ticks (``.draw(rng)``: an occurrence or None for
+    a once-only signal, the list of occurrences of a repetitive one)."""
+    return _Repetitive(signal, duration) if signal.repetitive else _Once(signal, duration)
+
+
+class RepetitiveDensity:
+    """The density of a repetitive signal's occurrences under the prior, as far as a redraw of
+    the starts in a window ``[low, top]`` needs it (mse/solve/chain.py).
+
+    :class:`_Repetitive` draws a Poisson process by thinning: a start falls in tick ``k`` (the
+    time interval ``((k-1)/T, k/T]`` seconds, T ticks per second) at intensity
+    ``λ_k = start_rate(k / D)`` while the signal is free, for ``1 <= k <= last``; after a stop
+    ``e`` it is free from tick ``e + 1``; at most ``limit`` starts.  The probability of the first
+    start at tick ``s`` after a stop ``e`` is ``exp(-Λ(e+1, s-1)) (1 - exp(-λ_s / T))``, and of no
+    start up to the end ``exp(-Λ(e+1, last))``, where ``Λ(i, j) = Σ_{k=i..j} λ_k / T``
+    (:meth:`mass`, by the midpoint rule on the closed-form integral of ``-log(1 - p)`` for a
+    linear ``p``: exact to about 1e-10 over an hour)."""
+
+    __slots__ = ("draw", "duration", "flat", "last", "limit", "p0", "slope")
+
+    def __init__(self, signal: ir.Signal, duration: int) -> None:
+        self.draw = _Repetitive(signal, duration)
+        self.duration, self.last, self.limit = duration, self.draw.last, signal.max_occurrences
+        self.p0 = signal.probability_start
+        self.slope = signal.probability_end - signal.probability_start
+        #: Starts per tick when the profile is flat (most sets): Λ is then a product.
+        self.flat = _rate(self.p0) / TICKS_PER_SECOND if self.slope == 0 else None
+
+    def _p(self, tick: float) -> float:
+        u = min(1.0, max(0.0, tick / self.duration))
+        return self.p0 + self.slope * u
+
+    def mass(self, first: int, last: int) -> float:
+        """``Λ(first, last)``: expected thinned starts over the ticks ``first..last`` (both
+        included, clipped to ``1..self.last``) for a signal free all along."""
+        first, last = max(1, first), min(self.last, last)
+        if last < first or self.draw.peak <= 0:
+            return 0.0
+        if self.flat is not None:
+            return (last - first + 1) * self.flat
+        return _rate_integral(self, first - 0.5, last + 0.5) / TICKS_PER_SECOND
+
+    def run(self, rng: random.Random, free: int, top: int, remaining: int | None) -> list[Occurrence]:
+        """The process from tick ``free`` (free from ``free + 1``) over starts up to ``top``,
+        at most ``remaining`` starts: what :class:`_Repetitive` draws from there."""
+        draw = self.draw
+        peak = draw.peak
+        found: list[Occurrence] = []
+        if peak <= 0:
+            return found
+        signal, duration, top = draw.signal, draw.duration, min(top, draw.last)
+        t = free / TICKS_PER_SECOND
+        while remaining is None or len(found) < remaining:
+            t += rng.expovariate(peak)
+            start = math.ceil(t * TICKS_PER_SECOND)
+            if start > top:
+                break
+            if rng.random() * peak > start_rate(signal, start / duration):
+                continue
+            stop = start + _length(rng, draw.shortest, draw.longest, start, duration)
+            found.append(Occurrence(start, stop, draw.name))
+            t = stop / TICKS_PER_SECOND
+        return found
+
+    def window_term(self, free: int, inside: list[Occurrence], after: list[Occurrence], top: int,
+                    remaining: int | None, total: int) -> float | None:
+        """log(target / proposal) of the window's content ``inside`` (from the process of
+        :meth:`run` from ``free`` up to ``top``), up to terms every content shares; None when
+        the content overlaps the next kept occurrence (density 0)."""
+        end = inside[-1].stop if inside else free
+        if after and after[0].start <= end:
+            return None
+        target = -self.mass(end + 1, after[0].start - 1) if after else 0.0
+        if self.limit is None or total < self.limit:
+            target -= self.mass((after[-1].stop if after else end) + 1, self.last)
+        proposal = 0.0 if remaining is not None and len(inside) >= remaining else -self.mass(end + 1, top)
+        return target - proposal
+
+
+def _rate_integral(density: RepetitiveDensity, low: float, high: float) -> float:
+    """∫ start_rate over ticks ``[low, high]`` (rate per second times ticks)."""
+    p_low, p_high = density._p(low), density._p(high)
+    if abs(p_high - p_low) < 1e-9:
+        return (high - low) * _rate(0.5 * (p_low + p_high))
+    cap = MAX_PROBABILITY
+    if max(p_low, p_high) > cap:  # the rate is constant past the cap: split there
+        cut = low + (high - low) * (cap - p_low) / (p_high - p_low)
+        if min(p_low, p_high) >= cap:
+            return (high - low) * _rate(cap)
+        if p_low > cap:
+            return (cut - low) * _rate(cap) + _rate_integral(density, cut, high)
+        return _rate_integral(density, low, cut) + (high - cut) * _rate(cap)
+    # ∫ -log(1 - p) dp = (1 - p) log(1 - p) + p; p is linear in the tick.
+    return (_antiderivative(p_high) - _antiderivative(p_low)) * (high - low) / (p_high - p_low) / RATE_UNIT
+
+
+def _rate(p: float) -> float:
+    return -math.log1p(-min(p, MAX_PROBABILITY)) / RATE_UNIT
+
+
+def _antiderivative(p: float) -> float:
+    return (1.0 - p) * math.log1p(-p) + p

@@ -8,6 +8,8 @@ does.  The composition, per timeline (seed ``S + i``):
    (plain requests: nothing pinned; ``--require`` and ``--forbid`` are honoured);
 2. **walk** — the greedy walk of :mod:`mse.solve.greedy` (docs/sampler.md), which backtracks
    to its checkpoints by itself (the repair step), where the stage is not used or misses;
+   on plain requests (those the stage applies to) its timeline, or the fallback's, then starts
+   the **chain** (:mod:`mse.solve.chain`), whose stationary law is the target;
 3. **cpsat** — when the walk gives up (or the request pins signals, which the walk does not
    place), CP-SAT with its default objective, which follows the same probability profile
    (:mod:`mse.ir.profile`), finds a timeline if one exists;
@@ -20,11 +22,12 @@ them): they are forbidden in a first pass, allowed in a second one only when the
 proven infeasible (the rejection stage never draws them).
 
 Each solution records how it was made (:attr:`mse.solve.protocol.Solution.method`:
-``rejection``, ``walk`` or ``cpsat``; the timeline JSON's ``"method"``) and the walk's attempts
+``rejection``, ``walk``, ``cpsat``, ``walk+chain`` or ``cpsat+chain``; the timeline JSON's
+``"method"``) and the walk's attempts
 and backtracks.  :meth:`DefaultSolver.stream` gives the same timeline as a solve of the seed:
-the stage's draw at once, or the walk's stream (the first occurrences long before the end); a
-dialogue's episodes turn the stage off (``SolveRequest.rejection``) to keep the walk's
-latency.  CP-SAT is reached only through
+the stage's (or the chain's) timeline at once, or the walk's stream (the first occurrences long
+before the end); a dialogue's episodes turn both off (``SolveRequest.rejection``) to keep the
+walk's latency.  CP-SAT is reached only through
 :func:`mse.solve.protocol.get_solver` and imported only when the walk fails, so sampling a
 set the walk solves never loads ortools.
 """
@@ -37,6 +40,7 @@ from dataclasses import replace
 from mse.ir import model as ir
 from mse.ir.profile import never_occurs
 from mse.ir.schedule import Occurrence, Schedule
+from mse.solve.chain import chained
 from mse.solve.greedy.solver import GreedySolver, Tally, validate
 from mse.solve.protocol import (
     NoSolution,
@@ -88,12 +92,9 @@ class DefaultSolver:
         stream (each batch handed out at a checkpoint, docs/sampler.md); when the walk gives up
         before its first checkpoint, the fallback's timeline at once."""
         run = self._run(model, request)
-        stage = run.setup.rejection()
-        if stage is not None:
-            drawn = stage.sample(derive_seed(request.seed, 0))
-            if drawn is not None:
-                yield from sorted(drawn.occurrences)
-                return
+        if applies(request):  # the rejection stage's draw, or the chain's: a whole timeline at once
+            yield from sorted(run.one(derive_seed(request.seed, 0)).schedule.occurrences)
+            return
         if not request.pinned:
             streamed = False
             try:
@@ -171,6 +172,14 @@ class _Run:
             drawn = stage.sample(seed)
             if drawn is not None:
                 return drawn, "rejection"
+        schedule, method = self._made(seed, walk, tally)
+        if walk and applies(request):
+            # Rejection is too costly (or missed): the chain from this timeline (mse.solve.chain).
+            return chained(self.model, schedule, seed, request.forbid, request.require), f"{method}+chain"
+        return schedule, method
+
+    def _made(self, seed: int, walk: bool, tally: Tally) -> tuple[Schedule, str]:
+        request = self.request
         if not self.zeros_needed:
             try:
                 return self._pass(self.first, seed, walk, tally)

@@ -133,8 +133,9 @@ class Solution:
 
     schedule: Schedule
     seed: int
-    #: How it was made, when the backend composes several: "rejection", "walk" or "cpsat" for
-    #: ``greedy``; "rejection" or None (its own search) for ``cpsat``.
+    #: How it was made, when the backend composes several: "rejection", "walk", "cpsat",
+    #: "walk+chain" or "cpsat+chain" (the chain stage after either, mse/solve/chain.py) for
+    #: ``greedy``; "rejection", "cpsat+chain" or None (its own search) for ``cpsat``.
     method: str | None = None
     #: Walks started and backtracks taken (the greedy walk's; 0 for the others).
     attempts: int = 0

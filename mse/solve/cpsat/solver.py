@@ -18,6 +18,10 @@ summarised by :mod:`mse.solve.cpsat.horizon`, so the cost per window does not gr
 the elapsed time and :meth:`CpSatSolver.stream` hands out each window as soon as it is
 committed.
 
+Where that stage's pilot finds it too costly (or a seed misses), the chain stage
+(:mod:`mse.solve.chain`) follows CP-SAT's timeline on those plain requests
+(``Solution.method == "cpsat+chain"``): its stationary law is the target.
+
 Every timeline returned by :meth:`CpSatSolver.solve` has passed
 :func:`mse.ir.evaluate.check_schedule`.  "Infeasible" is only reported as a proof
 (``NoSolution(proven=True)``, with a minimal explanation) when CP-SAT says INFEASIBLE with
@@ -32,12 +36,14 @@ import itertools
 import random
 import time
 from collections.abc import Iterator, Mapping, Sequence
+from dataclasses import replace
 
 from mse.diagnostics import Diagnostic, argument_error
 from mse.ir import model as ir
 from mse.ir.evaluate import check_schedule
 from mse.ir.schedule import Occurrence, Schedule, to_ticks
 from mse.solve.bounds import MAX_SLOTS, atom_mentions, length_bounds, semantic_limit, slot_counts
+from mse.solve.chain import chained
 from mse.solve.cpsat.encode import Encoding, Frame, build
 from mse.solve.cpsat.engine import make_solver
 from mse.solve.cpsat.explain import whole_set_span
@@ -82,6 +88,10 @@ class CpSatSolver:
                 continue
             previous = schedules if request.diverse else []
             schedules.append(solve_one(model, request, seed, previous))
+            if stage is not None:  # rejection too costly (or missed): the chain from CP-SAT's timeline
+                schedules[-1] = chained(model, schedules[-1], seed, request.forbid, request.require)
+                yield Solution(schedules[-1], seed, "cpsat+chain")
+                continue
             yield Solution(schedules[-1], seed)
 
     def solve(self, model: ir.Model, request: SolveRequest) -> SolveResult:
@@ -92,10 +102,8 @@ class CpSatSolver:
         out as soon as its window is committed (and checked at the end)."""
         _validate(model, request)
         seed = derive_seed(request.seed, 0)
-        stage = _rejection(model, request)
-        drawn = stage.sample(seed) if stage is not None else None
-        if drawn is not None:  # the timeline :meth:`solutions` gives for this seed
-            yield from sorted(drawn.occurrences)
+        if applies(request):  # the timeline :meth:`solutions` gives for this seed, at once
+            yield from sorted(next(self.solutions(model, replace(request, count=1))).schedule.occurrences)
             return
         occurrences: list[Occurrence] = []
         for occurrence in _frames(model, request, seed, ()):

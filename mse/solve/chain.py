@@ -1,0 +1,278 @@
+"""The chain stage: a Markov chain whose stationary law is exactly the target (docs/sampler.md,
+"Chain").
+
+The target of every sampler is the prior (:mod:`mse.ir.prior_draw`, signals independent)
+conditioned on consistency.  Where rejection would almost never draw a consistent timeline
+(its pilot found it too costly), the walk's timeline (or CP-SAT's) starts this chain:
+Metropolis within Gibbs with *prior proposals*.  A move picks a *block* — one signal, or the
+signals one constraint links (redrawn at once: equalities and tight chains need it) — and
+redraws it from the prior given the rest of the timeline:
+
+* a once-only signal or a whole repetitive signal: a fresh prior draw of it.  The proposal is
+  the target's own conditional before the constraints, so the Metropolis-Hastings ratio is 1
+  on consistent timelines: the move is kept iff the timeline stays consistent;
+* a repetitive signal's occurrences whose starts fall in a time *window* ``[a, b]`` (at long
+  durations, where a whole redraw is never consistent): the signal's Poisson process with
+  dead time run from its state at ``a`` (free since the last kept stop) up to ``b``, and the
+  exact ratio of target and proposal densities (:func:`mse.ir.prior_draw.rate_integral`): the
+  terms that differ are the free time after the window up to the next kept start (or the end)
+  and whether the limit on occurrences was reached.  Times and windows are drawn whatever the
+  state, so every move leaves the target invariant, and so does any sequence of them.
+
+Consistency is decided by the one evaluator (:func:`mse.ir.evaluate.is_consistent`) on the
+sub-model of the constraints that mention the moved signals (the others cannot change truth
+value), over the occurrences of the signals those constraints and the moved signals'
+exclusive modalities name; the sub-models are built once per model.  ``--forbid`` signals are
+never drawn, a move that leaves a ``--require`` signal absent is rejected.
+
+The number of moves is fixed by the set and the duration (:data:`SWEEPS` sweeps, each one
+whole move per block and, for a block with repetitive signals, as many window moves as
+windows fit in the timeline), never by wall time: a seed gives the same timeline anywhere.
+"""
+
+from __future__ import annotations
+
+import bisect
+import math
+import random
+import weakref
+from collections.abc import Collection, Iterable
+from dataclasses import replace
+
+from mse.ir import model as ir
+from mse.ir.evaluate import is_consistent
+from mse.ir.prior_draw import RepetitiveDensity, prior_signal
+from mse.ir.profile import start_rate
+from mse.ir.schedule import TICKS_PER_SECOND, Occurrence, Schedule
+
+#: Sweeps after the start (each: every block once, and its windows at long durations) ...
+SWEEPS = 30
+#: ... up to this duration (seconds); past it a check costs in proportion to the timeline's
+#: occurrences and a sweep holds as many windows: SWEEPS x SWEEPS_SECONDS / duration sweeps,
+#: at least MIN_SWEEPS (an hour: 2 sweeps, 1.4-1.7 s CPU each on Greta's sets).
+SWEEPS_SECONDS = 60.0
+MIN_SWEEPS = 2
+#: A window holds on average about this many cycles (start, run, free) of its slowest signal,
+#: up to SWEEPS_SECONDS: small windows are often accepted, so that a chain leaves a mode (e.g.
+#: the chains of equalities of Greta's tension: from CP-SAT's timeline, 30 sweeps of windows of
+#: 2 cycles left a signal's rate 0.7 per 10 s from the target, of 0.5 cycle 0.1) ...
+WINDOW_CYCLES = 0.5
+#: ... past it, where each move's check costs in proportion to the timeline, fewer larger ones.
+LONG_WINDOW_CYCLES = 2.0
+#: Window moves per sweep of a block that holds once-only signals as well (Greta's regret at
+#: 60 s: 13 such blocks of 42 windows each made a timeline cost 1 s; at 10 s no block has more).
+MIXED_WINDOWS = 8
+
+Spans = list[Occurrence]
+
+
+def _start(occurrence: Occurrence) -> int:
+    return occurrence.start
+
+
+def _stop(occurrence: Occurrence) -> int:
+    return occurrence.stop
+
+
+class _Block:
+    """Signals moved together, the sub-model that checks a move of them and its signals."""
+
+    __slots__ = ("free", "local", "names", "relevant", "submodel", "window", "windows")
+
+    def __init__(self, model: ir.Model, names: tuple[str, ...], window: int) -> None:
+        self.names = names
+        moved = set(names)
+        constraints = tuple(c for c in model.constraints if ir.mentioned_signals(c.expr) & moved)
+        exclusive = model.exclusive_modalities
+        modalities = {model.signal(n).modality for n in names} & exclusive
+        relevant = set(moved)
+        for constraint in constraints:
+            relevant |= ir.mentioned_signals(constraint.expr)
+        #: Signals whose every occurrence the check needs (the moved ones and those their
+        #: constraints mention) ...
+        self.relevant = tuple(sorted(relevant))
+        #: ... and those only an exclusive modality links to them: only their occurrences that
+        #: meet the changed time span can change the verdict (the others were consistent before).
+        self.local = tuple(sorted({s.id for s in model.signals if s.modality in modalities} - relevant))
+        self.submodel = replace(model, constraints=constraints)
+        #: No constraint and no exclusive modality touches the block: every prior draw of it is
+        #: consistent with the rest (lengths, counts and order are the prior's by construction).
+        self.free = not constraints and len(self.relevant) + len(self.local) == len(names)
+        #: Window length in ticks (0: whole redraws only) and window moves per sweep.
+        self.window = window
+        self.windows = 0
+
+
+class Chain:
+    """The chain for one model, duration (ticks), forbidden and required signals."""
+
+    def __init__(self, model: ir.Model, duration: int, absent: Collection[str] = (),
+                 require: Collection[str] = ()) -> None:
+        self.model, self.duration = model, duration
+        self.require = frozenset(require)
+        kept = [s for s in model.signals if s.id not in set(absent)]
+        self.draws = {s.id: prior_signal(s, duration) for s in kept}
+        self.densities = {s.id: RepetitiveDensity(s, duration) for s in kept if s.repetitive}
+        blocks: list[tuple[str, ...]] = [(s.id,) for s in kept]
+        known = set(blocks)
+        names = set(self.draws)
+        for constraint in model.constraints:
+            linked = tuple(sorted(ir.mentioned_signals(constraint.expr) & names))
+            if len(linked) > 1 and linked not in known:
+                known.add(linked)
+                blocks.append(linked)
+        self.blocks = tuple(_Block(model, block, self._window(block)) for block in blocks)
+        for block in self.blocks:
+            if block.window:
+                # As many windows as fit; a block that also moves once-only signals (redrawn
+                # whole at each of its window moves) at most MIXED_WINDOWS: their own moves
+                # and the repetitive signals' blocks do most of the mixing.
+                fit = math.ceil(duration / block.window)
+                mixed = any(name not in self.densities for name in block.names)
+                block.windows = min(fit, MIXED_WINDOWS) if mixed else fit
+
+    def _window(self, names: tuple[str, ...]) -> int:
+        """Window length for a block: WINDOW_CYCLES (LONG_WINDOW_CYCLES) mean cycles of its
+        slowest repetitive signal; 0 when the block has none or a window would cover the
+        timeline."""
+        longest = 0.0
+        for name in names:
+            density = self.densities.get(name)
+            if density is None:
+                continue
+            signal = self.model.signal(name)
+            rate = max(1e-9, 0.5 * (start_rate(signal, 0.0) + start_rate(signal, 1.0)))
+            draw = self.draws[name]
+            length = draw.shortest / TICKS_PER_SECOND if draw.longest is None else (
+                (draw.shortest + draw.longest) / 2 / TICKS_PER_SECOND)
+            cycles = WINDOW_CYCLES if self.duration <= SWEEPS_SECONDS * TICKS_PER_SECOND else LONG_WINDOW_CYCLES
+            longest = max(longest, cycles * (1 / rate + length) * TICKS_PER_SECOND)
+        if longest <= 0 or longest >= self.duration:
+            return 0
+        return max(1, int(longest))
+
+    def sweeps(self) -> int:
+        """Sweeps of one run: a deterministic function of the duration."""
+        seconds = self.duration / TICKS_PER_SECOND
+        if seconds <= SWEEPS_SECONDS:
+            return SWEEPS
+        return max(MIN_SWEEPS, math.ceil(SWEEPS * SWEEPS_SECONDS / seconds))
+
+    def run(self, schedule: Schedule, rng: random.Random, sweeps: int | None = None) -> Schedule:
+        """``schedule`` (consistent) after ``sweeps`` sweeps of the blocks with windows
+        (default: :meth:`sweeps`); the other blocks (once-only signals, and repetitive ones
+        where no window fits), whose moves cost no more at an hour than at 10 s, move
+        SWEEPS / :meth:`sweeps` times as often (at an hour 15 times: 2 sweeps of them left
+        Greta's relief 0.4 of a signal per timeline from the target)."""
+        windowed = self.sweeps() if sweeps is None else sweeps
+        total = windowed * SWEEPS // self.sweeps()
+        state: dict[str, Spans] = {name: [] for name in self.model.signal_by_id}
+        for occurrence in sorted(schedule.occurrences):
+            state.setdefault(occurrence.signal, []).append(occurrence)
+        for index in range(total):
+            with_windows = index * windowed // total != (index + 1) * windowed // total
+            for block in self.blocks:
+                if block.window and not with_windows:
+                    continue
+                self._whole(block, state, rng)
+                for _ in range(block.windows):
+                    self._windowed(block, state, rng)
+        return Schedule.of(schedule.duration, (o for spans in state.values() for o in spans))
+
+    # -- moves -------------------------------------------------------------------------------
+    def _whole(self, block: _Block, state: dict[str, Spans], rng: random.Random) -> None:
+        proposal: dict[str, Spans] = {}
+        for name in block.names:
+            draw = self.draws[name].draw(rng)
+            proposal[name] = draw if isinstance(draw, list) else ([] if draw is None else [draw])
+        self._accept_if_consistent(block, state, proposal)
+
+    def _windowed(self, block: _Block, state: dict[str, Spans], rng: random.Random) -> None:
+        duration, length = self.duration, block.window
+        first = rng.randrange(-length + 1, duration)
+        low, high = max(1, first), first + length - 1  # starts in [low, high]
+        proposal: dict[str, Spans] = {}
+        log_ratio = 0.0
+        for name in block.names:
+            density = self.densities.get(name)
+            if density is None:  # a once-only partner: redrawn whole from the prior (ratio 1)
+                drawn = self.draws[name].draw(rng)
+                proposal[name] = [] if drawn is None else [drawn]  # type: ignore[list-item]
+                continue
+            spans = state[name]
+            first_inside = bisect.bisect_left(spans, low, key=_start)
+            first_after = bisect.bisect_right(spans, high, key=_start)
+            before, inside, after = spans[:first_inside], spans[first_inside:first_after], spans[first_after:]
+            top = min(high, density.last)
+            free = max(before[-1].stop if before else 0, low - 1)
+            remaining = None if density.limit is None else density.limit - len(before) - len(after)
+            if remaining is not None and remaining < len(inside):  # cannot happen on a valid state
+                return
+            drawn_inside = density.run(rng, free, top, remaining)
+            new = before + drawn_inside + after
+            gain = density.window_term(free, drawn_inside, after, top, remaining, len(new))
+            if gain is None:  # overlaps the next kept occurrence: density 0
+                return
+            kept = density.window_term(free, inside, after, top, remaining, len(spans))
+            # (None: the start, the walk's or CP-SAT's, is outside the prior's support, e.g. two
+            # occurrences back to back; any consistent proposal is then accepted.)
+            log_ratio += math.inf if kept is None else gain - kept
+            proposal[name] = new
+        if log_ratio < 0 and rng.random() >= math.exp(log_ratio):
+            return
+        self._accept_if_consistent(block, state, proposal)
+
+    def _accept_if_consistent(self, block: _Block, state: dict[str, Spans], proposal: dict[str, Spans]) -> bool:
+        if all(spans == state[name] for name, spans in proposal.items()):
+            return True  # nothing changes (often: an absent once-only signal drawn absent again)
+        for name, spans in proposal.items():
+            if not spans and name in self.require:
+                return False
+        if block.free:  # nothing but the signals' own rules, which the prior's draws keep
+            state.update(proposal)
+            return True
+        occurrences: list[Occurrence] = []
+        for name in block.relevant:
+            occurrences.extend(proposal[name] if name in proposal else state.get(name, ()))
+        if block.local:
+            changed = [o for name, spans in proposal.items() for o in set(spans).symmetric_difference(state[name])]
+            if changed:
+                low, high = min(o.start for o in changed), max(o.stop for o in changed)
+                for name in block.local:
+                    spans = state[name]
+                    occurrences.extend(spans[bisect.bisect_right(spans, low, key=_stop):
+                                             bisect.bisect_left(spans, high, key=_start)])
+        if not is_consistent(block.submodel, Schedule(self.duration, tuple(occurrences))):
+            return False
+        state.update(proposal)
+        return True
+
+
+# One chain per model object, duration and request (identity, as the evaluator's checkers).
+_CHAINS: dict[int, tuple[weakref.ref[ir.Model], dict[tuple[object, ...], Chain]]] = {}
+_CHAINS_LIMIT = 64
+
+
+def chain_for(model: ir.Model, duration: int, absent: Iterable[str] = (), require: Iterable[str] = ()) -> Chain:
+    """The chain of ``model`` for this duration and request (built once, kept per model)."""
+    entry = _CHAINS.get(id(model))
+    if entry is None or entry[0]() is not model:
+        if len(_CHAINS) >= _CHAINS_LIMIT:
+            _CHAINS.clear()
+        entry = _CHAINS[id(model)] = (weakref.ref(model), {})
+    key = (duration, frozenset(absent), frozenset(require))
+    chain = entry[1].get(key)
+    if chain is None:
+        if len(entry[1]) >= _CHAINS_LIMIT:
+            entry[1].clear()
+        chain = entry[1][key] = Chain(model, duration, key[1], key[2])
+    return chain
+
+
+def chained(model: ir.Model, schedule: Schedule, seed: int, absent: Iterable[str] = (),
+            require: Iterable[str] = ()) -> Schedule:
+    """``schedule`` (consistent) after the chain's moves for ``seed`` (its own random stream)."""
+    chain = chain_for(model, schedule.duration, absent, require)
+    return chain.run(schedule, random.Random(f"chain/{seed}"))
+
+
