@@ -276,7 +276,7 @@ class RepetitiveDensity:
                 break
             if rng.random() * peak > start_rate(signal, start / duration):
                 continue
-            stop = start + _length(rng, draw.shortest, draw.longest, start, duration)
+            stop = start + _length(rng.random, draw.shortest, draw.longest, start, duration)
             found.append(Occurrence(start, stop, draw.name))
             t = stop / TICKS_PER_SECOND
         return found
