@@ -55,7 +55,7 @@ def test_window_moves_keep_the_prior_of_a_repetitive_signal(limit: int | None) -
     state: dict[str, list[Occurrence]] = {"blink": []}
     kept = []
     for index in range(16_000):
-        chain._windowed(block, state, rng)  # the windows alone: no whole redraw
+        chain._windowed(block, state, rng, [0])  # the windows alone: no whole redraw
         if index >= 1000 and index % 2 == 0:
             kept.append(Schedule.of(duration, state["blink"]))
     walked = _summary(kept)
