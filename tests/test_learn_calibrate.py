@@ -46,8 +46,28 @@ def test_a_repetitive_signal_is_calibrated_on_presence_where_its_absence_is_meas
 
 def test_the_distance_counts_a_counted_signals_presence() -> None:
     target = Profile({"a": 2.0}, {"a": 0.5}, {"a": 1.0})
-    assert distance(target, Profile({"a": 2.0}, {"a": 0.5}, {"a": 1.0})) == 0
-    assert distance(target, Profile({"a": 2.0}, {"a": 0.5}, {"a": 0.8})) == pytest.approx(0.2)
+    assert distance(target, Profile({"a": 2.0}, {"a": 0.5}, {"a": 1.0}), 300) == 0
+    assert distance(target, Profile({"a": 2.0}, {"a": 0.5}, {"a": 0.8}), 300) == pytest.approx((0.2 / 0.02) ** 2)
+
+
+def test_the_distance_weighs_differences_by_their_tolerance_not_by_the_rate() -> None:
+    """random21 kept a round with the common s15 0.11 off (corpus 0.75) for one where a rare
+    signal was 0.04 off: relative differences (0.04 / 0.05) outweighed it (0.11 / 0.75).  In
+    units of the sampling tolerance the common signal's difference counts more."""
+    target = Profile({"common": 0.75, "rare": 0.05}, {"common": 0.5, "rare": 0.5}, {"common": 0.75, "rare": 0.05})
+    common_off = Profile({"common": 0.64, "rare": 0.05}, target.mean_start, {"common": 0.64, "rare": 0.05})
+    rare_off = Profile({"common": 0.75, "rare": 0.01}, target.mean_start, {"common": 0.75, "rare": 0.01})
+    assert distance(target, common_off, 300) > distance(target, rare_off, 300)
+
+
+def test_a_steady_slow_response_is_followed_by_a_secant_step() -> None:
+    """A rate that grew 0.44 -> 0.75 for a level 2.7 times as high answers with about half
+    the change of level (on log scales); a response that went the wrong way, or a move too
+    small to tell, gives none (a half step then)."""
+    assert calibrate_module.response(0.35, 0.75, 0.128, 0.44) == pytest.approx(0.53, abs=0.01)
+    assert calibrate_module.response(0.35, 0.40, 0.128, 0.44) is None
+    assert calibrate_module.response(0.130, 0.75, 0.128, 0.44) is None
+    assert calibrate_module.response(0.35, 0.441, 0.128, 0.44) == calibrate_module.RESPONSE_RANGE[0]
 
 
 def test_a_signal_within_calibrations_tolerance_is_not_stuck(monkeypatch: pytest.MonkeyPatch) -> None:
