@@ -70,6 +70,23 @@ def test_a_steady_slow_response_is_followed_by_a_secant_step() -> None:
     assert calibrate_module.response(0.35, 0.441, 0.128, 0.44) == calibrate_module.RESPONSE_RANGE[0]
 
 
+def test_a_mean_start_the_sampler_does_not_follow_is_not_shifted_again() -> None:
+    """random5's s17: its profile's mean start moved later round after round (the corpus' was
+    later than the sampled one) while the sampled start stayed put and its rate fell from 0.89
+    to 0.62 (candidacies moved to where they were lost).  A shift the sampled start did not
+    follow is not made again; one it followed is."""
+    before = ir.Signal(id="a", modality="face", lexeme="lex=a", min_duration=1.0, max_duration=1.0,
+                       probability_start=0.5, probability_end=0.1, repetitivity=1)
+    after = ir.Signal(id="a", modality="face", lexeme="lex=a", min_duration=1.0, max_duration=1.0,
+                      probability_start=0.3, probability_end=0.3, repetitivity=1)
+    then = Profile({"a": 0.8}, {"a": 0.40}, {"a": 0.8})
+    stayed = Profile({"a": 0.7}, {"a": 0.41}, {"a": 0.7})
+    followed = Profile({"a": 0.8}, {"a": 0.45}, {"a": 0.8})
+    assert not calibrate_module._follows(after, before, stayed, then)
+    assert calibrate_module._follows(after, before, followed, then)
+    assert calibrate_module._follows(before, before, stayed, then)  # no shift: nothing to tell
+
+
 def test_a_signal_within_calibrations_tolerance_is_not_stuck(monkeypatch: pytest.MonkeyPatch) -> None:
     """random14's s3 (mandatory, 1.35 starts per sequence) ended calibration 0.13 off, within
     its tolerance (0.134) but above STUCK_ERROR relative: its ``exists(s3)`` was released and

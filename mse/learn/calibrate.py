@@ -69,6 +69,9 @@ SMALLEST_START_RESPONSE = 0.25
 SMALLEST_MOVE = 0.05
 #: A signal whose difference changed sign has its steps halved, down to this share.
 SMALLEST_DAMPING = 0.25
+#: A round this many times as far from the corpus as the closest one so far is a step too
+#: far: the next one starts again from the closest, with every step halved.
+BACKTRACK = 2.0
 #: Calibration goes on past ``rounds`` while the last round is the closest so far, up to
 #: this many times ``rounds``.
 EXTRA_ROUNDS = 2
@@ -198,7 +201,7 @@ def calibrate(
     target = corpus_profile(corpus, counted)
     signals = [s.id for s in model.signals]
     duration = to_seconds(corpus.typical_duration)
-    best: tuple[float, ir.Model, dict[str, float]] | None = None
+    best: tuple[float, ir.Model, dict[str, float], Profile] | None = None
     notes: list[str] = []
     current = with_late(model, late)
     damping = dict.fromkeys(signals, 1.0)
@@ -218,7 +221,7 @@ def calibrate(
             score = distance(target, sampled, samples)
             errors = {s: target.rate[s] - sampled.rate[s] for s in signals}
             if best is None or score < best[0]:
-                best, best_round = (score, current, errors), round_number
+                best, best_round = (score, current, errors, sampled), round_number
             worst = max(signals, key=lambda s: abs(errors[s]), default=None)
             notes.append(f"round {round_number}: distance {score:.3f}"
                          + (f", largest rate difference {abs(errors[worst]):.3f} ({worst})" if worst else ""))
@@ -229,6 +232,13 @@ def calibrate(
             if (all(abs(errors[s]) <= tolerance(target.rate[s], samples) for s in signals) or round_number >= limit
                     or round_number - best_round >= PATIENCE):
                 break
+            if score > BACKTRACK * best[0]:
+                # A step far past the closest round (a cluster of signals tied by rules flips
+                # together: random16's s10, s12 and s16 went from 0.06, 0.55, 0.45 to 1, 1, 0):
+                # back to the closest round, every step halved.
+                _, current, errors, sampled = best
+                damping = {s: max(SMALLEST_DAMPING, damping[s] / 2) for s in signals}
+                last, previous = None, {}
             for signal in signals:
                 if signal in previous and previous[signal] * errors[signal] < 0:
                     damping[signal] = max(SMALLEST_DAMPING, damping[signal] / 2)
