@@ -40,8 +40,9 @@ from mse.learn.signals import profile_from, profile_mean
 #: A round whose every signal is this close to the corpus (or within twice its sampling
 #: error, if larger) ends the calibration.
 STOP_ERROR = 0.02
-#: Rounds without a new closest one that end the calibration (the rates no longer follow
-#: the probabilities: a rule forces or blocks a signal, see :func:`release_rules`).
+#: Rounds without a new closest one after which calibration starts again from the closest
+#: with every step halved, and ends once the steps are at their smallest (the rates no longer
+#: follow the probabilities: a rule forces or blocks a signal, see :func:`release_rules`).
 PATIENCE = 3
 #: Steps of the level, as powers of the ratio of rates: half at first (the square root of the
 #: ratio), halved again at each change of direction, never below SMALLEST_STEP.  Full first
@@ -54,7 +55,7 @@ FIRST_STEP = 0.5
 #: less than in proportion to their level where constraints hold them back (random21's s15:
 #: 0.44 → 0.75 for a level 2.7 times as high, a response of 0.53, so half steps of the ratio
 #: took 8 rounds to cover what one secant step does).
-SECANT_SHARE = 0.8
+SECANT_SHARE = 0.5
 #: Responses below this are taken as this (a nearly stuck signal would otherwise jump to
 #: its cap in one round), above the upper bound as that.
 RESPONSE_RANGE = (0.3, 2.0)
@@ -230,12 +231,12 @@ def calibrate(
             if round_number == limit and best_round == round_number and limit < EXTRA_ROUNDS * rounds:
                 limit += 1
             if (all(abs(errors[s]) <= tolerance(target.rate[s], samples) for s in signals) or round_number >= limit
-                    or round_number - best_round >= PATIENCE):
+                    or (round_number - best_round >= PATIENCE and max(damping.values()) <= SMALLEST_DAMPING)):
                 break
-            if score > BACKTRACK * best[0]:
+            if score > BACKTRACK * best[0] or round_number - best_round >= PATIENCE:
                 # A step far past the closest round (a cluster of signals tied by rules flips
-                # together: random16's s10, s12 and s16 went from 0.06, 0.55, 0.45 to 1, 1, 0):
-                # back to the closest round, every step halved.
+                # together: random16's s10, s12 and s16 went from 0.06, 0.55, 0.45 to 1, 1, 0),
+                # or rounds without progress: back to the closest round, every step halved.
                 _, current, errors, sampled = best
                 damping = {s: max(SMALLEST_DAMPING, damping[s] / 2) for s in signals}
                 last, previous = None, {}
@@ -314,7 +315,7 @@ def _adjusted(model: ir.Model, target: Profile, sampled: Profile, damping: Mappi
             factor = (want / got) ** (step * damping[signal.id])
             level = level * min(LARGEST_FACTOR, max(1 / LARGEST_FACTOR, factor))
             if last is None or signal.id not in before or _follows(signal, before[signal.id], sampled, last[1]):
-                mean = mean + (target.mean_start[signal.id] - sampled.mean_start[signal.id]) / 2
+                mean = mean + (target.mean_start[signal.id] - sampled.mean_start[signal.id]) / 2 * damping[signal.id]
         else:
             level = level * 2 + 0.01
         if signal.id in late:
