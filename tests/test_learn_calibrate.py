@@ -146,9 +146,10 @@ def learned_from_random_set(seed: int) -> tuple[list[Any], LearnResult]:
 @pytest.mark.slow
 @pytest.mark.parametrize("seed", [
     pytest.param(7, marks=pytest.mark.xfail(
-        reason="issue 32, open: with the walk's choices weighed by the prior (branch walkbias) calibration does "
-               "not converge on random7 in 8 rounds (largest difference 0.27 on s1) and s6 samples back at "
-               "0.84 against 0.99", strict=False)),
+        reason="issue 32, open: random7's repetitive s6 is in 298 of the 300 corpus timelines with 1.7 starts "
+               "each, so it is calibrated on its starts (COUNTED_PRESENCE); at that count the sampler shows it in "
+               "0.88 of the timelines (one level cannot give both the corpus' count and its presence), and "
+               "exists(s6) holds in too few sequences to be learned at --confidence 1", strict=False)),
     14,
 ])
 def test_random_sets_sample_back_at_the_corpus_rates(seed: int) -> None:

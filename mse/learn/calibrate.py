@@ -9,15 +9,21 @@ compare each signal's rate (the fraction of sequences where it occurs; starts pe
 for a repetitive signal present in nearly all of them, :func:`counted_signals`) and mean
 relative start with the corpus, and adjust every signal's profile at once:
 
-* its level by the ratio of rates (``want / got``), a half step (its square root) at first
-  and half as large again after each change of direction (the signals interact through the constraints, and a
-  signal's step must not oscillate), doubled when it never occurred; the level stays in
-  what the profile can be (at most 1, at most 0.5 when ``probability_start`` is held at 0);
-* its mean start by half the difference.
+* its level by a power of the ratio of rates (``want / got``): a half step (its square root)
+  at first, then half the step its measured response says reaches the corpus' rate
+  (:func:`response`), halved after each change of direction (the signals interact through
+  the constraints, and a signal's step must not oscillate), doubled when it never occurred;
+  the level stays in what the profile can be (at most 1, at most 0.5 when
+  ``probability_start`` is held at 0);
+* its mean start by half the difference, unless the sampled start did not follow the last
+  shift (:func:`_follows`).
 
-Rounds stop when every signal is within its tolerance (:func:`tolerance`: twice the sampling
-error of the round, at least :data:`STOP_ERROR`), after :data:`PATIENCE` rounds without
-progress or after ``rounds`` adjustments; the round closest to the corpus is kept.  Every
+A round far past the closest one (:data:`BACKTRACK`), or :data:`PATIENCE` rounds without a
+closer one, start again from the closest round with every step halved.  Rounds stop when
+every signal is within its tolerance (:func:`tolerance`: twice the sampling error of the
+round, at least :data:`STOP_ERROR`), when the steps are at their smallest and still nothing
+progresses, or after ``rounds`` adjustments (more while the last is the closest so far,
+:data:`EXTRA_ROUNDS`); the round closest to the corpus (:func:`distance`) is kept.  Every
 round samples the same seeds (common random numbers: a difference between two rounds is the
 probabilities', not the draws'), so the result is reproduced by the seed.
 
