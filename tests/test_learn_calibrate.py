@@ -4,6 +4,8 @@ learn → sample round trip on random sets where each of these went wrong (issue
 
 from __future__ import annotations
 
+import dataclasses
+import math
 import random
 from typing import Any
 
@@ -46,8 +48,67 @@ def test_a_repetitive_signal_is_calibrated_on_presence_where_its_absence_is_meas
 
 def test_the_distance_counts_a_counted_signals_presence() -> None:
     target = Profile({"a": 2.0}, {"a": 0.5}, {"a": 1.0})
-    assert distance(target, Profile({"a": 2.0}, {"a": 0.5}, {"a": 1.0})) == 0
-    assert distance(target, Profile({"a": 2.0}, {"a": 0.5}, {"a": 0.8})) == pytest.approx(0.2)
+    assert distance(target, Profile({"a": 2.0}, {"a": 0.5}, {"a": 1.0}), 300) == 0
+    assert distance(target, Profile({"a": 2.0}, {"a": 0.5}, {"a": 0.8}), 300) == pytest.approx((0.2 / 0.02) ** 2)
+
+
+def test_the_distance_weighs_differences_by_their_tolerance_not_by_the_rate() -> None:
+    """random21 kept a round with the common s15 0.11 off (corpus 0.75) for one where a rare
+    signal was 0.04 off: relative differences (0.04 / 0.05) outweighed it (0.11 / 0.75).  In
+    units of the sampling tolerance the common signal's difference counts more."""
+    target = Profile({"common": 0.75, "rare": 0.05}, {"common": 0.5, "rare": 0.5}, {"common": 0.75, "rare": 0.05})
+    common_off = Profile({"common": 0.64, "rare": 0.05}, target.mean_start, {"common": 0.64, "rare": 0.05})
+    rare_off = Profile({"common": 0.75, "rare": 0.01}, target.mean_start, {"common": 0.75, "rare": 0.01})
+    assert distance(target, common_off, 300) > distance(target, rare_off, 300)
+
+
+def test_a_steady_slow_response_is_followed_by_a_secant_step() -> None:
+    """A rate that grew 0.44 -> 0.75 for a level 2.7 times as high answers with about half
+    the change of level (on log scales); a response that went the wrong way, or a move too
+    small to tell, gives none (a half step then)."""
+    assert calibrate_module.response(0.35, 0.75, 0.128, 0.44) == pytest.approx(0.53, abs=0.01)
+    assert calibrate_module.response(0.35, 0.40, 0.128, 0.44) is None
+    assert calibrate_module.response(0.130, 0.75, 0.128, 0.44) is None
+    assert calibrate_module.response(0.35, 0.441, 0.128, 0.44) == calibrate_module.RESPONSE_RANGE[0]
+
+
+def test_a_mean_start_the_sampler_does_not_follow_is_not_shifted_again() -> None:
+    """random5's s17: its profile's mean start moved later round after round (the corpus' was
+    later than the sampled one) while the sampled start stayed put and its rate fell from 0.89
+    to 0.62 (candidacies moved to where they were lost).  A shift the sampled start did not
+    follow is not made again; one it followed is."""
+    before = ir.Signal(id="a", modality="face", lexeme="lex=a", min_duration=1.0, max_duration=1.0,
+                       probability_start=0.5, probability_end=0.1, repetitivity=1)
+    after = ir.Signal(id="a", modality="face", lexeme="lex=a", min_duration=1.0, max_duration=1.0,
+                      probability_start=0.3, probability_end=0.3, repetitivity=1)
+    then = Profile({"a": 0.8}, {"a": 0.40}, {"a": 0.8})
+    stayed = Profile({"a": 0.7}, {"a": 0.41}, {"a": 0.7})
+    followed = Profile({"a": 0.8}, {"a": 0.45}, {"a": 0.8})
+    assert not calibrate_module._follows(after, before, stayed, then)
+    assert calibrate_module._follows(after, before, followed, then)
+    assert calibrate_module._follows(before, before, stayed, then)  # no shift: nothing to tell
+
+
+def test_calibration_follows_a_slow_response_next_to_a_jump(monkeypatch: pytest.MonkeyPatch) -> None:
+    """Signals whose rate grows as the square root of their level (held back by constraints)
+    reach the corpus' rate in 5 adjustments (from 0.17 and 0.13 of it), one of them just
+    below a level past which its rate jumps to 1 (a cluster flipping)."""
+    corpus = _corpus({"slow": 75, "cliff": 40}, size=100, starts=1)
+
+    def fake(model: ir.Model, duration: float, samples: int, seed: int, counted: Any = ()) -> Profile:
+        level = {s.id: (s.probability_start + s.probability_end) / 2 for s in model.signals}
+        rate = {"slow": min(1.0, 0.8 * math.sqrt(level["slow"])),
+                "cliff": 1.0 if level["cliff"] > 0.5 else 0.6 * math.sqrt(level["cliff"])}
+        return Profile(rate, {"slow": 0.2, "cliff": 0.2}, rate)
+
+    monkeypatch.setattr(calibrate_module, "sample_profile", fake)
+    start = _model(["slow", "cliff"])
+    start = ir.Model("t", tuple(dataclasses.replace(s, probability_start=0.05, probability_end=0.05, repetitivity=0)
+                                for s in start.signals), (), ())
+    result = calibrate_module.calibrate(start, corpus, samples=300)
+    assert abs(result.errors["slow"]) <= tolerance(0.75, 300), result.notes
+    assert abs(result.errors["cliff"]) <= tolerance(0.40, 300), result.notes
+    assert len(result.notes) <= 6
 
 
 def test_a_signal_within_calibrations_tolerance_is_not_stuck(monkeypatch: pytest.MonkeyPatch) -> None:
@@ -109,10 +170,12 @@ def learned_from_random_set(seed: int) -> tuple[list[Any], LearnResult]:
 @pytest.mark.slow
 @pytest.mark.parametrize("seed", [
     pytest.param(7, marks=pytest.mark.xfail(
-        reason="issue 32, open: with the walk's choices weighed by the prior (branch walkbias) calibration does "
-               "not converge on random7 in 8 rounds (largest difference 0.27 on s1) and s6 samples back at "
-               "0.84 against 0.99", strict=False)),
+        reason="issue 32, open: random7's repetitive s6 is in 298 of the 300 corpus timelines with 1.7 starts "
+               "each, so it is calibrated on its starts (COUNTED_PRESENCE); at that count the sampler shows it in "
+               "0.88 of the timelines (one level cannot give both the corpus' count and its presence), and "
+               "exists(s6) holds in too few sequences to be learned at --confidence 1", strict=False)),
     14,
+    21,
 ])
 def test_random_sets_sample_back_at_the_corpus_rates(seed: int) -> None:
     """random7 (s6 0.95 -> 0.82: calibrated on its starts) and random14 (s3 1.00 -> 0.86: its
