@@ -68,30 +68,12 @@ def sample_reference(model: ir.Model, duration: float, *, wanted: int, seed: int
 
 def sample_chain_reference(model: ir.Model, duration: float, *, wanted: int, seed: int, chains: int = 4,
                            burn: int = 20, thin: int = 2) -> Reference:
-    """The target by its Markov chain (mse/solve/chain.py), where rejection accepts too few:
-    ``chains`` chains, each from another consistent timeline (the default sampler without its
-    rejection stage: the walk's, or CP-SAT's, seeds ``seed + i``), ``burn`` sweeps dropped,
-    then one timeline every ``thin`` sweeps until ``wanted`` are kept in all.  ``draws`` counts
-    the sweeps run."""
-    from mse.solve.chain import Chain
-    from mse.solve.protocol import SolveRequest, get_solver
+    """The target by its Markov chain, where rejection accepts too few
+    (:func:`mse.solve.chain.chain_samples`: ``chains`` chains from the walk's timelines, ``burn``
+    sweeps dropped, then one timeline every ``thin`` sweeps).  ``draws`` counts the sweeps run."""
+    from mse.solve.chain import chain_samples
 
-    ticks = to_ticks(duration)
-    chain = Chain(model, ticks)
-    solver = get_solver("greedy")
-    kept: list[Schedule] = []
-    sweeps = 0
-    for index in range(chains):
-        request = SolveRequest(duration=duration, seed=seed + index, rejection=False)
-        state = solver.solve(model, request).solutions[0].schedule
-        rng = random.Random(f"chain-reference/{seed}/{index}")
-        state = chain.run(state, rng, burn)
-        sweeps += burn
-        share = wanted // chains + (1 if index < wanted % chains else 0)
-        for _ in range(share):
-            state = chain.run(state, rng, thin)
-            sweeps += thin
-            kept.append(state)
+    kept, sweeps = chain_samples(model, duration, wanted, seed, chains=chains, burn=burn, thin=thin)
     return Reference(tuple(kept), sweeps)
 
 

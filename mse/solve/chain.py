@@ -279,6 +279,39 @@ def chain_for(model: ir.Model, duration: int, absent: Iterable[str] = (), requir
     return chain
 
 
+def chain_samples(model: ir.Model, duration: float, count: int, seed: int, *, chains: int = 4,
+                  burn: int = SWEEPS, thin: int = 1) -> tuple[list[Schedule], int]:
+    """``count`` timelines of the chain's stationary law (the target) from a few long chains,
+    and the sweeps run: ``chains`` chains, each from another consistent timeline (the default
+    sampler without its rejection stage, so without the chain: the walk's, or CP-SAT's, seeds
+    ``seed + i``), ``burn`` sweeps dropped, then one timeline every ``thin`` sweeps.  Kept
+    timelines of one chain are correlated, but their rates estimate the target's for a small
+    part of the sweeps that ``count`` chained timelines cost (one burn-in per chain instead
+    of one per timeline): the bench's reference where rejection accepts too few, and what
+    ``mse learn``'s calibration measures where the default sampler chains."""
+    from mse.ir.schedule import to_ticks
+    from mse.solve.protocol import SolveRequest, get_solver
+
+    chain = Chain(model, to_ticks(duration))
+    solver = get_solver("greedy")
+    kept: list[Schedule] = []
+    sweeps = 0
+    for index in range(chains):
+        share = count // chains + (1 if index < count % chains else 0)
+        if not share:
+            continue
+        request = SolveRequest(duration=duration, seed=seed + index, rejection=False)
+        state = solver.solve(model, request).solutions[0].schedule
+        rng = random.Random(f"chain-reference/{seed}/{index}")
+        state = chain.run(state, rng, burn)
+        sweeps += burn
+        for _ in range(share):
+            state = chain.run(state, rng, thin)
+            sweeps += thin
+            kept.append(state)
+    return kept, sweeps
+
+
 def chained(model: ir.Model, schedule: Schedule, seed: int, absent: Iterable[str] = (),
             require: Iterable[str] = ()) -> Schedule:
     """``schedule`` (consistent) after the chain's moves for ``seed`` (its own random stream)."""
