@@ -199,6 +199,7 @@ def sample_profile(model: ir.Model, duration: float, samples: int, seed: int,
     from mse.solve.rejection import Rejection, applies
 
     request = SolveRequest(duration=duration, seed=seed, count=samples)
+    schedules: Sequence[Schedule]
     if applies(request) and not Rejection(model, request).budget.draws:
         schedules, _ = chain_samples(model, duration, samples, seed)
     else:
