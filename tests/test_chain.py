@@ -20,8 +20,8 @@ from bench.evaluation.reference import sample_chain_reference, sample_reference,
 from mse.ir import model as ir
 from mse.ir.evaluate import check_schedule
 from mse.ir.prior_draw import PriorDraw, RepetitiveDensity
-from mse.ir.schedule import Occurrence, Schedule
-from mse.solve.chain import Chain, chained
+from mse.ir.schedule import Schedule
+from mse.solve.chain import Chain, _Run, chained
 from mse.solve.protocol import NoSolution, SolveRequest, get_solver
 from tests.strategies import models
 
@@ -52,12 +52,12 @@ def test_window_moves_keep_the_prior_of_a_repetitive_signal(limit: int | None) -
     chain = Chain(model, duration)
     [block] = chain.blocks
     assert block.window and block.free
-    state: dict[str, list[Occurrence]] = {"blink": []}
+    run = _Run({"blink": []})
     kept = []
     for index in range(16_000):
-        chain._windowed(block, state, rng, [0])  # the windows alone: no whole redraw
+        chain._windowed(block, run, rng)  # the windows alone: no whole redraw
         if index >= 1000 and index % 2 == 0:
-            kept.append(Schedule.of(duration, state["blink"]))
+            kept.append(Schedule.of(duration, run.state["blink"]))
     walked = _summary(kept)
     assert walked[0] == pytest.approx(drawn[0], abs=0.1)
     assert walked[1] == pytest.approx(drawn[1], abs=0.15)

@@ -40,16 +40,16 @@ from collections.abc import Collection, Iterable
 from dataclasses import replace
 
 from mse.ir import model as ir
-from mse.ir.evaluate import is_consistent
+from mse.ir.evaluate import constraints_hold, is_consistent
 from mse.ir.prior_draw import RepetitiveDensity, prior_signal
 from mse.ir.profile import start_rate
 from mse.ir.schedule import TICKS_PER_SECOND, Occurrence, Schedule
 
 #: Sweeps after the start (each: every block once, and its windows at long durations) ...
 SWEEPS = 30
-#: ... up to this duration (seconds); past it a check costs in proportion to the timeline's
-#: occurrences and a sweep holds as many windows: SWEEPS x SWEEPS_SECONDS / duration sweeps,
-#: at least MIN_SWEEPS (an hour: 2 sweeps, 1.4-1.7 s CPU each on Greta's sets).
+#: ... up to this duration (seconds); past it a sweep holds as many windows as fit in the
+#: timeline (its cost grows with the duration): SWEEPS x SWEEPS_SECONDS / duration sweeps, at
+#: least MIN_SWEEPS (an hour: 2 sweeps, 0.1-0.3 s of CPU each on the chained sets).
 SWEEPS_SECONDS = 60.0
 MIN_SWEEPS = 2
 #: A window holds on average about this many cycles (start, run, free) of its slowest signal,
@@ -57,20 +57,21 @@ MIN_SWEEPS = 2
 #: the chains of equalities of Greta's tension: from CP-SAT's timeline, 30 sweeps of windows of
 #: 2 cycles left a signal's rate 0.7 per 10 s from the target, of 0.5 cycle 0.1) ...
 WINDOW_CYCLES = 0.5
-#: ... past it, where each move's check costs in proportion to the timeline, fewer larger ones.
+#: ... past it, fewer larger ones.
 LONG_WINDOW_CYCLES = 2.0
 #: Window moves per sweep of a block that holds once-only signals as well (Greta's regret at
 #: 60 s: 13 such blocks of 42 windows each made a timeline cost 1 s; at 10 s no block has more).
 MIXED_WINDOWS = 8
-#: Occurrences the checks of one run may read in all (about 1 s of CPU at 0.5 us each); past
-#: it the blocks with windows stop moving and the others go on.  Reached only at long
-#: durations, where each check reads every occurrence of the signals its constraints name:
-#: an hour of Greta's tension read 9.0 million (4.8 s a timeline), its regret 2.6 million,
-#: anxiety 4.2 million; a 60 s timeline of Greta's regret about 0.4 million.  Counted, never
-#: timed: a seed gives the same timeline anywhere.
-CHECK_BUDGET = 2_000_000
+#: Checks (moves that reach the evaluator) one run may make; past it the blocks with windows
+#: stop moving and the others go on.  A check reads the moved signals' constraints on the
+#: run's pools (mse.ir.evaluate.constraints_hold: O(1) per conjunctive atom, one merge per
+#: disjointness), 20-200 us, so this is a bound on a run's cost (about 5-40 s) that no
+#: bundled or Greta set reaches (an hour of Greta's tension makes about 8,600 checks).  Counted,
+#: never timed: a seed gives the same timeline anywhere.
+CHECK_BUDGET = 200_000
 
 Spans = list[Occurrence]
+_Pool = list[tuple[int, int]]
 
 
 def _start(occurrence: Occurrence) -> int:
@@ -84,7 +85,7 @@ def _stop(occurrence: Occurrence) -> int:
 class _Block:
     """Signals moved together, the sub-model that checks a move of them and its signals."""
 
-    __slots__ = ("free", "local", "names", "relevant", "submodel", "window", "windows")
+    __slots__ = ("free", "local", "names", "relevant", "structure", "submodel", "window", "windows")
 
     def __init__(self, model: ir.Model, names: tuple[str, ...], window: int) -> None:
         self.names = names
@@ -95,16 +96,19 @@ class _Block:
         relevant = set(moved)
         for constraint in constraints:
             relevant |= ir.mentioned_signals(constraint.expr)
-        #: Signals whose every occurrence the check needs (the moved ones and those their
-        #: constraints mention) ...
+        #: Signals whose every occurrence the constraints' check reads (the moved ones and
+        #: those their constraints mention) ...
         self.relevant = tuple(sorted(relevant))
-        #: ... and those only an exclusive modality links to them: only their occurrences that
-        #: meet the changed time span can change the verdict (the others were consistent before).
-        self.local = tuple(sorted({s.id for s in model.signals if s.modality in modalities} - relevant))
+        #: ... and those that share an exclusive modality with a moved one: only their
+        #: occurrences that meet the changed time span can overlap a new one (the state was
+        #: consistent before the move).
+        self.local = tuple(sorted({s.id for s in model.signals if s.modality in modalities} - moved))
         self.submodel = replace(model, constraints=constraints)
+        #: The per-signal rules alone (exclusive modalities), checked on the changed span.
+        self.structure = replace(model, constraints=()) if modalities else None
         #: No constraint and no exclusive modality touches the block: every prior draw of it is
         #: consistent with the rest (lengths, counts and order are the prior's by construction).
-        self.free = not constraints and len(self.relevant) + len(self.local) == len(names)
+        self.free = not constraints and not self.local
         #: Window length in ticks (0: whole redraws only) and window moves per sweep.
         self.window = window
         self.windows = 0
@@ -176,36 +180,41 @@ class Chain:
         state: dict[str, Spans] = {name: [] for name in self.model.signal_by_id}
         for occurrence in sorted(schedule.occurrences):
             state.setdefault(occurrence.signal, []).append(occurrence)
-        spent = [0]  # occurrences read by this run's checks (CHECK_BUDGET)
+        run = _Run(state)
         for index in range(total):
             with_windows = index * windowed // total != (index + 1) * windowed // total
             for block in self.blocks:
-                if block.window and (not with_windows or spent[0] >= CHECK_BUDGET):
+                if block.window and (not with_windows or run.spent >= CHECK_BUDGET):
                     continue
-                self._whole(block, state, rng, spent)
+                self._whole(block, run, rng)
                 for _ in range(block.windows):
-                    self._windowed(block, state, rng, spent)
+                    self._windowed(block, run, rng)
         return Schedule.of(schedule.duration, (o for spans in state.values() for o in spans))
 
     # -- moves -------------------------------------------------------------------------------
-    def _whole(self, block: _Block, state: dict[str, Spans], rng: random.Random, spent: list[int]) -> None:
+    def _whole(self, block: _Block, run: _Run, rng: random.Random) -> None:
         proposal: dict[str, Spans] = {}
         for name in block.names:
             draw = self.draws[name].draw(rng)
             proposal[name] = draw if isinstance(draw, list) else ([] if draw is None else [draw])
-        self._accept_if_consistent(block, state, proposal, spent)
+        self._accept_if_consistent(block, run, proposal, {}, None)
 
-    def _windowed(self, block: _Block, state: dict[str, Spans], rng: random.Random, spent: list[int]) -> None:
+    def _windowed(self, block: _Block, run: _Run, rng: random.Random) -> None:
+        state = run.state
         duration, length = self.duration, block.window
         first = rng.randrange(-length + 1, duration)
         low, high = max(1, first), first + length - 1  # starts in [low, high]
         proposal: dict[str, Spans] = {}
+        pools: dict[str, _Pool] = {}  # the proposal's pools of the signals cut at the window
+        changed: Spans = []  # occurrences the move removes or adds
         log_ratio = 0.0
         for name in block.names:
             density = self.densities.get(name)
             if density is None:  # a once-only partner: redrawn whole from the prior (ratio 1)
                 drawn = self.draws[name].draw(rng)
                 proposal[name] = [] if drawn is None else [drawn]  # type: ignore[list-item]
+                changed.extend(state[name])
+                changed.extend(proposal[name])
                 continue
             spans = state[name]
             first_inside = bisect.bisect_left(spans, low, key=_start)
@@ -226,36 +235,70 @@ class Chain:
             # occurrences back to back; any consistent proposal is then accepted.)
             log_ratio += math.inf if kept is None else gain - kept
             proposal[name] = new
+            pool = run.pools[name]
+            pools[name] = pool[:first_inside] + [(o.start, o.stop) for o in drawn_inside] + pool[first_after:]
+            changed.extend(inside)
+            changed.extend(drawn_inside)
         if log_ratio < 0 and rng.random() >= math.exp(log_ratio):
             return
-        self._accept_if_consistent(block, state, proposal, spent)
+        span = (min(o.start for o in changed), max(o.stop for o in changed)) if changed else None
+        self._accept_if_consistent(block, run, proposal, pools, span)
 
-    def _accept_if_consistent(self, block: _Block, state: dict[str, Spans], proposal: dict[str, Spans],
-                              spent: list[int]) -> bool:
+    def _accept_if_consistent(self, block: _Block, run: _Run, proposal: dict[str, Spans],
+                              pools: dict[str, _Pool], span: tuple[int, int] | None) -> bool:
+        """Apply ``proposal`` (the moved signals' new occurrences; ``pools``: those of them
+        already made as pools) iff the timeline stays consistent; ``span``: from the first
+        start to the last stop of the occurrences it removes or adds (None: not known)."""
+        state = run.state
         if all(spans == state[name] for name, spans in proposal.items()):
             return True  # nothing changes (often: an absent once-only signal drawn absent again)
         for name, spans in proposal.items():
             if not spans and name in self.require:
                 return False
-        if block.free:  # nothing but the signals' own rules, which the prior's draws keep
-            state.update(proposal)
-            return True
-        occurrences: list[Occurrence] = []
-        for name in block.relevant:
-            occurrences.extend(proposal[name] if name in proposal else state.get(name, ()))
-        if block.local:
-            changed = [o for name, spans in proposal.items() for o in set(spans).symmetric_difference(state[name])]
-            if changed:
-                low, high = min(o.start for o in changed), max(o.stop for o in changed)
-                for name in block.local:
-                    spans = state[name]
-                    occurrences.extend(spans[bisect.bisect_right(spans, low, key=_stop):
-                                             bisect.bisect_left(spans, high, key=_start)])
-        spent[0] += len(occurrences)
-        if not is_consistent(block.submodel, Schedule(self.duration, tuple(occurrences))):
-            return False
+        for name, spans in proposal.items():
+            if name not in pools:
+                pools[name] = [(o.start, o.stop) for o in spans]
+        if not block.free:
+            if block.structure is not None and not self._structure_holds(block, state, proposal, run, span):
+                return False
+            if block.submodel.constraints:
+                view = {name: pools[name] if name in pools else run.pools[name] for name in block.relevant}
+                run.spent += 1
+                if not constraints_hold(block.submodel, view, self.duration):
+                    return False
         state.update(proposal)
+        run.pools.update(pools)
         return True
+
+    def _structure_holds(self, block: _Block, state: dict[str, Spans], proposal: dict[str, Spans],
+                         run: _Run, span: tuple[int, int] | None) -> bool:
+        """The exclusive modalities on the span the move changes: a new occurrence can only
+        overlap an occurrence that meets that span (the state was consistent)."""
+        if span is None:
+            changed = [o for name, spans in proposal.items() for o in set(spans).symmetric_difference(state[name])]
+            span = (min(o.start for o in changed), max(o.stop for o in changed))
+        low, high = span
+        occurrences: list[Occurrence] = []
+        for name in (*proposal, *block.local):
+            spans = proposal[name] if name in proposal else state[name]
+            occurrences.extend(spans[bisect.bisect_right(spans, low, key=_stop):
+                                     bisect.bisect_left(spans, high, key=_start)])
+        run.spent += 1
+        assert block.structure is not None
+        return is_consistent(block.structure, Schedule(self.duration, tuple(occurrences)))
+
+
+class _Run:
+    """One run's timeline: per signal its occurrences (sorted) and the same as pools
+    (``(start, stop)``, what the evaluator's constraint check reads), and the checks it has
+    made (:data:`CHECK_BUDGET`)."""
+
+    __slots__ = ("pools", "spent", "state")
+
+    def __init__(self, state: dict[str, Spans]) -> None:
+        self.state = state
+        self.pools: dict[str, _Pool] = {name: [(o.start, o.stop) for o in spans] for name, spans in state.items()}
+        self.spent = 0
 
 
 # One chain per model object, duration and request (identity, as the evaluator's checkers).

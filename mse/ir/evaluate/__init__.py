@@ -22,7 +22,7 @@ from dataclasses import dataclass
 from mse.diagnostics import Span
 from mse.ir import model as ir
 from mse.ir.evaluate.fast import _compile as _compile
-from mse.ir.evaluate.fast import is_clean
+from mse.ir.evaluate.fast import constraints_hold, is_clean
 from mse.ir.evaluate.semantics import (
     Intervals,
     Truth,
@@ -39,7 +39,8 @@ from mse.ir.evaluate.semantics import (
 from mse.ir.schedule import Occurrence, Schedule, to_seconds, to_ticks
 
 __all__ = [
-    "Intervals", "Truth", "Violation", "check_schedule", "compare_holds", "constraint_status", "evaluate_atom",
+    "Intervals", "Truth", "Violation", "check_schedule", "compare_holds", "constraint_status", "constraints_hold",
+    "evaluate_atom",
     "evaluate_expr", "intervals_of", "is_clean", "is_consistent", "is_instantiated", "is_violated", "kleene_and",
     "kleene_not", "kleene_or",
 ]

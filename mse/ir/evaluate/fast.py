@@ -1,5 +1,14 @@
 """The fast path of :func:`mse.ir.evaluate.check_schedule`: closures compiled once per model
 recognise a consistent schedule without building any message (:func:`is_clean`).
+
+The closures read *pools*: per signal, its occurrences as ``(start, stop)`` sorted by start,
+not overlapping and of positive length -- what the per-signal rules leave, which
+:meth:`_Checker.clean` checks first.  In such a pool starts and stops both increase, so the
+extreme values of any edge are the first and the last occurrence's: a relation or comparison
+made of bounds joined by ``and`` holds for every pair of occurrences iff each bound holds
+between the extremes (O(1) instead of every pair), and "no two intervals overlap" is one
+merge of the two pools (O(n + m)).  An hour of a repetitive signal has hundreds of
+occurrences; every pair of two of them is ~10^5 tests.
 """
 
 from __future__ import annotations
@@ -10,7 +19,18 @@ from collections.abc import Callable, Mapping, Sequence
 
 from mse.ir import model as ir
 from mse.ir.evaluate.semantics import Truth, evaluate_atom, kleene_not
-from mse.ir.relations import EDGE_INDEX, compare_test, interval_test, known_time
+from mse.ir.relations import (
+    COMPARISONS,
+    EDGE_INDEX,
+    RELATIONS,
+    Endpoint,
+    compare_test,
+    compiled,
+    interval_test,
+    is_conjunction,
+    is_disjointness,
+    known_time,
+)
 from mse.ir.schedule import Schedule, to_ticks
 
 # -- the fast path: recognising a consistent schedule without building messages ---------------
@@ -32,6 +52,31 @@ def _compile_relation(atom: ir.Relation) -> _Node:
             return None if not pool else all(holds(a, a) for a in pool)
 
         return same
+    meaning = RELATIONS[atom.kind]
+    if is_conjunction(meaning) and all(b.lower.side != b.upper.side for b in meaning.bounds):
+        # Every pair holds iff each bound holds between the largest value of its lower
+        # endpoint and the smallest of its upper one: the last and the first occurrence.
+        def extreme(position: int) -> Callable[[Endpoint], str]:
+            return lambda end: f"{'a' if end.side == 'left' else 'b'}[{position}][{EDGE_INDEX[end.edge]}]"
+
+        every = compiled("a, b", meaning.source(extreme(-1), extreme(0)))
+
+        def extremes(intervals: Mapping[str, _Pool], _duration: int) -> Truth:
+            lefts, rights = intervals.get(left), intervals.get(right)
+            if not lefts or not rights:
+                return None
+            return bool(every(lefts, rights))
+
+        return extremes
+    if is_disjointness(meaning):
+
+        def disjoint(intervals: Mapping[str, _Pool], _duration: int) -> Truth:
+            lefts, rights = intervals.get(left), intervals.get(right)
+            if not lefts or not rights:
+                return None
+            return _apart(lefts, rights)
+
+        return disjoint
 
     def pair(intervals: Mapping[str, _Pool], _duration: int) -> Truth:
         lefts, rights = intervals.get(left), intervals.get(right)
@@ -44,6 +89,22 @@ def _compile_relation(atom: ir.Relation) -> _Node:
         return True
 
     return pair
+
+
+def _apart(lefts: _Pool, rights: _Pool) -> bool:
+    """No interval of ``lefts`` overlaps one of ``rights`` (two pools): one merge.  The one of
+    the current two that stops first meets nothing later in the other pool (those start at or
+    after the current one's stop), so it is passed."""
+    i = j = 0
+    while i < len(lefts) and j < len(rights):
+        a, b = lefts[i], rights[j]
+        if a[1] <= b[0]:
+            i += 1
+        elif b[1] <= a[0]:
+            j += 1
+        else:
+            return False
+    return True
 
 
 def _reader(term: ir.Term) -> Callable[[tuple[int, int], int], int]:
@@ -70,17 +131,32 @@ def _compile_compare(atom: ir.Compare) -> _Node:
 
         return one
     a_name, b_name = names
+    meaning = COMPARISONS[atom.op]
+    if not is_conjunction(meaning):
+
+        def pair(intervals: Mapping[str, _Pool], duration: int) -> Truth:
+            lefts, rights = intervals.get(a_name), intervals.get(b_name)
+            if not lefts or not rights:
+                return None
+            for a in lefts:
+                value = left(a, duration)
+                for b in rights:
+                    if not holds(value, right(b, duration), tolerance):
+                        return False
+            return True
+
+        return pair
+    # Each term is an edge of its signal plus an offset: largest at the pool's last occurrence,
+    # smallest at its first; every pair holds iff each bound holds between the extremes.
+    every = compiled("lmax, lmin, rmax, rmin, tolerance",
+                     meaning.source(lambda side: f"{side[0]}max", lambda side: f"{side[0]}min"))
 
     def two(intervals: Mapping[str, _Pool], duration: int) -> Truth:
         lefts, rights = intervals.get(a_name), intervals.get(b_name)
         if not lefts or not rights:
             return None
-        for a in lefts:
-            value = left(a, duration)
-            for b in rights:
-                if not holds(value, right(b, duration), tolerance):
-                    return False
-        return True
+        return bool(every(left(lefts[-1], duration), left(lefts[0], duration),
+                          right(rights[-1], duration), right(rights[0], duration), tolerance))
 
     return two
 
@@ -184,8 +260,8 @@ class _Checker:
             if len(pool) > 1:
                 if len(pool) > most:
                     return False
-                ordered = sorted(pool)
-                for first, second in itertools.pairwise(ordered):
+                pool.sort()  # the pools the constraints read are sorted (the module's docstring)
+                for first, second in itertools.pairwise(pool):
                     if second[0] < first[1]:
                         return False
             elif most < 1:
@@ -206,14 +282,18 @@ class _Checker:
                         return False
                     if stop > reach:
                         reach = stop
+        return self.constraints_hold(grouped, duration)
+
+    def constraints_hold(self, pools: Mapping[str, _Pool], duration: int) -> bool:
+        """No constraint is violated on ``pools`` (the module's docstring says what they are)."""
         for triggers, node in self.constraints:
             if triggers:
                 for name in triggers:
-                    if name in grouped:  # grouped holds no empty list
+                    if pools.get(name):
                         break
                 else:
                     continue  # ignored: no trigger occurs
-            if node(grouped, duration) is False:
+            if node(pools, duration) is False:
                 return False
         return True
 
@@ -224,11 +304,24 @@ _CHECKERS: dict[int, tuple[weakref.ref[ir.Model], _Checker]] = {}
 _CHECKERS_LIMIT = 256
 
 
-def is_clean(model: ir.Model, schedule: Schedule) -> bool:
-    """True iff :func:`check_schedule` would return no violation (fast: no messages)."""
+def _checker(model: ir.Model) -> _Checker:
     entry = _CHECKERS.get(id(model))
     if entry is None or entry[0]() is not model:
         if len(_CHECKERS) >= _CHECKERS_LIMIT:
             _CHECKERS.clear()
         entry = _CHECKERS[id(model)] = (weakref.ref(model), _Checker(model))
-    return entry[1].clean(schedule)
+    return entry[1]
+
+
+def is_clean(model: ir.Model, schedule: Schedule) -> bool:
+    """True iff :func:`check_schedule` would return no violation (fast: no messages)."""
+    return _checker(model).clean(schedule)
+
+
+def constraints_hold(model: ir.Model, pools: Mapping[str, _Pool], duration: int) -> bool:
+    """True iff no constraint of ``model`` is violated, given each signal's occurrences as a
+    pool: ``(start, stop)`` sorted, not overlapping, of positive length (the caller's promise:
+    the per-signal rules of :func:`is_clean` are not checked).  For a caller that keeps its
+    timeline in pools, as the chain stage does, to check a move's constraints without
+    regrouping the whole timeline."""
+    return _checker(model).constraints_hold(pools, duration)
