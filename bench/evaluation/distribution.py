@@ -132,15 +132,13 @@ class Row:
 
 
 def chain_reference_size(duration: float, wanted: int) -> dict[str, int]:
-    """The chain reference's size: ``wanted`` timelines up to 60 s, 50 burn-in and 10 sweeps
-    between kept ones; past 60 s a sweep costs in proportion to the duration (1.5-5 s at an
-    hour), so fewer: 8 timelines (2 per chain), 2 burn-in sweeps (after the sampler's own 2
-    when it starts from its timeline: here from the walk's), 2 between.  An hour's timeline holds
-    hundreds of occurrences of each repetitive signal, so 8 give its rate closely; the once-only
-    signals' rates are then coarse (steps of 1/8)."""
+    """The chain reference's size: ``wanted`` timelines up to 60 s from 4 chains, 50 burn-in
+    and 10 sweeps between kept ones; past 60 s a sweep holds as many windows as fit (0.1-0.3 s
+    of CPU at an hour), so at most 200 timelines from 20 chains (each from another walk: the
+    once-only signals' rates need timelines far apart), 30 burn-in sweeps, 2 between."""
     if duration <= 60:
         return {"wanted": wanted, "burn": 50, "thin": 10}
-    return {"wanted": min(wanted, 8), "burn": 2, "thin": 2}
+    return {"wanted": min(wanted, 200), "burn": 30, "thin": 2, "chains": 20}
 
 
 def measure(name: str, model: ir.Model, durations: Sequence[float], counts: dict[float, int], draws: int,
@@ -235,7 +233,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser.add_argument("--seconds", type=float, default=60.0, help="wall time of rejection per set and duration")
     parser.add_argument("--min-accepted", type=int, default=200)
     parser.add_argument("--chain-wanted", type=int, default=400,
-                        help="timelines of the chain reference (where rejection accepts too few; 20 past 60 s)")
+                        help="timelines of the chain reference (where rejection accepts too few; at most 200 past 60 s)")
     parser.add_argument("--budget", type=float, default=None,
                         help="seconds per set, duration and sampler: fewer timelines past it (the table says how many)")
     parser.add_argument("--markdown", type=Path, default=None, help="also write the tables to this file")

@@ -19,11 +19,14 @@ redraws it from the prior given the rest of the timeline:
   and whether the limit on occurrences was reached.  Times and windows are drawn whatever the
   state, so every move leaves the target invariant, and so does any sequence of them.
 
-Consistency is decided by the one evaluator (:func:`mse.ir.evaluate.is_consistent`) on the
-sub-model of the constraints that mention the moved signals (the others cannot change truth
-value), over the occurrences of the signals those constraints and the moved signals'
-exclusive modalities name; the sub-models are built once per model.  ``--forbid`` signals are
-never drawn, a move that leaves a ``--require`` signal absent is rejected.
+Consistency is decided by the one evaluator: the constraints that mention the moved signals
+(the others cannot change truth value; sub-models built once per model) by
+:func:`mse.ir.evaluate.constraints_hold` on the run's per-signal pools, which the chain keeps
+up to date instead of regrouping the timeline per move (at an hour the regrouping was
+nearly all of a run's cost), and the moved signals' exclusive modalities by
+:func:`mse.ir.evaluate.is_consistent` on the occurrences that meet the changed span.
+``--forbid`` signals are never drawn, a move that leaves a ``--require`` signal absent is
+rejected.
 
 The number of moves is fixed by the set and the duration (:data:`SWEEPS` sweeps, each one
 whole move per block and, for a block with repetitive signals, as many window moves as
