@@ -233,7 +233,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser.add_argument("--seconds", type=float, default=60.0, help="wall time of rejection per set and duration")
     parser.add_argument("--min-accepted", type=int, default=200)
     parser.add_argument("--chain-wanted", type=int, default=400,
-                        help="timelines of the chain reference (where rejection accepts too few; at most 200 past 60 s)")
+                        help="timelines of the chain reference (rejection accepting too few; at most 200 past 60 s)")
     parser.add_argument("--budget", type=float, default=None,
                         help="seconds per set, duration and sampler: fewer timelines past it (the table says how many)")
     parser.add_argument("--markdown", type=Path, default=None, help="also write the tables to this file")
