@@ -68,26 +68,56 @@ def every_set(directory: Path) -> dict[str, ir.Model]:
 
 
 def sampled(model: ir.Model, solver: str, duration: float, seeds: Sequence[int],
-            budget: float | None = None, methods: Counter[str] | None = None) -> tuple[list[Schedule], int]:
+            budget: float | None = None, methods: Counter[str] | None = None,
+            starts: int | None = None) -> tuple[list[Schedule], int]:
     """Timelines of ``solver`` for ``seeds`` (each re-checked), and how many found none; with
     ``budget``, the seeds in order until that many seconds have passed (at least one).  How
     each timeline was made (``Solution.method``; CP-SAT's own search: "cpsat") is counted in
-    ``methods``."""
+    ``methods``.  With ``starts``, where the solver chains its timeline, only that many of its
+    starts are solved (CP-SAT's at an hour: about 16 s of CPU each) and the other seeds chain
+    one of them (two-stage sampling, counted as "... (start reused)")."""
     backend = get_solver(solver)
     schedules, failed = [], 0
     began = time.monotonic()
+    reused: list[Schedule] = []  # with ``starts``: the starts solved so far (see below)
+    reused_method = ""
     for seed in seeds:
         if budget is not None and seed != seeds[0] and time.monotonic() - began > budget:
             break
-        try:
-            result = backend.solve(model, SolveRequest(duration=duration, seed=seed))
-        except NoSolution:
-            failed += 1
-            continue
-        for solution in result.solutions:
-            schedule = solution.schedule
+        made: list[tuple[Schedule, str]] = []
+        if starts and reused_method:
+            # Two-stage: the sampler's timeline for a seed is the chain run from its start for
+            # that seed (its start: CP-SAT's timeline without the chain, `rejection=False`);
+            # the first ``starts`` seeds are exactly that, later ones chain a kept start (in
+            # turn) with their own seed.  The sampler's law is the chain's law averaged over
+            # the starts' law, so this estimates it without bias (the starts are a sample of
+            # ``starts`` of them), for a small part of the cost.
+            from mse.solve.chain import chained
+
+            if len(reused) < starts:
+                try:
+                    plain = backend.solve(model, SolveRequest(duration=duration, seed=seed, rejection=False))
+                except NoSolution:
+                    failed += 1
+                    continue
+                reused.append(plain.schedules[0])
+                made.append((chained(model, reused[-1], seed), reused_method))
+            else:
+                made.append((chained(model, reused[seed % starts], seed), f"{reused_method} (start reused)"))
+        else:
+            try:
+                result = backend.solve(model, SolveRequest(duration=duration, seed=seed))
+            except NoSolution:
+                failed += 1
+                continue
+            made = [(solution.schedule, solution.method or solver) for solution in result.solutions]
+            if starts and made[0][1].endswith("+chain"):  # this seed's start, for the seeds after it
+                plain = backend.solve(model, SolveRequest(duration=duration, seed=seed, rejection=False))
+                reused.append(plain.schedules[0])
+                reused_method = made[0][1]
+        for schedule, method in made:
             if methods is not None:
-                methods[solution.method or solver] += 1
+                methods[method] += 1
             problems = check_schedule(model, schedule)
             if problems:
                 raise RuntimeError(f"{model.name} {solver} seed {seed}: inconsistent timeline: {problems[0].message}")
@@ -134,16 +164,16 @@ class Row:
 def chain_reference_size(duration: float, wanted: int) -> dict[str, int]:
     """The chain reference's size: ``wanted`` timelines up to 60 s from 4 chains, 50 burn-in
     and 10 sweeps between kept ones; past 60 s a sweep holds as many windows as fit (0.1-0.3 s
-    of CPU at an hour), so at most 200 timelines from 20 chains (each from another walk: the
-    once-only signals' rates need timelines far apart), 30 burn-in sweeps, 2 between."""
+    of CPU at an hour), so 10 timelines per chain (each chain from another walk: the once-only
+    signals' rates need timelines far apart), 30 burn-in sweeps, 2 between."""
     if duration <= 60:
         return {"wanted": wanted, "burn": 50, "thin": 10}
-    return {"wanted": min(wanted, 200), "burn": 30, "thin": 2, "chains": 20}
+    return {"wanted": wanted, "burn": 30, "thin": 2, "chains": max(4, wanted // 10)}
 
 
 def measure(name: str, model: ir.Model, durations: Sequence[float], counts: dict[float, int], draws: int,
             wanted: int, seconds: float, minimum: int, solvers: Sequence[str],
-            budget: float | None = None, chain_wanted: int = 400) -> list[Row]:
+            budget: float | None = None, chain_wanted: int = 400, starts: int | None = None) -> list[Row]:
     rows: list[Row] = []
     for duration in durations:
         began = time.monotonic()
@@ -161,7 +191,8 @@ def measure(name: str, model: ir.Model, durations: Sequence[float], counts: dict
         for solver in solvers:
             began = time.monotonic()
             methods[solver] = Counter()
-            schedules, failed = sampled(model, solver, duration, range(counts[duration]), budget, methods[solver])
+            schedules, failed = sampled(model, solver, duration, range(counts[duration]), budget, methods[solver],
+                                        starts if duration > 60 and solver == "cpsat" else None)
             took[solver] = (time.monotonic() - began) / max(1, len(schedules) + failed)
             found[solver] = statistics(model, schedules, duration)
             if failed:
@@ -233,9 +264,12 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser.add_argument("--seconds", type=float, default=60.0, help="wall time of rejection per set and duration")
     parser.add_argument("--min-accepted", type=int, default=200)
     parser.add_argument("--chain-wanted", type=int, default=400,
-                        help="timelines of the chain reference (rejection accepting too few; at most 200 past 60 s)")
+                        help="timelines of the chain reference (where rejection accepts too few)")
     parser.add_argument("--budget", type=float, default=None,
                         help="seconds per set, duration and sampler: fewer timelines past it (the table says how many)")
+    parser.add_argument("--starts", type=int, default=None,
+                        help="past 60 s, where CP-SAT's timeline starts the chain: solve only this many CP-SAT starts "
+                             "and chain each other seed from one of them (two-stage sampling of the same law)")
     parser.add_argument("--markdown", type=Path, default=None, help="also write the tables to this file")
     parser.add_argument("--append", type=Path, default=None,
                         help="append the summary table to this file as a section (titled --title)")
@@ -250,12 +284,14 @@ def main(argv: Sequence[str] | None = None) -> int:
     header = (f"Reference: the prior (mse/ir/profile.py) conditioned on consistency, by rejection from at most "
               f"{args.draws} prior draws (or {args.seconds:g} s) until {args.wanted} are consistent, used when "
               f">= {args.min_accepted} are; otherwise `chain, N`: N timelines of the target's Markov chain "
-              f"(mse/solve/chain.py; 4 chains from different walks, burn-in and thinning as "
+              f"(mse/solve/chain.py; chains from different walks, burn-in and thinning as "
               f"bench.evaluation.distribution.chain_reference_size says; the acceptance column is then "
               f"rejection's).  Timelines per sampler: "
               + ", ".join(f"{counts[d]} at {d:g} s" for d in args.durations)
               + (f" (seeds 0..N-1, fewer past {args.budget:g} s per set, duration and sampler)" if args.budget
                  else " (seeds 0..N-1)")
+              + (f"; past 60 s, where CP-SAT chains, {args.starts} CP-SAT starts solved and the other seeds "
+                 "chained from one of them (two-stage)" if args.starts else "")
               + ".  Rate: once-only signals, fraction of timelines; repetitive, occurrences "
               f"per 10 s.  ✗: off target (once-only signals per timeline within {ONCE_TOLERANCE}, every rate "
               f"within {RATE_TOLERANCE}).  Load average {load:.1f}.")
@@ -263,7 +299,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     rows: list[Row] = []
     for name, model in models.items():
         found = measure(name, model, args.durations, counts, args.draws, args.wanted, args.seconds,
-                        args.min_accepted, args.solvers, args.budget, args.chain_wanted)
+                        args.min_accepted, args.solvers, args.budget, args.chain_wanted, args.starts)
         for line in summary_table(found, models, args.solvers)[2:]:
             print(line, flush=True)
         rows.extend(found)

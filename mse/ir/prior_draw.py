@@ -281,17 +281,19 @@ class RepetitiveDensity:
             t = stop / TICKS_PER_SECOND
         return found
 
-    def window_term(self, free: int, inside: list[Occurrence], after: list[Occurrence], top: int,
-                    remaining: int | None, total: int) -> float | None:
+    def window_term(self, free: int, inside: list[Occurrence], after: tuple[Occurrence, Occurrence] | None,
+                    top: int, remaining: int | None, total: int) -> float | None:
         """log(target / proposal) of the window's content ``inside`` (from the process of
-        :meth:`run` from ``free`` up to ``top``), up to terms every content shares; None when
-        the content overlaps the next kept occurrence (density 0)."""
+        :meth:`run` from ``free`` up to ``top``), up to terms every content shares; ``after``:
+        the first and the last kept occurrence after the window (None: none); ``total``: the
+        signal's occurrences with this content.  None when the content overlaps the next kept
+        occurrence (density 0)."""
         end = inside[-1].stop if inside else free
         if after and after[0].start <= end:
             return None
         target = -self.mass(end + 1, after[0].start - 1) if after else 0.0
         if self.limit is None or total < self.limit:
-            target -= self.mass((after[-1].stop if after else end) + 1, self.last)
+            target -= self.mass((after[1].stop if after else end) + 1, self.last)
         proposal = 0.0 if remaining is not None and len(inside) >= remaining else -self.mass(end + 1, top)
         return target - proposal
 

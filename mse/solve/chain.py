@@ -75,6 +75,8 @@ CHECK_BUDGET = 200_000
 
 Spans = list[Occurrence]
 _Pool = list[tuple[int, int]]
+#: A move of one signal: its occurrences ``[i:j]`` (in start order) replaced by these.
+_Splice = tuple[int, int, Spans]
 
 
 def _start(occurrence: Occurrence) -> int:
@@ -137,6 +139,10 @@ class Chain:
                 blocks.append(linked)
         self.blocks = tuple(_Block(model, block, self._window(block)) for block in blocks)
         for block in self.blocks:
+            if block.free:
+                # Its whole redraw is always kept: an exact draw of its conditional law, which
+                # windows could only repeat.
+                block.window = 0
             if block.window:
                 # As many windows as fit; a block that also moves once-only signals (redrawn
                 # whole at each of its window moves) at most MIXED_WINDOWS: their own moves
@@ -196,94 +202,105 @@ class Chain:
 
     # -- moves -------------------------------------------------------------------------------
     def _whole(self, block: _Block, run: _Run, rng: random.Random) -> None:
-        proposal: dict[str, Spans] = {}
+        proposal: dict[str, _Splice] = {}
         for name in block.names:
             draw = self.draws[name].draw(rng)
-            proposal[name] = draw if isinstance(draw, list) else ([] if draw is None else [draw])
-        self._accept_if_consistent(block, run, proposal, {}, None)
+            drawn = draw if isinstance(draw, list) else ([] if draw is None else [draw])
+            proposal[name] = (0, len(run.state[name]), drawn)
+        self._accept_if_consistent(block, run, proposal, None)
 
     def _windowed(self, block: _Block, run: _Run, rng: random.Random) -> None:
         state = run.state
         duration, length = self.duration, block.window
         first = rng.randrange(-length + 1, duration)
         low, high = max(1, first), first + length - 1  # starts in [low, high]
-        proposal: dict[str, Spans] = {}
-        pools: dict[str, _Pool] = {}  # the proposal's pools of the signals cut at the window
+        proposal: dict[str, _Splice] = {}
         changed: Spans = []  # occurrences the move removes or adds
         log_ratio = 0.0
         for name in block.names:
             density = self.densities.get(name)
+            spans = state[name]
             if density is None:  # a once-only partner: redrawn whole from the prior (ratio 1)
                 drawn = self.draws[name].draw(rng)
-                proposal[name] = [] if drawn is None else [drawn]  # type: ignore[list-item]
-                changed.extend(state[name])
-                changed.extend(proposal[name])
+                proposal[name] = (0, len(spans), [] if drawn is None else [drawn])  # type: ignore[list-item]
+                changed.extend(spans)
+                changed.extend(proposal[name][2])
                 continue
-            spans = state[name]
-            first_inside = bisect.bisect_left(spans, low, key=_start)
-            first_after = bisect.bisect_right(spans, high, key=_start)
-            before, inside, after = spans[:first_inside], spans[first_inside:first_after], spans[first_after:]
+            # The occurrences that start in the window, spans[i:j], are redrawn; the lists are
+            # only cut once a move passes its density ratio (an hour holds ~1,000 of a signal).
+            count = len(spans)
+            i = bisect.bisect_left(spans, low, key=_start)
+            j = bisect.bisect_right(spans, high, key=_start)
             top = min(high, density.last)
-            free = max(before[-1].stop if before else 0, low - 1)
-            remaining = None if density.limit is None else density.limit - len(before) - len(after)
-            if remaining is not None and remaining < len(inside):  # cannot happen on a valid state
+            free = max(spans[i - 1].stop if i else 0, low - 1)
+            remaining = None if density.limit is None else density.limit - i - (count - j)
+            if remaining is not None and remaining < j - i:  # cannot happen on a valid state
                 return
+            after = (spans[j], spans[-1]) if j < count else None
             drawn_inside = density.run(rng, free, top, remaining)
-            new = before + drawn_inside + after
-            gain = density.window_term(free, drawn_inside, after, top, remaining, len(new))
+            gain = density.window_term(free, drawn_inside, after, top, remaining, count - (j - i) + len(drawn_inside))
             if gain is None:  # overlaps the next kept occurrence: density 0
                 return
-            kept = density.window_term(free, inside, after, top, remaining, len(spans))
+            inside = spans[i:j]
+            kept = density.window_term(free, inside, after, top, remaining, count)
             # (None: the start, the walk's or CP-SAT's, is outside the prior's support, e.g. two
             # occurrences back to back; any consistent proposal is then accepted.)
             log_ratio += math.inf if kept is None else gain - kept
-            proposal[name] = new
-            pool = run.pools[name]
-            pools[name] = pool[:first_inside] + [(o.start, o.stop) for o in drawn_inside] + pool[first_after:]
+            proposal[name] = (i, j, drawn_inside)
             changed.extend(inside)
             changed.extend(drawn_inside)
         if log_ratio < 0 and rng.random() >= math.exp(log_ratio):
             return
         span = (min(o.start for o in changed), max(o.stop for o in changed)) if changed else None
-        self._accept_if_consistent(block, run, proposal, pools, span)
+        self._accept_if_consistent(block, run, proposal, span)
 
-    def _accept_if_consistent(self, block: _Block, run: _Run, proposal: dict[str, Spans],
-                              pools: dict[str, _Pool], span: tuple[int, int] | None) -> bool:
-        """Apply ``proposal`` (the moved signals' new occurrences; ``pools``: those of them
-        already made as pools) iff the timeline stays consistent; ``span``: from the first
-        start to the last stop of the occurrences it removes or adds (None: not known)."""
+    def _accept_if_consistent(self, block: _Block, run: _Run, proposal: dict[str, _Splice],
+                              span: tuple[int, int] | None) -> bool:
+        """Apply ``proposal`` (per moved signal: its occurrences ``[i:j]`` replaced by new
+        ones) iff the timeline stays consistent; ``span``: from the first start to the last
+        stop of the occurrences it removes or adds (None: not known)."""
         state = run.state
-        if all(spans == state[name] for name, spans in proposal.items()):
+        if all(drawn == state[name][i:j] for name, (i, j, drawn) in proposal.items()):
             return True  # nothing changes (often: an absent once-only signal drawn absent again)
-        for name, spans in proposal.items():
-            if not spans and name in self.require:
+        for name, (i, j, drawn) in proposal.items():
+            if not drawn and name in self.require and j - i == len(state[name]):
                 return False
-        for name, spans in proposal.items():
-            if name not in pools:
-                pools[name] = [(o.start, o.stop) for o in spans]
+        pools: dict[str, _Pool] = {}
         if not block.free:
-            if block.structure is not None and not self._structure_holds(block, state, proposal, run, span):
+            if block.structure is not None and not self._structure_holds(block, run, proposal, span):
                 return False
             if block.submodel.constraints:
+                for name, (i, j, drawn) in proposal.items():
+                    pool = run.pools[name]
+                    pools[name] = pool[:i] + [(o.start, o.stop) for o in drawn] + pool[j:]
                 view = {name: pools[name] if name in pools else run.pools[name] for name in block.relevant}
                 run.spent += 1
                 if not constraints_hold(block.submodel, view, self.duration):
                     return False
-        state.update(proposal)
-        run.pools.update(pools)
+        for name, (i, j, drawn) in proposal.items():
+            state[name][i:j] = drawn
+            if name in pools:
+                run.pools[name] = pools[name]
+            else:
+                run.pools[name][i:j] = [(o.start, o.stop) for o in drawn]
         return True
 
-    def _structure_holds(self, block: _Block, state: dict[str, Spans], proposal: dict[str, Spans],
-                         run: _Run, span: tuple[int, int] | None) -> bool:
+    def _structure_holds(self, block: _Block, run: _Run, proposal: dict[str, _Splice],
+                         span: tuple[int, int] | None) -> bool:
         """The exclusive modalities on the span the move changes: a new occurrence can only
         overlap an occurrence that meets that span (the state was consistent)."""
+        state = run.state
         if span is None:
-            changed = [o for name, spans in proposal.items() for o in set(spans).symmetric_difference(state[name])]
+            changed = [o for name, (i, j, drawn) in proposal.items()
+                       for o in set(drawn).symmetric_difference(state[name][i:j])]
             span = (min(o.start for o in changed), max(o.stop for o in changed))
         low, high = span
         occurrences: list[Occurrence] = []
         for name in (*proposal, *block.local):
-            spans = proposal[name] if name in proposal else state[name]
+            spans = state[name]
+            if name in proposal:
+                i, j, drawn = proposal[name]
+                spans = spans[:i] + drawn + spans[j:]
             occurrences.extend(spans[bisect.bisect_right(spans, low, key=_stop):
                                      bisect.bisect_left(spans, high, key=_start)])
         run.spent += 1
