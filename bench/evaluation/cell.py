@@ -95,17 +95,19 @@ def mean_and_error(sample: Sample, data: list[float]) -> tuple[float, float]:
 
 
 def reference(model: ir.Model, duration: float, args: argparse.Namespace) -> tuple[Sample, str]:
-    drawn = sample_reference(model, duration, wanted=args.wanted, seed=1,
+    drawn = sample_reference(model, duration, wanted=args.wanted, seed=args.reference_seed,
                              max_draws=0 if args.reference == "chain" else args.draws)
     if args.reference != "chain" and len(drawn.accepted) >= args.min_accepted:
         count = len(drawn.accepted)
         return (Sample("reference", drawn.accepted, tuple(range(count))),
                 f"rejection, {count} of {drawn.draws} prior draws consistent ({drawn.acceptance:.2%})")
-    kept, _ = chain_samples(model, duration, args.chains * args.per_chain, seed=1, chains=args.chains,
+    first = args.reference_seed
+    kept, _ = chain_samples(model, duration, args.chains * args.per_chain, seed=first, chains=args.chains,
                             burn=args.burn, thin=args.thin)
     groups = tuple(index // args.per_chain for index in range(len(kept)))
     return (Sample("reference", tuple(kept), groups),
-            f"chain: {args.chains} chains from the walks of seeds 1..{args.chains}, {args.burn} sweeps of burn-in, "
+            f"chain: {args.chains} chains from the walks of seeds {first}..{first + args.chains - 1}, "
+            f"{args.burn} sweeps of burn-in, "
             f"then {args.per_chain} timelines {args.thin} sweeps apart ({len(kept)})"
             + (f"; rejection: {len(drawn.accepted)} of {drawn.draws} draws consistent" if drawn.draws else ""))
 
@@ -219,6 +221,8 @@ def main(argv: Sequence[str] | None = None) -> int:
                         help="also the chain from each sampler's start after these many sweeps")
     parser.add_argument("--reference", choices=["auto", "chain"], default="auto",
                         help="auto: rejection where it accepts enough draws, else the chain; chain: the chain")
+    parser.add_argument("--reference-seed", type=int, default=1,
+                        help="the reference's seed (rejection's stream; the chains' first walk and streams)")
     parser.add_argument("--wanted", type=int, default=4000, help="rejection: consistent draws wanted")
     parser.add_argument("--draws", type=int, default=1_000_000, help="rejection: prior draws at most")
     parser.add_argument("--min-accepted", type=int, default=1000, help="rejection is the reference from this many")
