@@ -101,9 +101,9 @@ def sampled(model: ir.Model, solver: str, duration: float, seeds: Sequence[int],
                     failed += 1
                     continue
                 reused.append(plain.schedules[0])
-                made.append((chained(model, reused[-1], seed), reused_method))
+                made.append((chained(model, reused[-1], seed, far=True), reused_method))
             else:
-                made.append((chained(model, reused[seed % starts], seed), f"{reused_method} (start reused)"))
+                made.append((chained(model, reused[seed % starts], seed, far=True), f"{reused_method} (start reused)"))
         else:
             try:
                 result = backend.solve(model, SolveRequest(duration=duration, seed=seed))

@@ -175,7 +175,8 @@ class _Run:
         schedule, method = self._made(seed, walk, tally)
         if walk and applies(request):
             # Rejection is too costly (or missed): the chain from this timeline (mse.solve.chain).
-            return chained(self.model, schedule, seed, request.forbid, request.require), f"{method}+chain"
+            return (chained(self.model, schedule, seed, request.forbid, request.require, far=method == FALLBACK),
+                    f"{method}+chain")
         return schedule, method
 
     def _made(self, seed: int, walk: bool, tally: Tally) -> tuple[Schedule, str]:

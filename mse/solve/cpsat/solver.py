@@ -89,7 +89,7 @@ class CpSatSolver:
             previous = schedules if request.diverse else []
             schedules.append(solve_one(model, request, seed, previous))
             if stage is not None:  # rejection too costly (or missed): the chain from CP-SAT's timeline
-                schedules[-1] = chained(model, schedules[-1], seed, request.forbid, request.require)
+                schedules[-1] = chained(model, schedules[-1], seed, request.forbid, request.require, far=True)
                 yield Solution(schedules[-1], seed, "cpsat+chain")
                 continue
             yield Solution(schedules[-1], seed)
