@@ -40,11 +40,10 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
-from bench.evaluation.distribution import ONCE_TOLERANCE, RATE_TOLERANCE, greta_sets
+from bench.evaluation.distribution import ONCE_TOLERANCE, RATE_TOLERANCE, checked, greta_sets
 from bench.evaluation.reference import RATE_SECONDS, sample_reference
 from mse.api import load
 from mse.ir import model as ir
-from mse.ir.evaluate import check_schedule
 from mse.ir.schedule import Schedule, to_ticks
 from mse.solve.chain import chain_for, chain_samples
 from mse.solve.protocol import SolveRequest, get_solver
@@ -110,13 +109,6 @@ def reference(model: ir.Model, duration: float, args: argparse.Namespace) -> tup
             f"{args.burn} sweeps of burn-in, "
             f"then {args.per_chain} timelines {args.thin} sweeps apart ({len(kept)})"
             + (f"; rejection: {len(drawn.accepted)} of {drawn.draws} draws consistent" if drawn.draws else ""))
-
-
-def checked(model: ir.Model, schedule: Schedule, label: str, seed: int) -> Schedule:
-    problems = check_schedule(model, schedule)
-    if problems:
-        raise RuntimeError(f"{model.name} {label} seed {seed}: inconsistent timeline: {problems[0].message}")
-    return schedule
 
 
 def sampler(model: ir.Model, duration: float, solver: str, count: int) -> tuple[Sample, str]:

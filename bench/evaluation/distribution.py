@@ -118,11 +118,17 @@ def sampled(model: ir.Model, solver: str, duration: float, seeds: Sequence[int],
         for schedule, method in made:
             if methods is not None:
                 methods[method] += 1
-            problems = check_schedule(model, schedule)
-            if problems:
-                raise RuntimeError(f"{model.name} {solver} seed {seed}: inconsistent timeline: {problems[0].message}")
-            schedules.append(schedule)
+            schedules.append(checked(model, schedule, solver, seed))
     return schedules, failed
+
+
+def checked(model: ir.Model, schedule: Schedule, label: str, seed: int) -> Schedule:
+    """``schedule``, re-checked by the one evaluator: an inconsistent timeline is an error, not
+    a statistic."""
+    problems = check_schedule(model, schedule)
+    if problems:
+        raise RuntimeError(f"{model.name} {label} seed {seed}: inconsistent timeline: {problems[0].message}")
+    return schedule
 
 
 @dataclass

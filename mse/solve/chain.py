@@ -387,8 +387,7 @@ def chained(model: ir.Model, schedule: Schedule, seed: int, absent: Iterable[str
     ``far``: the start is CP-SAT's timeline, which gets :data:`SWEEPS` sweeps at any duration
     (:data:`FAR_SWEEPS`)."""
     chain = chain_for(model, schedule.duration, absent, require)
-    if far:
-        return chain.run(schedule, random.Random(f"chain/{seed}"), max(chain.sweeps(), FAR_SWEEPS))
-    return chain.run(schedule, random.Random(f"chain/{seed}"))
+    sweeps = max(chain.sweeps(), FAR_SWEEPS) if far else None
+    return chain.run(schedule, random.Random(f"chain/{seed}"), sweeps)
 
 
