@@ -43,6 +43,7 @@ from pathlib import Path
 from bench.evaluation.distribution import ONCE_TOLERANCE, RATE_TOLERANCE, checked, greta_sets
 from bench.evaluation.reference import RATE_SECONDS, sample_reference
 from mse.api import load
+from mse.diagnostics import MseError
 from mse.ir import model as ir
 from mse.ir.schedule import Schedule, to_ticks
 from mse.solve.chain import chain_for, chain_samples
@@ -200,7 +201,10 @@ def model_of(name: str) -> ir.Model:
         if name not in found:
             raise SystemExit(f"{name}: no such Greta set (Greta's: {', '.join(found)})")
         return found[name]
-    return load(name)
+    try:
+        return load(name)
+    except MseError as error:  # its file:line:col message and a non-zero exit, not a traceback
+        raise SystemExit(str(error)) from None
 
 
 def main(argv: Sequence[str] | None = None) -> int:
