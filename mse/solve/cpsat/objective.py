@@ -32,7 +32,7 @@ from mse.ir.evaluate import constraint_status
 from mse.ir.schedule import Schedule
 from mse.solve.bounds import length_bounds
 from mse.solve.cpsat.encode import Encoding, Slot, var
-from mse.solve.cpsat.prior import ABSENT, SlotPrior
+from mse.solve.cpsat.prior import ABSENT, IMPOSSIBLE, SlotPrior, expected_starts, window_bins
 
 SCALE = 2000
 #: Units per millisecond away from the target start / length (0.5 nat per second).
@@ -302,6 +302,7 @@ def profile_stages(enc: Encoding, priors: Mapping[str, Sequence[SlotPrior]], see
             scores = perturbed_scores(prior, rng, mode)
             scored[(signal.id, prior.index)] = scores
             floor += _choice_terms(enc, slot, prior, scores, stages)
+    floor += _later_terms(enc, stages, mode)
     kept = _thinned(enc, priors, scored, required)
     for signal in enc.model.signals:
         slots = [slot for slot in enc.decided(signal.id) if slot.group == "window"]
@@ -313,6 +314,33 @@ def profile_stages(enc: Encoding, priors: Mapping[str, Sequence[SlotPrior]], see
             else:
                 hint(enc, slot, -1, lengths[rank] if rank < len(lengths) else 0)
     return stages, never, floor
+
+
+def _later_terms(enc: Encoding, stages: Stages, mode: str) -> int:
+    """Cost a repetitive signal's absence from the rest of the timeline (its first later
+    slot absent) at its prior log-probability, so that a window does not commit what
+    silences a signal for the rest.  Returns how low the terms can go (negated).
+
+    Without it a window trades its own options only: under the every-pair reading one
+    occurrence of a partner (``equal(start(b), stop(a), 0.3)``) costs a window little but
+    allows at most one ``a`` for the rest of an hour, where the prior expects hundreds; the
+    target almost never shows that, and the chain after CP-SAT leaves such a state slowly.
+    The cost is capped at IMPOSSIBLE, the price of any option the prior rules out."""
+    if mode == "random" or enc.frame.end is None:
+        return 0
+    floor = 0
+    for signal in enc.model.signals:
+        later = [slot for slot in enc.decided(signal.id) if slot.group == "later"]
+        if not signal.repetitive or not later or isinstance(later[0].present, bool):
+            continue
+        expected = sum(expected_starts(signal, enc.duration, lo, hi, enc.frame.end)
+                       for lo, hi in window_bins(enc.frame.end, enc.duration))
+        units = round(SCALE * min(expected, -IMPOSSIBLE))
+        if units > 0:
+            stages.first.append(-units * (1 - later[0].present))
+            stages.options.append(later[0].present)
+            floor += units
+    return floor
 
 
 def preference_terms(enc: Encoding, objective: str, seed: int) -> list[Any]:

@@ -238,18 +238,23 @@ def _poisson_tail(mean: float, k: int) -> float:
     return max(0.0, 1.0 - below)
 
 
+def expected_starts(signal: ir.Signal, duration: int, begin: int, end: int, free_from: int) -> float:
+    """Expected starts of a repetitive signal's renewal process in [max(begin, free_from), end):
+    the start rate at the span's middle, thinned by the time occurrences keep it busy."""
+    usable = max(0, end - max(begin, free_from))
+    if usable <= 0:
+        return 0.0
+    rate = start_rate(signal, (begin + end) / 2 / duration)
+    free = 1.0 / (1.0 + rate * _mean_length(signal, duration) / TICKS_PER_SECOND)
+    return rate * free * usable / TICKS_PER_SECOND
+
+
 def repetitive_priors(signal: ir.Signal, duration: int, begin: int, end: int, free_from: int,
                       room: int | None, slots: int, drawn: list[tuple[int, int]],
                       rng: random.Random) -> list[SlotPrior]:
     """Priors of ``slots`` window slots of a repetitive signal whose draw is ``drawn``."""
     bins = window_bins(begin, end)
-    mean_length = _mean_length(signal, duration) / TICKS_PER_SECOND
-    weights = []
-    for lo, hi in bins:
-        rate = start_rate(signal, (lo + hi) / 2 / duration)
-        free = 1.0 / (1.0 + rate * mean_length)
-        usable = max(0, min(hi, end) - max(lo, free_from))
-        weights.append(rate * free * usable / TICKS_PER_SECOND)
+    weights = [expected_starts(signal, duration, lo, min(hi, end), free_from) for lo, hi in bins]
     expected = sum(weights)
     total = sum(weights) or 1.0
     never = never_occurs(signal)

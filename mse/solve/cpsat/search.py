@@ -12,6 +12,7 @@ from collections.abc import Sequence
 from typing import TYPE_CHECKING, Any
 
 from mse.ir.schedule import Occurrence
+from mse.solve.bounds import length_bounds
 from mse.solve.cpsat.encode import Encoding, var
 from mse.solve.cpsat.engine import make_solver
 from mse.solve.protocol import SolveRequest
@@ -36,6 +37,11 @@ def hint_later(enc: Encoding, later_hints: Sequence[Occurrence]) -> None:
         for rank, slot in enumerate(s for s in slots if s.group == "later"):
             if rank < len(hinted):
                 hint(enc, slot, hinted[rank].start, hinted[rank].stop - hinted[rank].start)
+            elif rank == 0 and not later_hints:
+                # No plan yet (the first window): the signal goes on after the window, at the
+                # end of the timeline, where the window's choices least constrain it.
+                low, _ = length_bounds(enc.model.signal(name), enc.duration)
+                hint(enc, slot, enc.duration - low, low)
             else:
                 hint(enc, slot, -1, 0)
 
