@@ -317,28 +317,32 @@ def profile_stages(enc: Encoding, priors: Mapping[str, Sequence[SlotPrior]], see
 
 
 def _later_terms(enc: Encoding, stages: Stages, mode: str) -> int:
-    """Cost a repetitive signal's absence from the rest of the timeline (its first later
-    slot absent) at its prior log-probability, so that a window does not commit what
-    silences a signal for the rest.  Returns how low the terms can go (negated).
+    """Cost a repetitive signal's not repeating in the rest of the timeline (its second later
+    slot absent) at the prior's log-probability of at most one start there, so that a window
+    does not commit what stops a signal from repeating for the rest.  Returns how low the
+    terms can go (negated).
 
     Without it a window trades its own options only: under the every-pair reading one
     occurrence of a partner (``equal(start(b), stop(a), 0.3)``) costs a window little but
     allows at most one ``a`` for the rest of an hour, where the prior expects hundreds; the
     target almost never shows that, and the chain after CP-SAT leaves such a state slowly.
-    The cost is capped at IMPOSSIBLE, the price of any option the prior rules out."""
+    The second slot, not the first: "each signal once more" is itself such a silenced future,
+    and weighing the first later slot made windows defer everything to keep it open.  The
+    cost is capped at IMPOSSIBLE, the price of any option the prior rules out."""
     if mode == "random" or enc.frame.end is None:
         return 0
     floor = 0
     for signal in enc.model.signals:
         later = [slot for slot in enc.decided(signal.id) if slot.group == "later"]
-        if not signal.repetitive or not later or isinstance(later[0].present, bool):
+        if not signal.repetitive or len(later) < 2 or isinstance(later[1].present, bool):
             continue
         expected = sum(expected_starts(signal, enc.duration, lo, hi, enc.frame.end)
                        for lo, hi in window_bins(enc.frame.end, enc.duration))
-        units = round(SCALE * min(expected, -IMPOSSIBLE))
+        # Poisson: -log P(N <= 1) = expected - log(1 + expected).
+        units = round(SCALE * min(expected - math.log1p(expected), -IMPOSSIBLE))
         if units > 0:
-            stages.first.append(-units * (1 - later[0].present))
-            stages.options.append(later[0].present)
+            stages.first.append(-units * (1 - later[1].present))
+            stages.options.append(later[1].present)
             floor += units
     return floor
 

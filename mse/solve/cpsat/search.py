@@ -37,11 +37,12 @@ def hint_later(enc: Encoding, later_hints: Sequence[Occurrence]) -> None:
         for rank, slot in enumerate(s for s in slots if s.group == "later"):
             if rank < len(hinted):
                 hint(enc, slot, hinted[rank].start, hinted[rank].stop - hinted[rank].start)
-            elif rank == 0 and not later_hints:
-                # No plan yet (the first window): the signal goes on after the window, at the
-                # end of the timeline, where the window's choices least constrain it.
+            elif rank < 2 and not later_hints:
+                # No plan yet (the first window): the signal goes on repeating after the
+                # window, at the end of the timeline, where the window's choices least
+                # constrain it.
                 low, _ = length_bounds(enc.model.signal(name), enc.duration)
-                hint(enc, slot, enc.duration - low, low)
+                hint(enc, slot, enc.duration - (2 - rank) * low, low)
             else:
                 hint(enc, slot, -1, 0)
 

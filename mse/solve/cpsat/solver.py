@@ -257,7 +257,9 @@ def _later_counts(model: ir.Model, duration: int, end: int, committed: Committed
         limit = semantic_limit(signal, duration - end)
         if signal.max_occurrences is not None:
             limit = min(limit, signal.max_occurrences - committed.counts[signal.id])
-        counts[signal.id] = max(0, min(limit, witness[signal.id], MAX_SLOTS))
+        # At least two: the second later slot says whether the signal can still *repeat*,
+        # which the objective weighs (objective.py, _later_terms).
+        counts[signal.id] = max(0, min(limit, max(witness[signal.id], 2), MAX_SLOTS))
     return counts
 
 
