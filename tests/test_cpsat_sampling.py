@@ -107,3 +107,31 @@ def test_never_occurring_signals_stay_out(mode: str) -> None:
     needed = ir.Model("m", (quiet, loud), (ir.Constraint("c1", ir.Exists("quiet")),))
     [schedule] = CpSatSolver().solve(needed, SolveRequest(duration=6.0, seed=1)).schedules
     assert [o.signal for o in schedule.occurrences].count("quiet") == 1
+
+
+PARTNER_SET = """<expression name="partners">
+  <signals>
+    <signal id="a" modality="face" lexeme="a" min_duration="1" max_duration="2" probability_start="0.5" probability_end="0.5" repetitivity="1"/>
+    <signal id="b" modality="face" lexeme="b" min_duration="1" max_duration="2" probability_start="0.5" probability_end="0.5" repetitivity="1"/>
+    <signal id="c" modality="face" lexeme="c" min_duration="1" max_duration="2" probability_start="0.5" probability_end="0.5" repetitivity="1"/>
+  </signals>
+  <constraints>
+    <constraint id="b_after_a">equal(start(b), stop(a), 0.3) and exists(a)</constraint>
+    <constraint id="c_after_b">equal(start(c), stop(b), 0.3) and exists(b)</constraint>
+  </constraints>
+</expression>"""
+
+
+@pytest.mark.parametrize("seed", range(6))
+def test_windows_do_not_commit_a_partner_that_silences_a_signal(seed: int) -> None:
+    """One ``b`` allows at most one ``a`` for the rest of the timeline (every pair of
+    occurrences); the target, like the prior, wants ``a`` about every 3 s.  Each window weighs
+    a signal's absence from the rest, so CP-SAT keeps ``a`` going instead of committing ``b``."""
+    from mse.api import loads
+
+    model = loads(PARTNER_SET, path="partners.xml")
+    request = SolveRequest(duration=120.0, seed=seed, rejection=False)
+    [schedule] = CpSatSolver().solve(model, request).schedules
+    _check(model, schedule)
+    counts = {name: sum(o.signal == name for o in schedule.occurrences) for name in "abc"}
+    assert counts["a"] >= 20, counts
