@@ -111,9 +111,12 @@ def test_never_occurring_signals_stay_out(mode: str) -> None:
 
 PARTNER_SET = """<expression name="partners">
   <signals>
-    <signal id="a" modality="face" lexeme="a" min_duration="1" max_duration="2" probability_start="0.5" probability_end="0.5" repetitivity="1"/>
-    <signal id="b" modality="face" lexeme="b" min_duration="1" max_duration="2" probability_start="0.5" probability_end="0.5" repetitivity="1"/>
-    <signal id="c" modality="face" lexeme="c" min_duration="1" max_duration="2" probability_start="0.5" probability_end="0.5" repetitivity="1"/>
+    <signal id="a" modality="face" lexeme="a" min_duration="1" max_duration="2"
+            probability_start="0.5" probability_end="0.5" repetitivity="1"/>
+    <signal id="b" modality="face" lexeme="b" min_duration="1" max_duration="2"
+            probability_start="0.5" probability_end="0.5" repetitivity="1"/>
+    <signal id="c" modality="face" lexeme="c" min_duration="1" max_duration="2"
+            probability_start="0.5" probability_end="0.5" repetitivity="1"/>
   </signals>
   <constraints>
     <constraint id="b_after_a">equal(start(b), stop(a), 0.3) and exists(a)</constraint>
